@@ -1,0 +1,2865 @@
+/* supermat.h - v0.1 - public domain / MIT - SuperMat PBR material estimation on the CPU
+ *
+ * A single-header C99 runtime for the SuperMat one-step UNet (a Stable Diffusion 2.1 fine-tune with
+ * albedo and roughness/metallic "expert branches") and the Stable Diffusion VAE. It turns a picture
+ * of an object into an albedo map, a roughness map and a metallic map, with no Python, no GPU and no
+ * framework: libc, libm and (optionally) pthreads.
+ *
+ * ONE FILE DEFINES THE IMPLEMENTATION
+ *     #define SUPERMAT_IMPLEMENTATION
+ *     #include "supermat.h"
+ * in exactly one C or C++ file; every other file includes it without the define.
+ *
+ * QUICK START (compiled by the test suite)
+ *
+ *     supermat_model_desc md = {0};
+ *     md.data = file_bytes; md.size = file_size;          // a model file made by `supermat convert`
+ *     supermat_model *model; supermat_error err;
+ *     if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { puts(err.message); return 1; }
+ *     supermat_session_desc sd = {0};
+ *     sd.model = model; sd.width = 512; sd.height = 512;   // any multiple of 8
+ *     supermat_session *s;
+ *     if (supermat_session_create(&sd, &s, &err) != SUPERMAT_SUCCESS) { ... }
+ *     supermat_run_desc rd = {0};
+ *     rd.input.pixels = rgba; rd.input.width = 512; rd.input.height = 512; rd.input.channels = 4;
+ *     rd.albedo.pixels = albedo_rgb8;    rd.albedo.channels = 3;      // format 0 = 8-bit
+ *     rd.roughness.pixels = rough8;      rd.roughness.channels = 1;
+ *     rd.metallic.pixels = metal8;       rd.metallic.channels = 1;
+ *     supermat_run(s, &rd, &err);
+ *     supermat_session_destroy(s); supermat_model_destroy(model);
+ *
+ * WHAT IT DOES
+ *   - Loads a model from a caller-supplied memory buffer: a safetensors file (F32, F16, BF16) whose
+ *     `__metadata__` describes the architecture (see MODEL FILE below). Everything is validated first.
+ *   - Runs the official single-view pipeline: RGBA (straight alpha) over gray 0.5, [-1, 1], VAE encode
+ *     (mode x scaling factor), UNet trunk once, each requested expert branch on the same trunk output
+ *     and skips, the one-step trailing-DDIM x0 (v- or epsilon-prediction), VAE decode per branch,
+ *     x/2 + 0.5 clamped to [0, 1].
+ *   - Computes only what was asked: a branch nobody wants is neither run nor decoded.
+ *
+ * WHAT IT DOES NOT DO
+ *   - No file I/O, no image decoding or resizing: give it pixels at the size you want processed
+ *     (the official scripts resize to 512x512 first).
+ *   - No text encoder: the empty-prompt context is a constant stored in the model file by the converter.
+ *
+ * CONFIGURATION MACROS (define before including the implementation)
+ *   SUPERMAT_CONFIG_HEADER "file.h"  included first, to set the macros below in one place
+ *   SUPERMAT_STATIC                   make every function static (private copy per translation unit)
+ *   SUPERMAT_API                      decoration for public functions (default extern / static)
+ *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
+ *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only)
+ *   SUPERMAT_ASSERT(x)                internal assertions (default: none)
+ *
+ * MEMORY
+ *   Every byte comes from the caller's allocator (default malloc/free). A model holds the packed
+ *   weights (one copy, created once) and borrows the caller's file buffer for small tensors unless
+ *   `copy_data` is set. A session holds one arena planned before anything runs
+ *   (`supermat_session_memory` answers its size without allocating); `supermat_run` allocates nothing.
+ *
+ * THREADS
+ *   A model is immutable and can be shared by any number of sessions on any threads. A session is used
+ *   by one thread at a time. Work is spread through a caller's blocking parallel-for hook; without one,
+ *   a small built-in pthreads pool is created per session (threads = 0 means all cores, 1 means none).
+ *   Work is split over outputs and every sum runs in a fixed order, so results are bit-identical for
+ *   any thread count.
+ *
+ * ERRORS
+ *   Every function returns a supermat_result; when given a supermat_error it also fills a message and,
+ *   for model files, the tensor concerned. NaN/Inf pixels, wrong shapes, malformed or truncated files,
+ *   an allocator returning NULL and cancellation through the progress callback are all reported.
+ *   On error no output buffer is written.
+ *
+ * DETERMINISM AND NUMERICS
+ *   All arithmetic is float32 with float64 statistics in the normalisations. The AVX2 and scalar kernels
+ *   differ by rounding only (FMA); each is deterministic. Denormals are not flushed by the library.
+ *
+ * MODEL FILE (format version 1)
+ *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
+ *   `last_up_blocks.<i>.*`, `rep_conv_out.<i>.*`), `vae.` + the diffusers AutoencoderKL names, and
+ *   `context` [tokens, dim] (the CLIP output for the empty prompt). `__metadata__` keys (strings):
+ *   supermat.format_version, supermat.kind (supermat | supermat-mv | uv-refine), unet.in_channels,
+ *   unet.out_channels, unet.block_out_channels (comma list), unet.num_heads (comma list),
+ *   unet.layers_per_block, unet.norm_num_groups, unet.norm_eps, unet.cross_attention_dim,
+ *   unet.down_block_types, unet.up_block_types, unet.flip_sin_to_cos, unet.freq_shift, unet.branches,
+ *   unet.class_embed_in, vae.in_channels, vae.out_channels, vae.latent_channels,
+ *   vae.block_out_channels, vae.layers_per_block, vae.norm_num_groups, vae.scaling_factor,
+ *   sched.num_train_timesteps, sched.beta_start, sched.beta_end, sched.beta_schedule,
+ *   sched.prediction_type, sched.steps_offset, sched.set_alpha_to_one, sched.timestep_spacing,
+ *   context.tokens, context.dim. `supermat convert` writes them from the official files.
+ *
+ * LICENSE: see the end of the file (MIT or public domain, your choice).
+ */
+#ifndef SUPERMAT_H
+#define SUPERMAT_H
+
+#ifdef SUPERMAT_CONFIG_HEADER
+#include SUPERMAT_CONFIG_HEADER
+#endif
+
+#define SUPERMAT_VERSION_MAJOR 0
+#define SUPERMAT_VERSION_MINOR 1
+#define SUPERMAT_VERSION_PATCH 0
+#define SUPERMAT_VERSION ((SUPERMAT_VERSION_MAJOR << 16) | (SUPERMAT_VERSION_MINOR << 8) | SUPERMAT_VERSION_PATCH)
+
+#ifndef SUPERMAT_API
+#ifdef SUPERMAT_STATIC
+#define SUPERMAT_API static
+#else
+#define SUPERMAT_API extern
+#endif
+#endif
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- results and errors ---------------------------------------------------------------------- */
+typedef enum supermat_result {
+    SUPERMAT_SUCCESS = 0,
+    SUPERMAT_ERROR_INVALID_ARGUMENT = -1, /* a NULL pointer, a bad size, a bad option */
+    SUPERMAT_ERROR_OUT_OF_MEMORY = -2,    /* the allocator returned NULL */
+    SUPERMAT_ERROR_MALFORMED_FILE = -3,   /* the model file is truncated or not valid safetensors */
+    SUPERMAT_ERROR_UNSUPPORTED = -4,      /* a valid file this version cannot run (kind, dtype, version) */
+    SUPERMAT_ERROR_MISSING_TENSOR = -5,   /* a tensor the architecture needs is absent */
+    SUPERMAT_ERROR_SHAPE_MISMATCH = -6,   /* a tensor has the wrong shape for the architecture */
+    SUPERMAT_ERROR_NONFINITE = -7,        /* NaN or Inf in an input (pixels, weights) */
+    SUPERMAT_ERROR_CANCELLED = -8,        /* the progress callback asked to stop */
+    SUPERMAT_ERROR_BAD_IMAGE = -9,        /* image size or layout does not match the session */
+    SUPERMAT_ERROR_INTERNAL = -10,
+    SUPERMAT_RESULT_COUNT_ = 11
+} supermat_result;
+
+typedef struct supermat_error {
+    supermat_result result;
+    char message[256];
+    char tensor[160]; /* the tensor concerned, or "" */
+} supermat_error;
+
+SUPERMAT_API const char *supermat_result_string(supermat_result r);
+
+/* ---- memory and threads ---------------------------------------------------------------------- */
+typedef struct supermat_allocator {
+    void *(*alloc)(void *user, size_t size, size_t align); /* NULL on failure */
+    void (*free)(void *user, void *ptr, size_t size);
+    void *user;
+} supermat_allocator; /* all NULL = malloc/free */
+
+/* A blocking parallel-for: call task(task_user, i, thread) for every i in [0, count), each exactly
+   once, with `thread` in [0, max_threads) unique among the calls running at the same time. */
+typedef void (*supermat_task_fn)(void *task_user, int index, int thread);
+typedef struct supermat_threading {
+    void (*parallel_for)(void *user, int count, supermat_task_fn task, void *task_user);
+    void *user;
+    int max_threads; /* how many distinct `thread` values parallel_for may pass (>= 1) */
+} supermat_threading;
+
+/* ---- small readers the tools share (JSON tokenizer, safetensors header) ----------------------- */
+typedef enum supermat_json_type {
+    SUPERMAT_JSON_UNDEFINED = 0, SUPERMAT_JSON_OBJECT, SUPERMAT_JSON_ARRAY, SUPERMAT_JSON_STRING,
+    SUPERMAT_JSON_PRIMITIVE, SUPERMAT_JSON_TYPE_COUNT
+} supermat_json_type;
+typedef struct supermat_json_tok {
+    supermat_json_type type;
+    int start, end; /* byte range in the text (strings without their quotes) */
+    int size;       /* object: members; array: elements; key string: 1; otherwise 0 */
+    int next;       /* index of the first token after this token's subtree */
+} supermat_json_tok;
+/* Returns the number of tokens (toks may be NULL to count), or a negative supermat_result. */
+SUPERMAT_API int supermat_json_parse(const char *js, size_t len, supermat_json_tok *toks, int max_toks);
+/* Index of the value of `key` in object token `obj`, or -1. */
+SUPERMAT_API int supermat_json_find(const char *js, const supermat_json_tok *toks, int obj, const char *key);
+/* Unescaped, NUL-terminated copy of a string token; -1 if it does not fit or is not a string. */
+SUPERMAT_API int supermat_json_string(const char *js, const supermat_json_tok *tok, char *buf, size_t cap);
+/* 0 and *out for a number token, -1 otherwise. */
+SUPERMAT_API int supermat_json_number(const char *js, const supermat_json_tok *tok, double *out);
+
+typedef enum supermat_dtype {
+    SUPERMAT_DTYPE_DEFAULT = 0, SUPERMAT_DTYPE_F32, SUPERMAT_DTYPE_F16, SUPERMAT_DTYPE_BF16,
+    SUPERMAT_DTYPE_COUNT
+} supermat_dtype;
+typedef struct supermat_tensor_info {
+    char name[160];
+    supermat_dtype dtype;
+    int ndim;
+    int64_t shape[8];
+    uint64_t offset; /* from the start of the file */
+    uint64_t nbytes;
+} supermat_tensor_info;
+/* Safetensors header access. `buf` holds at least the first 8 + header-length bytes of a file of
+   `file_size` bytes (all offsets are validated against file_size). */
+SUPERMAT_API supermat_result supermat_safetensors_count(const void *buf, size_t buf_size, uint64_t file_size,
+                                                        int *n_tensors, supermat_error *err);
+SUPERMAT_API supermat_result supermat_safetensors_tensor(const void *buf, size_t buf_size, uint64_t file_size,
+                                                         int index, supermat_tensor_info *out, supermat_error *err);
+/* 0 (and value) if `key` is in __metadata__, -1 otherwise. */
+SUPERMAT_API int supermat_safetensors_metadata(const void *buf, size_t buf_size, const char *key, char *value,
+                                               size_t cap);
+
+/* ---- model ----------------------------------------------------------------------------------- */
+typedef enum supermat_kernel {
+    SUPERMAT_KERNEL_AUTO = 0, /* best available on this CPU */
+    SUPERMAT_KERNEL_SCALAR,   /* portable C, always available */
+    SUPERMAT_KERNEL_AVX2,     /* x86-64 AVX2 + FMA + F16C (fails with UNSUPPORTED if the CPU lacks it) */
+    SUPERMAT_KERNEL_COUNT
+} supermat_kernel;
+
+typedef enum supermat_model_kind {
+    SUPERMAT_KIND_UNKNOWN = 0, SUPERMAT_KIND_SUPERMAT, SUPERMAT_KIND_SUPERMAT_MV, SUPERMAT_KIND_UV_REFINE,
+    SUPERMAT_KIND_COUNT
+} supermat_model_kind;
+
+typedef struct supermat_model_desc {
+    const void *data;   /* the model file in memory (8-byte alignment recommended) */
+    size_t size;
+    int copy_data;      /* nonzero: nothing is borrowed, `data` may be freed after create */
+    supermat_kernel kernel;
+    supermat_allocator allocator;
+} supermat_model_desc;
+
+typedef struct supermat_model_info {
+    supermat_model_kind kind;
+    supermat_kernel kernel;        /* the kernel set chosen */
+    int unet_in_channels, unet_out_channels, unet_levels, layers_per_block, norm_groups;
+    int block_channels[8], num_heads[8];
+    int cross_attention_dim, context_tokens, branches, class_embed_in;
+    int vae_block_channels[8], vae_levels, latent_channels;
+    float scaling_factor;
+    int timestep;                  /* the one-step DDIM timestep (999 for SD 2.1) */
+    float alphas_cumprod;          /* at that timestep, float32 as diffusers computes it */
+    int v_prediction;              /* 1 v-prediction, 0 epsilon */
+    uint64_t unet_params, branch_params, vae_params;
+    size_t model_bytes;            /* memory held by the model (packed weights etc.) */
+} supermat_model_info;
+
+typedef struct supermat_model supermat_model;
+typedef struct supermat_session supermat_session;
+
+SUPERMAT_API supermat_result supermat_model_create(const supermat_model_desc *desc, supermat_model **out,
+                                                   supermat_error *err);
+SUPERMAT_API void supermat_model_get_info(const supermat_model *model, supermat_model_info *info);
+SUPERMAT_API void supermat_model_destroy(supermat_model *model);
+
+/* ---- session --------------------------------------------------------------------------------- */
+enum {
+    SUPERMAT_OUTPUT_ALBEDO = 1,
+    SUPERMAT_OUTPUT_ROUGHNESS = 2,
+    SUPERMAT_OUTPUT_METALLIC = 4,
+    SUPERMAT_OUTPUT_ALL = 7
+};
+
+typedef struct supermat_session_desc {
+    const supermat_model *model;
+    int width, height;           /* the image size processed: multiples of 8, >= 8 */
+    unsigned outputs;            /* SUPERMAT_OUTPUT_* bits; 0 = all */
+    int threads;                 /* built-in pool: 0 = all cores, 1 = run on the calling thread */
+    supermat_threading threading;/* a caller's parallel-for; overrides `threads` when set */
+    supermat_allocator allocator;
+} supermat_session_desc;
+
+/* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
+SUPERMAT_API supermat_result supermat_session_memory(const supermat_session_desc *desc, size_t *bytes,
+                                                     supermat_error *err);
+SUPERMAT_API supermat_result supermat_session_create(const supermat_session_desc *desc, supermat_session **out,
+                                                     supermat_error *err);
+SUPERMAT_API void supermat_session_destroy(supermat_session *session);
+
+/* ---- run ------------------------------------------------------------------------------------- */
+typedef enum supermat_format {
+    SUPERMAT_FORMAT_U8 = 0,  /* 8-bit, 0..255 */
+    SUPERMAT_FORMAT_F32,     /* float, 0..1 */
+    SUPERMAT_FORMAT_COUNT
+} supermat_format;
+
+typedef struct supermat_image {
+    void *pixels;            /* input: read only */
+    int width, height;
+    int channels;            /* input: 3 (RGB) or 4 (RGBA, straight alpha); outputs: see supermat_run_desc */
+    size_t stride;           /* bytes between rows; 0 = tightly packed */
+    supermat_format format;
+} supermat_image;
+
+typedef enum supermat_stage {
+    SUPERMAT_STAGE_INPUT = 0, /* [-1,1] image, 3 channels */
+    SUPERMAT_STAGE_LATENT,    /* VAE encoder mode x scaling factor */
+    SUPERMAT_STAGE_UNET_OUT,  /* per branch: the UNet output (v or epsilon) */
+    SUPERMAT_STAGE_X0,        /* per branch: the one-step x0 latent */
+    SUPERMAT_STAGE_DECODED,   /* per branch: raw VAE decode, before x/2+0.5 */
+    SUPERMAT_STAGE_COUNT
+} supermat_stage;
+
+typedef struct supermat_run_desc {
+    supermat_image input;
+    /* Outputs (pixels NULL = not wanted; width/height 0 = the session size). albedo: 3 or 4 channels
+       (alpha copied from the input, 1 without); roughness and metallic: 1 channel, or 3/4 to fill
+       gray RGB(A). The glTF-style ORM image (R 1, G roughness, B metallic) is `orm`. */
+    supermat_image albedo, roughness, metallic, orm;
+    /* Progress between layers: return nonzero to cancel (the run then fails with CANCELLED). */
+    int (*progress)(void *user, float fraction, const char *what);
+    void *progress_user;
+    /* Inspection of intermediate tensors (debugging, tests): data is NHWC float32, n images. The
+       callback may also overwrite the data (e.g. to inject a reference and test one stage alone). */
+    void (*inspect)(void *user, supermat_stage stage, int branch, float *data, int n, int h, int w, int c);
+    void *inspect_user;
+} supermat_run_desc;
+
+SUPERMAT_API supermat_result supermat_run(supermat_session *session, const supermat_run_desc *desc,
+                                          supermat_error *err);
+
+/* ---- built-in thread pool (absent with SUPERMAT_NO_PTHREADS) ---------------------------------- */
+typedef struct supermat_pool supermat_pool;
+/* threads = 0: all cores. Fills *hook with the pool's parallel-for. */
+SUPERMAT_API supermat_result supermat_pool_create(int threads, const supermat_allocator *allocator,
+                                                  supermat_pool **out, supermat_threading *hook);
+SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
+
+/* ---- introspection for tools and benchmarks --------------------------------------------------- */
+SUPERMAT_API int supermat_cpu_has_avx2(void);
+/* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
+   tails, decode), excluding norms and activations. */
+typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
+SUPERMAT_API void supermat_session_flops(const supermat_session *session, supermat_flops *out);
+
+/* ======================================== the API ends here ==================================== */
+#ifdef __cplusplus
+}
+#endif
+#endif /* SUPERMAT_H */
+
+/* ============================================================================================== */
+/*                                       IMPLEMENTATION                                           */
+/* ============================================================================================== */
+#ifdef SUPERMAT_IMPLEMENTATION
+#ifndef SUPERMAT_IMPLEMENTATION_DONE
+#define SUPERMAT_IMPLEMENTATION_DONE
+
+/* >>platform */
+#include <float.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifdef SUPERMAT_STATIC
+#define SUPERMAT__DEF static
+#else
+#define SUPERMAT__DEF
+#endif
+#ifndef SUPERMAT_ASSERT
+#define SUPERMAT_ASSERT(x) ((void)0)
+#endif
+
+#if !defined(SUPERMAT_NO_AVX2) && (defined(__x86_64__) || defined(_M_X64)) && (defined(__GNUC__) || defined(__clang__))
+#define SUPERMAT__HAS_AVX2 1
+#include <immintrin.h>
+#include <cpuid.h>
+#define SUPERMAT__AVX2 __attribute__((target("avx2,fma,f16c")))
+#else
+#define SUPERMAT__HAS_AVX2 0
+#endif
+
+#if !defined(SUPERMAT_NO_PTHREADS) && (defined(__unix__) || defined(__APPLE__))
+#define SUPERMAT__HAS_PTHREADS 1
+#include <pthread.h>
+#include <unistd.h>
+#else
+#define SUPERMAT__HAS_PTHREADS 0
+#endif
+
+#define SUPERMAT__MIN(a, b) ((a) < (b) ? (a) : (b))
+#define SUPERMAT__MAX(a, b) ((a) > (b) ? (a) : (b))
+
+/* >>errors */
+SUPERMAT__DEF const char *supermat_result_string(supermat_result r) {
+    switch (r) {
+    case SUPERMAT_SUCCESS: return "success";
+    case SUPERMAT_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case SUPERMAT_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case SUPERMAT_ERROR_MALFORMED_FILE: return "malformed model file";
+    case SUPERMAT_ERROR_UNSUPPORTED: return "unsupported";
+    case SUPERMAT_ERROR_MISSING_TENSOR: return "missing tensor";
+    case SUPERMAT_ERROR_SHAPE_MISMATCH: return "tensor shape mismatch";
+    case SUPERMAT_ERROR_NONFINITE: return "NaN or Inf in input";
+    case SUPERMAT_ERROR_CANCELLED: return "cancelled";
+    case SUPERMAT_ERROR_BAD_IMAGE: return "bad image";
+    case SUPERMAT_ERROR_INTERNAL: return "internal error";
+    default: return "unknown result";
+    }
+}
+
+static supermat_result supermat__fail(supermat_error *err, supermat_result r, const char *tensor, const char *fmt, ...) {
+    if (err) {
+        va_list ap;
+        err->result = r;
+        va_start(ap, fmt);
+        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        va_end(ap);
+        err->tensor[0] = 0;
+        if (tensor) {
+            size_t n = strlen(tensor);
+            if (n >= sizeof err->tensor) n = sizeof err->tensor - 1;
+            memcpy(err->tensor, tensor, n);
+            err->tensor[n] = 0;
+        }
+    }
+    return r;
+}
+
+static void supermat__ok(supermat_error *err) {
+    if (err) { err->result = SUPERMAT_SUCCESS; err->message[0] = 0; err->tensor[0] = 0; }
+}
+
+/* >>memory */
+static void *supermat__default_alloc(void *user, size_t size, size_t align) {
+    void *raw, **p;
+    (void)user;
+    if (align < sizeof(void *)) align = sizeof(void *);
+    if (size > SIZE_MAX - align - sizeof(void *)) return NULL;
+    raw = malloc(size + align + sizeof(void *));
+    if (!raw) return NULL;
+    p = (void **)(((uintptr_t)raw + sizeof(void *) + align - 1) & ~(uintptr_t)(align - 1));
+    p[-1] = raw;
+    return p;
+}
+static void supermat__default_free(void *user, void *ptr, size_t size) {
+    (void)user; (void)size;
+    if (ptr) free(((void **)ptr)[-1]);
+}
+static supermat_allocator supermat__resolve_allocator(const supermat_allocator *a) {
+    supermat_allocator r;
+    if (a && a->alloc && a->free) return *a;
+    r.alloc = supermat__default_alloc; r.free = supermat__default_free; r.user = NULL;
+    return r;
+}
+static void *supermat__alloc(const supermat_allocator *a, size_t size) {
+    void *p;
+    if (size == 0) size = 1;
+    p = a->alloc(a->user, size, 64);
+    SUPERMAT_ASSERT(((uintptr_t)p & 63) == 0);
+    return p;
+}
+static void supermat__free(const supermat_allocator *a, void *p, size_t size) {
+    if (p) a->free(a->user, p, size);
+}
+/* overflow-checked size arithmetic */
+static int supermat__mul_ok(size_t a, size_t b, size_t *out) {
+    if (a && b > SIZE_MAX / a) return 0;
+    *out = a * b;
+    return 1;
+}
+
+/* >>json : a jsmn-style tokenizer (strict enough for safetensors headers and diffusers configs) */
+typedef struct supermat__jp {
+    const char *js; size_t len, i; supermat_json_tok *toks; int max, n;
+} supermat__jp;
+
+static void supermat__jp_ws(supermat__jp *p) {
+    while (p->i < p->len && (p->js[p->i] == ' ' || p->js[p->i] == '\t' || p->js[p->i] == '\n' || p->js[p->i] == '\r')) p->i++;
+}
+static int supermat__jp_tok(supermat__jp *p, supermat_json_type t, size_t s, size_t e) {
+    if (p->toks) {
+        if (p->n >= p->max) return -1;
+        p->toks[p->n].type = t; p->toks[p->n].start = (int)s; p->toks[p->n].end = (int)e;
+        p->toks[p->n].size = 0; p->toks[p->n].next = p->n + 1;
+    }
+    return p->n++;
+}
+static int supermat__jp_string(supermat__jp *p) { /* at '"' */
+    size_t s = ++p->i;
+    while (p->i < p->len && p->js[p->i] != '"') {
+        unsigned char c = (unsigned char)p->js[p->i];
+        if (c < 0x20) return SUPERMAT_ERROR_MALFORMED_FILE;
+        if (c == '\\') {
+            p->i++;
+            if (p->i >= p->len) return SUPERMAT_ERROR_MALFORMED_FILE;
+            if (p->js[p->i] == 'u') {
+                int k;
+                for (k = 1; k <= 4; k++) {
+                    char h = p->i + k < p->len ? p->js[p->i + k] : 0;
+                    if (!((h >= '0' && h <= '9') || (h >= 'a' && h <= 'f') || (h >= 'A' && h <= 'F'))) return SUPERMAT_ERROR_MALFORMED_FILE;
+                }
+                p->i += 4;
+            } else if (!strchr("\"\\/bfnrt", p->js[p->i]) || p->js[p->i] == 0) return SUPERMAT_ERROR_MALFORMED_FILE;
+        }
+        p->i++;
+    }
+    if (p->i >= p->len) return SUPERMAT_ERROR_MALFORMED_FILE;
+    p->i++;
+    return supermat__jp_tok(p, SUPERMAT_JSON_STRING, s, p->i - 1) < 0 ? SUPERMAT_ERROR_OUT_OF_MEMORY : SUPERMAT_SUCCESS;
+}
+static int supermat__jp_value(supermat__jp *p, int depth) {
+    char c;
+    int t, r;
+    supermat__jp_ws(p);
+    if (p->i >= p->len) return SUPERMAT_ERROR_MALFORMED_FILE;
+    c = p->js[p->i];
+    if (c == '"') return supermat__jp_string(p);
+    if (c == '{' || c == '[') {
+        int obj = c == '{';
+        if (depth >= 64) return SUPERMAT_ERROR_MALFORMED_FILE;
+        t = supermat__jp_tok(p, obj ? SUPERMAT_JSON_OBJECT : SUPERMAT_JSON_ARRAY, p->i, p->i);
+        if (t < 0) return SUPERMAT_ERROR_OUT_OF_MEMORY;
+        p->i++;
+        supermat__jp_ws(p);
+        if (p->i < p->len && p->js[p->i] == (obj ? '}' : ']')) {
+            p->i++;
+        } else {
+            for (;;) {
+                int key = -1;
+                supermat__jp_ws(p);
+                if (obj) {
+                    if (p->i >= p->len || p->js[p->i] != '"') return SUPERMAT_ERROR_MALFORMED_FILE;
+                    key = p->n;
+                    if ((r = supermat__jp_string(p)) != 0) return r;
+                    supermat__jp_ws(p);
+                    if (p->i >= p->len || p->js[p->i] != ':') return SUPERMAT_ERROR_MALFORMED_FILE;
+                    p->i++;
+                }
+                if ((r = supermat__jp_value(p, depth + 1)) != 0) return r;
+                if (p->toks) {
+                    p->toks[t].size++;
+                    if (key >= 0) { p->toks[key].size = 1; p->toks[key].next = p->n; }
+                }
+                supermat__jp_ws(p);
+                if (p->i >= p->len) return SUPERMAT_ERROR_MALFORMED_FILE;
+                if (p->js[p->i] == ',') { p->i++; continue; }
+                if (p->js[p->i] == (obj ? '}' : ']')) { p->i++; break; }
+                return SUPERMAT_ERROR_MALFORMED_FILE;
+            }
+        }
+        if (p->toks) { p->toks[t].end = (int)p->i; p->toks[t].next = p->n; }
+        return SUPERMAT_SUCCESS;
+    }
+    if (c == '-' || (c >= '0' && c <= '9') || c == 't' || c == 'f' || c == 'n') {
+        size_t s = p->i;
+        while (p->i < p->len && !strchr(" \t\r\n,:]}", p->js[p->i])) {
+            if ((unsigned char)p->js[p->i] < 0x20 || p->js[p->i] == '"' || p->js[p->i] == '{' || p->js[p->i] == '[') return SUPERMAT_ERROR_MALFORMED_FILE;
+            p->i++;
+        }
+        return supermat__jp_tok(p, SUPERMAT_JSON_PRIMITIVE, s, p->i) < 0 ? SUPERMAT_ERROR_OUT_OF_MEMORY : SUPERMAT_SUCCESS;
+    }
+    return SUPERMAT_ERROR_MALFORMED_FILE;
+}
+
+SUPERMAT__DEF int supermat_json_parse(const char *js, size_t len, supermat_json_tok *toks, int max_toks) {
+    supermat__jp p;
+    int r;
+    if (!js || len > (size_t)INT_MAX - 2) return SUPERMAT_ERROR_INVALID_ARGUMENT;
+    p.js = js; p.len = len; p.i = 0; p.toks = toks; p.max = max_toks; p.n = 0;
+    r = supermat__jp_value(&p, 0);
+    if (r != 0) return r;
+    supermat__jp_ws(&p);
+    if (p.i != len) return SUPERMAT_ERROR_MALFORMED_FILE;
+    return p.n;
+}
+
+static int supermat__json_eq(const char *js, const supermat_json_tok *t, const char *s) {
+    size_t n = strlen(s);
+    return t->type == SUPERMAT_JSON_STRING && (size_t)(t->end - t->start) == n && memcmp(js + t->start, s, n) == 0;
+}
+
+SUPERMAT__DEF int supermat_json_find(const char *js, const supermat_json_tok *toks, int obj, const char *key) {
+    int i, k, n;
+    if (!js || !toks || obj < 0 || toks[obj].type != SUPERMAT_JSON_OBJECT) return -1;
+    n = toks[obj].size;
+    k = obj + 1;
+    for (i = 0; i < n; i++) {
+        if (supermat__json_eq(js, &toks[k], key)) return k + 1;
+        k = toks[k].next; /* skip key and its value subtree */
+    }
+    return -1;
+}
+
+SUPERMAT__DEF int supermat_json_string(const char *js, const supermat_json_tok *tok, char *buf, size_t cap) {
+    int i;
+    size_t o = 0;
+    if (!tok || tok->type != SUPERMAT_JSON_STRING || !buf || cap == 0) return -1;
+    for (i = tok->start; i < tok->end; i++) {
+        unsigned cp = (unsigned char)js[i];
+        if (cp == '\\') {
+            char e = js[++i];
+            switch (e) {
+            case 'b': cp = 8; break; case 'f': cp = 12; break; case 'n': cp = 10; break;
+            case 'r': cp = 13; break; case 't': cp = 9; break;
+            case 'u': {
+                int k; cp = 0;
+                for (k = 1; k <= 4; k++) {
+                    char h = js[i + k];
+                    cp = cp * 16 + (unsigned)(h <= '9' ? h - '0' : (h | 32) - 'a' + 10);
+                }
+                i += 4;
+                break;
+            }
+            default: cp = (unsigned char)e; break;
+            }
+            if (cp >= 0x80) { /* UTF-8 encode (surrogates passed through as-is) */
+                if (cp < 0x800) {
+                    if (o + 2 >= cap) return -1;
+                    buf[o++] = (char)(0xC0 | (cp >> 6)); buf[o++] = (char)(0x80 | (cp & 63));
+                } else {
+                    if (o + 3 >= cap) return -1;
+                    buf[o++] = (char)(0xE0 | (cp >> 12)); buf[o++] = (char)(0x80 | ((cp >> 6) & 63)); buf[o++] = (char)(0x80 | (cp & 63));
+                }
+                continue;
+            }
+        }
+        if (o + 1 >= cap) return -1;
+        buf[o++] = (char)cp;
+    }
+    buf[o] = 0;
+    return (int)o;
+}
+
+SUPERMAT__DEF int supermat_json_number(const char *js, const supermat_json_tok *tok, double *out) {
+    char tmp[64], *end;
+    int n;
+    if (!tok || tok->type != SUPERMAT_JSON_PRIMITIVE) return -1;
+    n = tok->end - tok->start;
+    if (n <= 0 || n >= (int)sizeof tmp) return -1;
+    memcpy(tmp, js + tok->start, (size_t)n);
+    tmp[n] = 0;
+    if (!(tmp[0] == '-' || (tmp[0] >= '0' && tmp[0] <= '9'))) return -1;
+    *out = strtod(tmp, &end);
+    return *end == 0 ? 0 : -1;
+}
+
+/* >>safetensors */
+static supermat_result supermat__st_header(const void *buf, size_t buf_size, uint64_t file_size, uint64_t *hlen,
+                                           supermat_error *err) {
+    const unsigned char *b = (const unsigned char *)buf;
+    uint64_t n = 0;
+    int i;
+    if (!buf || buf_size < 8 || file_size < 8)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "file is %llu bytes, too short for a safetensors header", (unsigned long long)file_size);
+    for (i = 7; i >= 0; i--) n = (n << 8) | b[i];
+    if (n < 2 || n > 100u * 1024u * 1024u || n > file_size - 8)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "safetensors header length %llu does not fit a file of %llu bytes", (unsigned long long)n, (unsigned long long)file_size);
+    if (n > buf_size - 8)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "buffer of %llu bytes does not hold the %llu-byte header", (unsigned long long)buf_size, (unsigned long long)n);
+    *hlen = n;
+    return SUPERMAT_SUCCESS;
+}
+
+/* Parses the header JSON into a token array allocated with `a`. */
+static supermat_result supermat__st_tokens(const void *buf, size_t buf_size, uint64_t file_size, const supermat_allocator *a,
+                                           supermat_json_tok **toks_out, int *ntok_out, supermat_error *err) {
+    uint64_t hlen;
+    int ntok;
+    supermat_json_tok *toks;
+    const char *js = (const char *)buf + 8;
+    supermat_result r = supermat__st_header(buf, buf_size, file_size, &hlen, err);
+    if (r) return r;
+    ntok = supermat_json_parse(js, (size_t)hlen, NULL, 0);
+    if (ntok < 0)
+        return supermat__fail(err, ntok == SUPERMAT_ERROR_OUT_OF_MEMORY ? SUPERMAT_ERROR_OUT_OF_MEMORY : SUPERMAT_ERROR_MALFORMED_FILE, NULL, "safetensors header is not valid JSON");
+    toks = (supermat_json_tok *)supermat__alloc(a, sizeof(supermat_json_tok) * (size_t)ntok);
+    if (!toks) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for %d JSON tokens", ntok);
+    if (supermat_json_parse(js, (size_t)hlen, toks, ntok) != ntok || toks[0].type != SUPERMAT_JSON_OBJECT) {
+        supermat__free(a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "safetensors header is not a JSON object");
+    }
+    *toks_out = toks;
+    *ntok_out = ntok;
+    return SUPERMAT_SUCCESS;
+}
+
+static supermat_result supermat__st_entry(const char *js, const supermat_json_tok *toks, int key, uint64_t data_start,
+                                          uint64_t file_size, supermat_tensor_info *o, supermat_error *err) {
+    int v = key + 1, d, s, off, k;
+    char dt[16];
+    double x;
+    uint64_t elems = 1, esz, b0, b1;
+    memset(o, 0, sizeof *o);
+    if (supermat_json_string(js, &toks[key], o->name, sizeof o->name) < 0)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "tensor name too long");
+    if (toks[v].type != SUPERMAT_JSON_OBJECT)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor entry '%s' is not an object", o->name);
+    d = supermat_json_find(js, toks, v, "dtype");
+    s = supermat_json_find(js, toks, v, "shape");
+    off = supermat_json_find(js, toks, v, "data_offsets");
+    if (d < 0 || s < 0 || off < 0 || supermat_json_string(js, &toks[d], dt, sizeof dt) < 0 ||
+        toks[s].type != SUPERMAT_JSON_ARRAY || toks[off].type != SUPERMAT_JSON_ARRAY || toks[off].size != 2)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s' lacks dtype, shape or data_offsets", o->name);
+    if (!strcmp(dt, "F32")) { o->dtype = SUPERMAT_DTYPE_F32; esz = 4; }
+    else if (!strcmp(dt, "F16")) { o->dtype = SUPERMAT_DTYPE_F16; esz = 2; }
+    else if (!strcmp(dt, "BF16")) { o->dtype = SUPERMAT_DTYPE_BF16; esz = 2; }
+    else return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has dtype %s (F32, F16 and BF16 are supported)", o->name, dt);
+    if (toks[s].size > 8) return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has %d dimensions", o->name, toks[s].size);
+    o->ndim = toks[s].size;
+    for (k = 0; k < o->ndim; k++) {
+        if (supermat_json_number(js, &toks[s + 1 + k], &x) || x < 0 || x > 4e12 || x != floor(x))
+            return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s' has a bad shape", o->name);
+        o->shape[k] = (int64_t)x;
+        if (o->shape[k] && elems > UINT64_MAX / (uint64_t)o->shape[k]) return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s' shape overflows", o->name);
+        elems *= (uint64_t)o->shape[k];
+    }
+    if (supermat_json_number(js, &toks[off + 1], &x) || x < 0 || x > 1.8e19 || x != floor(x)) goto bad_off;
+    b0 = (uint64_t)x;
+    if (supermat_json_number(js, &toks[off + 2], &x) || x < 0 || x > 1.8e19 || x != floor(x)) goto bad_off;
+    b1 = (uint64_t)x;
+    if (elems > UINT64_MAX / esz || b1 < b0 || b1 - b0 != elems * esz)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s': data_offsets [%llu, %llu] do not match its shape and dtype", o->name, (unsigned long long)b0, (unsigned long long)b1);
+    if (b1 > file_size - data_start)
+        return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s' ends at byte %llu, past the end of the %llu-byte file (truncated?)", o->name, (unsigned long long)(data_start + b1), (unsigned long long)file_size);
+    o->offset = data_start + b0;
+    o->nbytes = b1 - b0;
+    return SUPERMAT_SUCCESS;
+bad_off:
+    return supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, o->name, "tensor '%s' has bad data_offsets", o->name);
+}
+
+SUPERMAT__DEF supermat_result supermat_safetensors_count(const void *buf, size_t buf_size, uint64_t file_size, int *n_tensors,
+                                                         supermat_error *err) {
+    supermat_allocator a = supermat__resolve_allocator(NULL);
+    supermat_json_tok *toks;
+    int ntok, k, n = 0, i;
+    const char *js = (const char *)buf + 8;
+    supermat_result r;
+    if (!n_tensors) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "n_tensors is NULL");
+    r = supermat__st_tokens(buf, buf_size, file_size, &a, &toks, &ntok, err);
+    if (r) return r;
+    for (i = 0, k = 1; i < toks[0].size; i++, k = toks[k].next)
+        if (!supermat__json_eq(js, &toks[k], "__metadata__")) n++;
+    supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+    *n_tensors = n;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF supermat_result supermat_safetensors_tensor(const void *buf, size_t buf_size, uint64_t file_size, int index,
+                                                          supermat_tensor_info *out, supermat_error *err) {
+    supermat_allocator a = supermat__resolve_allocator(NULL);
+    supermat_json_tok *toks;
+    int ntok, k, n = 0, i;
+    uint64_t hlen = 0;
+    const char *js = (const char *)buf + 8;
+    supermat_result r;
+    if (!out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "out is NULL");
+    r = supermat__st_tokens(buf, buf_size, file_size, &a, &toks, &ntok, err);
+    if (r) return r;
+    supermat__st_header(buf, buf_size, file_size, &hlen, NULL);
+    r = supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "tensor index %d out of range", index);
+    for (i = 0, k = 1; i < toks[0].size; i++, k = toks[k].next) {
+        if (supermat__json_eq(js, &toks[k], "__metadata__")) continue;
+        if (n++ == index) { r = supermat__st_entry(js, toks, k, 8 + hlen, file_size, out, err); break; }
+    }
+    supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+    if (!r) supermat__ok(err);
+    return r;
+}
+
+SUPERMAT__DEF int supermat_safetensors_metadata(const void *buf, size_t buf_size, const char *key, char *value, size_t cap) {
+    supermat_allocator a = supermat__resolve_allocator(NULL);
+    supermat_json_tok *toks;
+    int ntok, m, v, res = -1;
+    const char *js = (const char *)buf + 8;
+    uint64_t hlen;
+    if (!buf || buf_size < 8 || !key) return -1;
+    if (supermat__st_header(buf, buf_size, buf_size, &hlen, NULL)) return -1;
+    if (supermat__st_tokens(buf, buf_size, 8 + hlen, &a, &toks, &ntok, NULL)) return -1;
+    m = supermat_json_find(js, toks, 0, "__metadata__");
+    if (m >= 0 && (v = supermat_json_find(js, toks, m, key)) >= 0 && supermat_json_string(js, &toks[v], value, cap) >= 0) res = 0;
+    supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+    return res;
+}
+
+/* >>cpu */
+SUPERMAT__DEF int supermat_cpu_has_avx2(void) {
+#if SUPERMAT__HAS_AVX2
+    static int cached = -1;
+    unsigned a, b, c, d;
+    int ok = 0;
+    if (cached >= 0) return cached;
+    if (__get_cpuid(1, &a, &b, &c, &d)) {
+        int osxsave = (c >> 27) & 1, avx = (c >> 28) & 1, fma = (c >> 12) & 1, f16c = (c >> 29) & 1;
+        if (osxsave && avx && fma && f16c) {
+            unsigned lo, hi;
+            __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+            if ((lo & 6) == 6 && __get_cpuid_count(7, 0, &a, &b, &c, &d)) ok = (b >> 5) & 1;
+        }
+    }
+    cached = ok;
+    return ok;
+#else
+    return 0;
+#endif
+}
+
+/* >>convert : f16 / bf16 to f32 (scalar, exact) */
+static float supermat__f16_to_f32(uint16_t h) {
+    uint32_t s = (uint32_t)(h >> 15) << 31, e = (h >> 10) & 31, m = h & 1023, bits;
+    float f;
+    if (e == 0) {
+        f = (float)m * (1.0f / 16777216.0f); /* subnormal: m * 2^-24 */
+        return s ? -f : f;
+    }
+    if (e == 31) bits = s | 0x7F800000u | (m << 13);
+    else bits = s | ((e + 112) << 23) | (m << 13);
+    memcpy(&f, &bits, 4);
+    return f;
+}
+static float supermat__bf16_to_f32(uint16_t h) {
+    uint32_t bits = (uint32_t)h << 16;
+    float f;
+    memcpy(&f, &bits, 4);
+    return f;
+}
+static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size_t i) {
+    uint16_t h;
+    float f;
+    if (dt == SUPERMAT_DTYPE_F32) { memcpy(&f, p + 4 * i, 4); return f; }
+    memcpy(&h, p + 2 * i, 2);
+    return dt == SUPERMAT_DTYPE_F16 ? supermat__f16_to_f32(h) : supermat__bf16_to_f32(h);
+}
+
+/* >>gemm
+   C[m, n] = init + sum_k A[m, k] * B[k, n], with B packed in panels of NR=16 columns (K x 16 each,
+   zero-padded past N) and A given by row pointers (dense) or gathered from an NHWC image (conv).
+   init = bias[n] (+ R[m, n]) on the first K block, the running C afterwards. Each output element is
+   computed by exactly one task with the same K order, so any thread count gives the same bits. */
+#define SUPERMAT__MR 6
+#define SUPERMAT__NR 16
+#define SUPERMAT__KC 256
+#define SUPERMAT__MC 96
+
+typedef struct supermat__pw { /* a packed weight: y = x W^T + b, W [N][K] */
+    float *p;      /* ceil(N/16) panels of K x 16 */
+    float *bias;   /* padded to a multiple of 16, or NULL */
+    int K, N;
+} supermat__pw;
+
+typedef void (*supermat__ukr_fn)(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
+                                 const float *bias, const float *r, size_t ldr, int accumulate);
+
+static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
+                                 const float *bias, const float *r, size_t ldr, int accumulate) {
+    float acc[SUPERMAT__MR][SUPERMAT__NR];
+    int i, j, k;
+    for (i = 0; i < SUPERMAT__MR; i++)
+        for (j = 0; j < SUPERMAT__NR; j++) {
+            float v = 0.0f;
+            if (i < mr && j < nr) {
+                if (accumulate) v = c[(size_t)i * ldc + j];
+                else {
+                    if (bias) v = bias[j];
+                    if (r) v += r[(size_t)i * ldr + j];
+                }
+            }
+            acc[i][j] = v;
+        }
+    for (k = 0; k < kc; k++) {
+        const float *bk = b + (size_t)k * SUPERMAT__NR;
+        for (i = 0; i < SUPERMAT__MR; i++) {
+            float av = a[i][k];
+            for (j = 0; j < SUPERMAT__NR; j++) acc[i][j] += av * bk[j];
+        }
+    }
+    for (i = 0; i < mr; i++)
+        for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = acc[i][j];
+}
+
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
+                                              int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m256 c00, c01, c10, c11, c20, c21, c30, c31, c40, c41, c50, c51;
+    const float *a0 = a[0], *a1 = a[1], *a2 = a[2], *a3 = a[3], *a4 = a[4], *a5 = a[5];
+    float tile[SUPERMAT__MR * SUPERMAT__NR];
+    int full = (mr == SUPERMAT__MR && nr == SUPERMAT__NR), k, i, j;
+    const float *src = c;
+    size_t lds = ldc;
+    if (!accumulate) {
+        __m256 b0 = bias ? _mm256_loadu_ps(bias) : _mm256_setzero_ps();
+        __m256 b1 = bias ? _mm256_loadu_ps(bias + 8) : _mm256_setzero_ps();
+        c00 = c10 = c20 = c30 = c40 = c50 = b0;
+        c01 = c11 = c21 = c31 = c41 = c51 = b1;
+        if (r) {
+            if (!full) {
+                for (i = 0; i < SUPERMAT__MR; i++)
+                    for (j = 0; j < SUPERMAT__NR; j++) tile[i * SUPERMAT__NR + j] = (i < mr && j < nr) ? r[(size_t)i * ldr + j] : 0.0f;
+                src = tile; lds = SUPERMAT__NR;
+            } else { src = r; lds = ldr; }
+#define SUPERMAT__LR(ci0, ci1, row) ci0 = _mm256_add_ps(ci0, _mm256_loadu_ps(src + (size_t)(row) * lds)); ci1 = _mm256_add_ps(ci1, _mm256_loadu_ps(src + (size_t)(row) * lds + 8));
+            SUPERMAT__LR(c00, c01, 0) SUPERMAT__LR(c10, c11, 1) SUPERMAT__LR(c20, c21, 2)
+            SUPERMAT__LR(c30, c31, 3) SUPERMAT__LR(c40, c41, 4) SUPERMAT__LR(c50, c51, 5)
+#undef SUPERMAT__LR
+        }
+    } else {
+        if (!full) {
+            for (i = 0; i < SUPERMAT__MR; i++)
+                for (j = 0; j < SUPERMAT__NR; j++) tile[i * SUPERMAT__NR + j] = (i < mr && j < nr) ? c[(size_t)i * ldc + j] : 0.0f;
+            src = tile; lds = SUPERMAT__NR;
+        }
+        c00 = _mm256_loadu_ps(src); c01 = _mm256_loadu_ps(src + 8);
+        c10 = _mm256_loadu_ps(src + lds); c11 = _mm256_loadu_ps(src + lds + 8);
+        c20 = _mm256_loadu_ps(src + 2 * lds); c21 = _mm256_loadu_ps(src + 2 * lds + 8);
+        c30 = _mm256_loadu_ps(src + 3 * lds); c31 = _mm256_loadu_ps(src + 3 * lds + 8);
+        c40 = _mm256_loadu_ps(src + 4 * lds); c41 = _mm256_loadu_ps(src + 4 * lds + 8);
+        c50 = _mm256_loadu_ps(src + 5 * lds); c51 = _mm256_loadu_ps(src + 5 * lds + 8);
+    }
+    for (k = 0; k < kc; k++) {
+        __m256 b0 = _mm256_loadu_ps(b), b1 = _mm256_loadu_ps(b + 8), av;
+        b += SUPERMAT__NR;
+        av = _mm256_broadcast_ss(a0 + k); c00 = _mm256_fmadd_ps(av, b0, c00); c01 = _mm256_fmadd_ps(av, b1, c01);
+        av = _mm256_broadcast_ss(a1 + k); c10 = _mm256_fmadd_ps(av, b0, c10); c11 = _mm256_fmadd_ps(av, b1, c11);
+        av = _mm256_broadcast_ss(a2 + k); c20 = _mm256_fmadd_ps(av, b0, c20); c21 = _mm256_fmadd_ps(av, b1, c21);
+        av = _mm256_broadcast_ss(a3 + k); c30 = _mm256_fmadd_ps(av, b0, c30); c31 = _mm256_fmadd_ps(av, b1, c31);
+        av = _mm256_broadcast_ss(a4 + k); c40 = _mm256_fmadd_ps(av, b0, c40); c41 = _mm256_fmadd_ps(av, b1, c41);
+        av = _mm256_broadcast_ss(a5 + k); c50 = _mm256_fmadd_ps(av, b0, c50); c51 = _mm256_fmadd_ps(av, b1, c51);
+    }
+    if (full) {
+        _mm256_storeu_ps(c, c00); _mm256_storeu_ps(c + 8, c01);
+        _mm256_storeu_ps(c + ldc, c10); _mm256_storeu_ps(c + ldc + 8, c11);
+        _mm256_storeu_ps(c + 2 * ldc, c20); _mm256_storeu_ps(c + 2 * ldc + 8, c21);
+        _mm256_storeu_ps(c + 3 * ldc, c30); _mm256_storeu_ps(c + 3 * ldc + 8, c31);
+        _mm256_storeu_ps(c + 4 * ldc, c40); _mm256_storeu_ps(c + 4 * ldc + 8, c41);
+        _mm256_storeu_ps(c + 5 * ldc, c50); _mm256_storeu_ps(c + 5 * ldc + 8, c51);
+        return;
+    }
+    _mm256_storeu_ps(tile, c00); _mm256_storeu_ps(tile + 8, c01);
+    _mm256_storeu_ps(tile + 16, c10); _mm256_storeu_ps(tile + 24, c11);
+    _mm256_storeu_ps(tile + 32, c20); _mm256_storeu_ps(tile + 40, c21);
+    _mm256_storeu_ps(tile + 48, c30); _mm256_storeu_ps(tile + 56, c31);
+    _mm256_storeu_ps(tile + 64, c40); _mm256_storeu_ps(tile + 72, c41);
+    _mm256_storeu_ps(tile + 80, c50); _mm256_storeu_ps(tile + 88, c51);
+    for (i = 0; i < mr; i++)
+        for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = tile[i * SUPERMAT__NR + j];
+}
+#endif
+
+/* A operand of a GEMM */
+typedef struct supermat__asrc {
+    const float *a; size_t lda;           /* dense rows (conv == 0) */
+    int conv;                             /* gather from an NHWC image */
+    const float *x; int n, h, w, c;       /* the image: n x h x w x c */
+    int uh, uw;                           /* virtual nearest-resized size the conv reads (== h, w if none) */
+    int kh, kw, stride, pad_t, pad_l;
+    int oh, ow;                           /* output size */
+} supermat__asrc;
+
+/* PyTorch's nearest index (upsample_nearest2d, no scale given) */
+static int supermat__nearest(int dst, int in, int out) {
+    float scale;
+    int s;
+    if (in == out) return dst;
+    if (out == 2 * in) return dst >> 1;
+    scale = (float)in / (float)out;
+    s = (int)floorf((float)dst * scale);
+    return s < in - 1 ? s : in - 1;
+}
+
+/* gather rows [m0, m0+mr) x K range [k0, k0+kc) of the implicit im2col matrix into buf (row stride kc) */
+static void supermat__gather(const supermat__asrc *s, int m0, int mr, int k0, int kc, float *buf) {
+    int i;
+    for (i = 0; i < mr; i++) {
+        int m = m0 + i, ox = m % s->ow, oy = (m / s->ow) % s->oh, img = m / (s->ow * s->oh);
+        float *dst = buf + (size_t)i * kc;
+        int k = k0, kend = k0 + kc;
+        while (k < kend) {
+            int tap = k / s->c, ci = k - tap * s->c, ky = tap / s->kw, kx = tap - ky * s->kw;
+            int run = SUPERMAT__MIN(s->c - ci, kend - k);
+            int vy = oy * s->stride - s->pad_t + ky, vx = ox * s->stride - s->pad_l + kx;
+            if (vy < 0 || vy >= s->uh || vx < 0 || vx >= s->uw) {
+                memset(dst, 0, sizeof(float) * (size_t)run);
+            } else {
+                int sy = supermat__nearest(vy, s->h, s->uh), sx = supermat__nearest(vx, s->w, s->uw);
+                memcpy(dst, s->x + (((size_t)img * s->h + sy) * s->w + sx) * s->c + ci, sizeof(float) * (size_t)run);
+            }
+            dst += run;
+            k += run;
+        }
+    }
+}
+
+typedef struct supermat__gemm_args {
+    supermat__ukr_fn ukr;
+    int M, N, K;
+    const supermat__asrc *A;
+    const float *B;        /* packed panels (K x 16 each) */
+    const float *bias;     /* padded, or NULL */
+    float *C; size_t ldc;
+    const float *R; size_t ldr;
+    int mblocks, nchunks, panels_per_chunk;
+    float **scratch;       /* per thread: MC x KC floats */
+} supermat__gemm_args;
+
+static void supermat__gemm_task(void *user, int index, int thread) {
+    const supermat__gemm_args *g = (const supermat__gemm_args *)user;
+    int mb = index / g->nchunks, nc = index % g->nchunks;
+    int m0 = mb * SUPERMAT__MC, m1 = SUPERMAT__MIN(g->M, m0 + SUPERMAT__MC);
+    int npanels = (g->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    int p0 = nc * g->panels_per_chunk, p1 = SUPERMAT__MIN(npanels, p0 + g->panels_per_chunk);
+    int k0, p, m;
+    const supermat__asrc *A = g->A;
+    float *buf = g->scratch[thread];
+    for (k0 = 0; k0 < g->K; k0 += SUPERMAT__KC) {
+        int kc = SUPERMAT__MIN(SUPERMAT__KC, g->K - k0);
+        const float *abase;
+        size_t lda;
+        if (A->conv) {
+            supermat__gather(A, m0, m1 - m0, k0, kc, buf);
+            abase = buf; lda = (size_t)kc;
+        } else {
+            abase = A->a + (size_t)m0 * A->lda + k0; lda = A->lda;
+        }
+        for (p = p0; p < p1; p++) {
+            const float *bp = g->B + ((size_t)p * g->K + k0) * SUPERMAT__NR;
+            int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+            for (m = m0; m < m1; m += SUPERMAT__MR) {
+                const float *rows[SUPERMAT__MR];
+                int mr = SUPERMAT__MIN(SUPERMAT__MR, m1 - m), i;
+                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
+                g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
+                       g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
+                       k0 > 0);
+            }
+        }
+    }
+}
+
+/* >>threads : a small pthreads pool behind the parallel-for hook */
+#if SUPERMAT__HAS_PTHREADS
+struct supermat_pool {
+    supermat_allocator alloc;
+    pthread_t *threads;
+    int nthreads;            /* workers, not counting the caller */
+    pthread_mutex_t mu;
+    pthread_cond_t cv_work, cv_done;
+    supermat_task_fn task;
+    void *task_user;
+    int count, next, done, generation, quit;
+    int cap;                 /* threads asked for (sizes of the allocations) */
+};
+
+static void supermat__pool_work(supermat_pool *p, int thread) {
+    for (;;) {
+        int i;
+        pthread_mutex_lock(&p->mu);
+        i = p->next < p->count ? p->next++ : -1;
+        pthread_mutex_unlock(&p->mu);
+        if (i < 0) return;
+        p->task(p->task_user, i, thread);
+        pthread_mutex_lock(&p->mu);
+        if (++p->done == p->count) pthread_cond_broadcast(&p->cv_done);
+        pthread_mutex_unlock(&p->mu);
+    }
+}
+
+typedef struct supermat__pool_arg { supermat_pool *p; int id; } supermat__pool_arg;
+
+static void *supermat__pool_main(void *arg) {
+    supermat_pool *p = ((supermat__pool_arg *)arg)->p;
+    int id = ((supermat__pool_arg *)arg)->id, seen = 0;
+    for (;;) {
+        pthread_mutex_lock(&p->mu);
+        while (!p->quit && p->generation == seen) pthread_cond_wait(&p->cv_work, &p->mu);
+        if (p->quit) { pthread_mutex_unlock(&p->mu); return NULL; }
+        seen = p->generation;
+        pthread_mutex_unlock(&p->mu);
+        supermat__pool_work(p, id);
+    }
+}
+
+static void supermat__pool_for(void *user, int count, supermat_task_fn task, void *task_user) {
+    supermat_pool *p = (supermat_pool *)user;
+    if (count <= 0) return;
+    if (p->nthreads == 0 || count == 1) {
+        int i;
+        for (i = 0; i < count; i++) task(task_user, i, 0);
+        return;
+    }
+    pthread_mutex_lock(&p->mu);
+    p->task = task; p->task_user = task_user; p->count = count; p->next = 0; p->done = 0; p->generation++;
+    pthread_cond_broadcast(&p->cv_work);
+    pthread_mutex_unlock(&p->mu);
+    supermat__pool_work(p, 0);
+    pthread_mutex_lock(&p->mu);
+    while (p->done < p->count) pthread_cond_wait(&p->cv_done, &p->mu);
+    p->count = 0;
+    pthread_mutex_unlock(&p->mu);
+}
+
+SUPERMAT__DEF supermat_result supermat_pool_create(int threads, const supermat_allocator *allocator, supermat_pool **out,
+                                                   supermat_threading *hook) {
+    supermat_allocator a = supermat__resolve_allocator(allocator);
+    supermat_pool *p;
+    supermat__pool_arg *args;
+    int i;
+    if (!out || !hook) return SUPERMAT_ERROR_INVALID_ARGUMENT;
+    *out = NULL;
+    if (threads <= 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = n > 0 ? (int)n : 1;
+    }
+    if (threads > 64) threads = 64;
+    p = (supermat_pool *)supermat__alloc(&a, sizeof *p + sizeof(supermat__pool_arg) * (size_t)threads);
+    if (!p) return SUPERMAT_ERROR_OUT_OF_MEMORY;
+    memset(p, 0, sizeof *p);
+    p->alloc = a;
+    p->cap = threads;
+    args = (supermat__pool_arg *)(p + 1);
+    p->threads = (pthread_t *)supermat__alloc(&a, sizeof(pthread_t) * (size_t)threads);
+    if (!p->threads) { supermat__free(&a, p, sizeof *p); return SUPERMAT_ERROR_OUT_OF_MEMORY; }
+    pthread_mutex_init(&p->mu, NULL);
+    pthread_cond_init(&p->cv_work, NULL);
+    pthread_cond_init(&p->cv_done, NULL);
+    for (i = 1; i < threads; i++) {
+        args[i].p = p; args[i].id = i;
+        if (pthread_create(&p->threads[p->nthreads], NULL, supermat__pool_main, &args[i]) != 0) break;
+        p->nthreads++;
+    }
+    hook->parallel_for = supermat__pool_for;
+    hook->user = p;
+    hook->max_threads = p->nthreads + 1;
+    *out = p;
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF void supermat_pool_destroy(supermat_pool *p) {
+    int i, n;
+    supermat_allocator a;
+    if (!p) return;
+    pthread_mutex_lock(&p->mu);
+    p->quit = 1;
+    pthread_cond_broadcast(&p->cv_work);
+    pthread_mutex_unlock(&p->mu);
+    for (i = 0; i < p->nthreads; i++) pthread_join(p->threads[i], NULL);
+    pthread_mutex_destroy(&p->mu);
+    pthread_cond_destroy(&p->cv_work);
+    pthread_cond_destroy(&p->cv_done);
+    a = p->alloc;
+    n = p->cap;
+    supermat__free(&a, p->threads, sizeof(pthread_t) * (size_t)n);
+    supermat__free(&a, p, sizeof *p + sizeof(supermat__pool_arg) * (size_t)n);
+}
+#endif
+
+/* >>context : what every operation of a run sees (kernels, threads, arena, status) */
+#define SUPERMAT__MAXBLK 96
+typedef struct supermat__ctx {
+    int plan;                   /* 1: walk the network only to plan memory */
+    supermat_result status;     /* first failure (cancellation); operations become no-ops after it */
+    supermat_error *err;
+    char *base;                 /* arena (NULL while planning) */
+    size_t cap, peak;
+    size_t boff[SUPERMAT__MAXBLK], bsize[SUPERMAT__MAXBLK];
+    int nblk;
+    supermat__ukr_fn ukr;
+    int avx2;
+    supermat_threading thr;
+    float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
+    size_t scratch_floats;
+    double *gn_stats;           /* 2 x gn_cap doubles */
+    size_t gn_cap;
+    int (*progress)(void *user, float fraction, const char *what);
+    void *progress_user;
+    double work_done, work_total;
+    double flops;               /* FLOPs counted while planning */
+} supermat__ctx;
+
+typedef struct supermat__t { float *d; int n, h, w, c; } supermat__t; /* NHWC */
+
+static size_t supermat__numel(const supermat__t *t) { return (size_t)t->n * t->h * t->w * t->c; }
+
+/* >>arena : first-fit over planned offsets; the same call sequence while planning and running gives
+   the same offsets, so the run fits exactly the planned peak and never allocates. */
+static float *supermat__get(supermat__ctx *X, size_t nfloats) {
+    size_t size = (nfloats * sizeof(float) + 63) & ~(size_t)63, off = 0;
+    int i, at;
+    if (size == 0) size = 64;
+    if (X->nblk >= SUPERMAT__MAXBLK) { X->status = SUPERMAT_ERROR_INTERNAL; return NULL; }
+    for (at = 0; at < X->nblk; at++) {
+        if (X->boff[at] >= off + size) break;
+        off = X->boff[at] + X->bsize[at];
+    }
+    for (i = X->nblk; i > at; i--) { X->boff[i] = X->boff[i - 1]; X->bsize[i] = X->bsize[i - 1]; }
+    X->boff[at] = off; X->bsize[at] = size; X->nblk++;
+    if (off + size > X->peak) X->peak = off + size;
+    if (X->plan) return (float *)(uintptr_t)(64 + off);
+    if (off + size > X->cap) { X->status = SUPERMAT_ERROR_INTERNAL; return (float *)(uintptr_t)(64 + off); }
+    return (float *)(X->base + off);
+}
+static void supermat__put(supermat__ctx *X, const void *p) {
+    size_t off;
+    int i;
+    if (!p) return;
+    off = X->plan ? (size_t)((uintptr_t)p - 64) : (size_t)((const char *)p - X->base);
+    if (!X->plan && (uintptr_t)p < (uintptr_t)X->base) off = (size_t)((uintptr_t)p - 64);
+    for (i = 0; i < X->nblk; i++)
+        if (X->boff[i] == off) {
+            for (; i + 1 < X->nblk; i++) { X->boff[i] = X->boff[i + 1]; X->bsize[i] = X->bsize[i + 1]; }
+            X->nblk--;
+            return;
+        }
+    X->status = SUPERMAT_ERROR_INTERNAL;
+}
+static supermat__t supermat__tensor(supermat__ctx *X, int n, int h, int w, int c) {
+    supermat__t t;
+    t.n = n; t.h = h; t.w = w; t.c = c;
+    t.d = supermat__get(X, (size_t)n * h * w * c);
+    return t;
+}
+static void supermat__drop(supermat__ctx *X, supermat__t *t) { supermat__put(X, t->d); t->d = NULL; }
+static int supermat__live(const supermat__ctx *X) { return !X->plan && X->status == SUPERMAT_SUCCESS; }
+
+static void supermat__par(supermat__ctx *X, int count, supermat_task_fn fn, void *user) {
+    if (count <= 0) return;
+    if (X->thr.parallel_for && X->thr.max_threads > 1 && count > 1) X->thr.parallel_for(X->thr.user, count, fn, user);
+    else { int i; for (i = 0; i < count; i++) fn(user, i, 0); }
+}
+
+static void supermat__step(supermat__ctx *X, double work, const char *what) {
+    X->work_done += work;
+    if (X->plan) { X->work_total += work; return; }
+    if (X->status == SUPERMAT_SUCCESS && X->progress &&
+        X->progress(X->progress_user, X->work_total > 0 ? (float)(X->work_done / X->work_total) : 0.0f, what))
+        X->status = supermat__fail(X->err, SUPERMAT_ERROR_CANCELLED, NULL, "cancelled by the progress callback at %s", what);
+}
+
+/* >>ops : GEMM-based layers */
+static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, const supermat__pw *W, float *C, size_t ldc,
+                           const float *bias, const float *R, size_t ldr) {
+    supermat__gemm_args g;
+    int npanels, threads, tasks_m;
+    X->flops += 2.0 * M * (double)W->N * W->K;
+    if (!supermat__live(X) || M <= 0) return;
+    memset(&g, 0, sizeof g);
+    g.ukr = X->ukr; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
+    g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
+    npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    tasks_m = (M + SUPERMAT__MC - 1) / SUPERMAT__MC;
+    threads = X->thr.parallel_for ? X->thr.max_threads : 1;
+    g.nchunks = 1;
+    (void)threads;
+    if (tasks_m < 8) { /* few row blocks: split the columns too (fixed by shape, not by thread count) */
+        g.nchunks = SUPERMAT__MIN(npanels, (4 * 8 + tasks_m - 1) / tasks_m);
+        if (g.nchunks < 1) g.nchunks = 1;
+    }
+    g.panels_per_chunk = (npanels + g.nchunks - 1) / g.nchunks;
+    g.nchunks = (npanels + g.panels_per_chunk - 1) / g.panels_per_chunk;
+    g.mblocks = tasks_m;
+    supermat__par(X, tasks_m * g.nchunks, supermat__gemm_task, &g);
+}
+
+/* y[M, N] = x[M, K] W^T + b (+ R) */
+static void supermat__linear(supermat__ctx *X, const float *x, size_t ldx, int M, const supermat__pw *W, float *y, size_t ldy,
+                             const float *R, size_t ldr) {
+    supermat__asrc A;
+    memset(&A, 0, sizeof A);
+    A.a = x; A.lda = ldx;
+    supermat__gemm(X, &A, M, W, y, ldy, W->bias, R, ldr);
+}
+
+typedef struct supermat__conv { supermat__pw w; int k, stride, cin, cout; } supermat__conv;
+
+/* out = conv(in resized to (uh, uw) by nearest) + bias (+ R); pad: k/2 on all sides, or (0,1,0,1) with pad_mode 1 */
+static void supermat__conv2d(supermat__ctx *X, const supermat__t *in, int uh, int uw, const supermat__conv *cv, int pad_mode,
+                             supermat__t *out, const float *bias, const float *R) {
+    supermat__asrc A;
+    int pt, pl, pb, pr;
+    memset(&A, 0, sizeof A);
+    if (pad_mode == 0) { pt = pl = pb = pr = cv->k / 2; } else { pt = pl = 0; pb = pr = 1; }
+    A.conv = cv->k != 1 || cv->stride != 1 || uh != in->h || uw != in->w;
+    A.x = in->d; A.n = in->n; A.h = in->h; A.w = in->w; A.c = in->c; A.uh = uh; A.uw = uw;
+    A.kh = A.kw = cv->k; A.stride = cv->stride; A.pad_t = pt; A.pad_l = pl;
+    A.oh = (uh + pt + pb - cv->k) / cv->stride + 1;
+    A.ow = (uw + pl + pr - cv->k) / cv->stride + 1;
+    A.a = in->d; A.lda = (size_t)in->c;
+    if (out->h != A.oh || out->w != A.ow || out->c != cv->cout || in->c != cv->cin) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    supermat__gemm(X, &A, in->n * A.oh * A.ow, &cv->w, out->d, (size_t)out->c, bias ? bias : cv->w.bias, R, (size_t)out->c);
+}
+
+/* >>vector : exp, SiLU and GELU on arrays (AVX2 with scalar tails, and scalar) */
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static __m256 supermat__exp_avx2(__m256 x) {
+    /* Cody-Waite range reduction + Cephes polynomial; max rel. error ~2 ulp on [-87, 88] */
+    __m256 fx, y, z, p;
+    __m256i e;
+    x = _mm256_min_ps(x, _mm256_set1_ps(88.3762626647949f));
+    x = _mm256_max_ps(x, _mm256_set1_ps(-87.3365447505531f));
+    fx = _mm256_round_ps(_mm256_mul_ps(x, _mm256_set1_ps(1.44269504088896341f)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    x = _mm256_fnmadd_ps(fx, _mm256_set1_ps(0.693359375f), x);
+    x = _mm256_fnmadd_ps(fx, _mm256_set1_ps(-2.12194440e-4f), x);
+    z = _mm256_mul_ps(x, x);
+    p = _mm256_set1_ps(1.9875691500E-4f);
+    p = _mm256_fmadd_ps(p, x, _mm256_set1_ps(1.3981999507E-3f));
+    p = _mm256_fmadd_ps(p, x, _mm256_set1_ps(8.3334519073E-3f));
+    p = _mm256_fmadd_ps(p, x, _mm256_set1_ps(4.1665795894E-2f));
+    p = _mm256_fmadd_ps(p, x, _mm256_set1_ps(1.6666665459E-1f));
+    p = _mm256_fmadd_ps(p, x, _mm256_set1_ps(5.0000001201E-1f));
+    y = _mm256_fmadd_ps(p, z, _mm256_add_ps(x, _mm256_set1_ps(1.0f)));
+    e = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvtps_epi32(fx), _mm256_set1_epi32(127)), 23);
+    return _mm256_mul_ps(y, _mm256_castsi256_ps(e));
+}
+SUPERMAT__AVX2 static void supermat__silu_avx2(float *y, const float *x, int n) {
+    int i = 0;
+    for (; i + 8 <= n; i += 8) {
+        __m256 v = _mm256_loadu_ps(x + i);
+        __m256 e = supermat__exp_avx2(_mm256_sub_ps(_mm256_setzero_ps(), v));
+        _mm256_storeu_ps(y + i, _mm256_div_ps(v, _mm256_add_ps(_mm256_set1_ps(1.0f), e)));
+    }
+    for (; i < n; i++) {
+        __m256 v = _mm256_set1_ps(x[i]);
+        __m256 e = supermat__exp_avx2(_mm256_sub_ps(_mm256_setzero_ps(), v));
+        y[i] = _mm256_cvtss_f32(_mm256_div_ps(v, _mm256_add_ps(_mm256_set1_ps(1.0f), e)));
+    }
+}
+SUPERMAT__AVX2 static void supermat__exp_row_avx2(float *x, int n) {
+    int i = 0;
+    for (; i + 8 <= n; i += 8) _mm256_storeu_ps(x + i, supermat__exp_avx2(_mm256_loadu_ps(x + i)));
+    for (; i < n; i++) x[i] = _mm256_cvtss_f32(supermat__exp_avx2(_mm256_set1_ps(x[i])));
+}
+#endif
+static void supermat__silu(const supermat__ctx *X, float *y, const float *x, int n) {
+    int i;
+#if SUPERMAT__HAS_AVX2
+    if (X->avx2) { supermat__silu_avx2(y, x, n); return; }
+#endif
+    (void)X;
+    for (i = 0; i < n; i++) y[i] = x[i] / (1.0f + expf(-x[i]));
+}
+static float supermat__gelu(float x) { return 0.5f * x * (1.0f + erff(x * 0.70710678118654752f)); }
+
+/* >>norm : GroupNorm (+SiLU) and LayerNorm, statistics in float64 */
+typedef struct supermat__norm { const float *g, *b; int c; float eps; } supermat__norm;
+
+typedef struct supermat__gn_args {
+    const supermat__ctx *X;
+    const supermat__t *in; supermat__t *out;
+    const supermat__norm *nm; int groups, silu;
+    double *mean, *rstd;      /* n x groups */
+    int rows_per_task;        /* pixel rows per apply task */
+} supermat__gn_args;
+
+static void supermat__gn_stats_task(void *user, int index, int thread) {
+    const supermat__gn_args *a = (const supermat__gn_args *)user;
+    int img = index / a->groups, g = index % a->groups, cg = a->in->c / a->groups, j;
+    size_t hw = (size_t)a->in->h * a->in->w, p;
+    const float *x = a->in->d + (size_t)img * hw * a->in->c + (size_t)g * cg;
+    double s = 0.0, ss = 0.0, mean, cnt = (double)hw * cg;
+    (void)thread;
+    for (p = 0; p < hw; p++)
+        for (j = 0; j < cg; j++) s += x[p * a->in->c + j];
+    mean = s / cnt;
+    for (p = 0; p < hw; p++)
+        for (j = 0; j < cg; j++) { double d = x[p * a->in->c + j] - mean; ss += d * d; }
+    a->mean[index] = mean;
+    a->rstd[index] = 1.0 / sqrt(ss / cnt + (double)a->nm->eps);
+}
+
+static void supermat__gn_apply_task(void *user, int index, int thread) {
+    const supermat__gn_args *a = (const supermat__gn_args *)user;
+    int C = a->in->c, cg = C / a->groups, c;
+    size_t hw = (size_t)a->in->h * a->in->w, total = hw * a->in->n;
+    size_t p0 = (size_t)index * a->rows_per_task, p1 = SUPERMAT__MIN(total, p0 + (size_t)a->rows_per_task), p;
+    float *scale = a->X->scratch[thread], *shift = scale + C;
+    int img = -1;
+    for (p = p0; p < p1; p++) {
+        const float *x = a->in->d + p * C;
+        float *y = a->out->d + p * C;
+        if ((int)(p / hw) != img) {
+            img = (int)(p / hw);
+            for (c = 0; c < C; c++) {
+                double m = a->mean[img * a->groups + c / cg], r = a->rstd[img * a->groups + c / cg];
+                double gg = a->nm->g[c] * r;
+                scale[c] = (float)gg;
+                shift[c] = (float)(a->nm->b[c] - m * gg);
+            }
+        }
+        for (c = 0; c < C; c++) y[c] = x[c] * scale[c] + shift[c];
+        if (a->silu) supermat__silu(a->X, y, y, C);
+    }
+}
+
+static void supermat__groupnorm(supermat__ctx *X, const supermat__t *in, supermat__t *out, const supermat__norm *nm, int groups, int silu) {
+    supermat__gn_args a;
+    size_t total;
+    if (!supermat__live(X)) return;
+    if ((size_t)in->n * groups > X->gn_cap || in->c % groups || 2 * (size_t)in->c > X->scratch_floats) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    a.X = X; a.in = in; a.out = out; a.nm = nm; a.groups = groups; a.silu = silu;
+    a.mean = X->gn_stats;
+    a.rstd = a.mean + (size_t)in->n * groups;
+    supermat__par(X, in->n * groups, supermat__gn_stats_task, &a);
+    total = (size_t)in->n * in->h * in->w;
+    a.rows_per_task = 64;
+    supermat__par(X, (int)((total + 63) / 64), supermat__gn_apply_task, &a);
+}
+
+typedef struct supermat__ln_args { const float *x; float *y; int C; float eps; const float *g, *b; int rows, M; } supermat__ln_args;
+static void supermat__ln_task(void *user, int index, int thread) {
+    const supermat__ln_args *a = (const supermat__ln_args *)user;
+    int r0 = index * a->rows, r1 = SUPERMAT__MIN(a->M, r0 + a->rows), r, c;
+    (void)thread;
+    for (r = r0; r < r1; r++) {
+        const float *x = a->x + (size_t)r * a->C;
+        float *y = a->y + (size_t)r * a->C;
+        double s = 0.0, ss = 0.0, mean, rstd;
+        for (c = 0; c < a->C; c++) s += x[c];
+        mean = s / a->C;
+        for (c = 0; c < a->C; c++) { double d = x[c] - mean; ss += d * d; }
+        rstd = 1.0 / sqrt(ss / a->C + (double)a->eps);
+        for (c = 0; c < a->C; c++) y[c] = (float)((x[c] - mean) * rstd) * a->g[c] + a->b[c];
+    }
+}
+static void supermat__layernorm(supermat__ctx *X, const float *x, float *y, int M, const supermat__norm *nm) {
+    supermat__ln_args a;
+    if (!supermat__live(X)) return;
+    a.x = x; a.y = y; a.C = nm->c; a.eps = nm->eps; a.g = nm->g; a.b = nm->b; a.rows = 16; a.M = M;
+    supermat__par(X, (M + 15) / 16, supermat__ln_task, &a);
+}
+
+/* GEGLU: y[m, j] = h[m, j] * gelu(h[m, H + j]) with h [M, 2H] */
+typedef struct supermat__geglu_args { const float *h; float *y; int H, M, rows; } supermat__geglu_args;
+static void supermat__geglu_task(void *user, int index, int thread) {
+    const supermat__geglu_args *a = (const supermat__geglu_args *)user;
+    int r0 = index * a->rows, r1 = SUPERMAT__MIN(a->M, r0 + a->rows), r, j;
+    (void)thread;
+    for (r = r0; r < r1; r++) {
+        const float *h = a->h + (size_t)r * 2 * a->H;
+        float *y = a->y + (size_t)r * a->H;
+        for (j = 0; j < a->H; j++) y[j] = h[j] * supermat__gelu(h[a->H + j]);
+    }
+}
+static void supermat__geglu(supermat__ctx *X, const float *h, float *y, int M, int H) {
+    supermat__geglu_args a;
+    if (!supermat__live(X)) return;
+    a.h = h; a.y = y; a.H = H; a.M = M; a.rows = 16;
+    supermat__par(X, (M + 15) / 16, supermat__geglu_task, &a);
+}
+
+/* >>attention : tiled, online softmax (memory linear in tokens, no score matrix). K and V are packed
+   per (group, head) into the GEMM panel layout: K as panels of 16 keys (d x 16), V as panels of 16
+   dims (keys x 16). Queries of group g attend to key group g (kv_groups == query groups) or to the
+   one shared key set (kv_groups == 1). */
+#define SUPERMAT__QB 48
+#define SUPERMAT__KB 64
+
+static size_t supermat__attn_kp_floats(int mk, int d) { return (size_t)((mk + 15) / 16) * 16 * d; }
+static size_t supermat__attn_vp_floats(int mk, int d) { return (size_t)((d + 15) / 16) * 16 * mk; }
+
+typedef struct supermat__attn_pack_args { const float *k, *v; size_t ldk, ldv; int mk, heads, d; float *kp, *vp; } supermat__attn_pack_args;
+static void supermat__attn_pack_task(void *user, int index, int thread) {
+    const supermat__attn_pack_args *a = (const supermat__attn_pack_args *)user;
+    int g = index / a->heads, h = index % a->heads, d = a->d, j, dd, c, npk = (a->mk + 15) / 16, npv = (d + 15) / 16, key;
+    float *kp = a->kp + (size_t)index * supermat__attn_kp_floats(a->mk, d);
+    float *vp = a->vp + (size_t)index * supermat__attn_vp_floats(a->mk, d);
+    const float *k = a->k + (size_t)g * a->mk * a->ldk + (size_t)h * d, *v = a->v + (size_t)g * a->mk * a->ldv + (size_t)h * d;
+    (void)thread;
+    for (j = 0; j < npk; j++)
+        for (dd = 0; dd < d; dd++)
+            for (c = 0; c < 16; c++) {
+                key = j * 16 + c;
+                *kp++ = key < a->mk ? k[(size_t)key * a->ldk + dd] : 0.0f;
+            }
+    for (j = 0; j < npv; j++)
+        for (key = 0; key < a->mk; key++)
+            for (c = 0; c < 16; c++) {
+                dd = j * 16 + c;
+                *vp++ = dd < d ? v[(size_t)key * a->ldv + dd] : 0.0f;
+            }
+}
+/* pack `groups` groups of mk keys each */
+static void supermat__attn_pack(supermat__ctx *X, const float *k, size_t ldk, const float *v, size_t ldv, int mk, int groups,
+                                int heads, int d, float *kp, float *vp) {
+    supermat__attn_pack_args a;
+    if (!supermat__live(X)) return;
+    a.k = k; a.v = v; a.ldk = ldk; a.ldv = ldv; a.mk = mk; a.heads = heads; a.d = d; a.kp = kp; a.vp = vp;
+    supermat__par(X, groups * heads, supermat__attn_pack_task, &a);
+}
+
+typedef struct supermat__attn_args {
+    const supermat__ctx *X;
+    const float *q; size_t ldq; int mq; /* queries per group */
+    const float *kp, *vp; int mk;      /* keys per group */
+    int qgroups, kvgroups, heads, d, qblocks;
+    float scale;
+    float *o; size_t ldo;
+} supermat__attn_args;
+
+static void supermat__attn_task(void *user, int index, int thread) {
+    const supermat__attn_args *a = (const supermat__attn_args *)user;
+    int qb = index % a->qblocks, gh = index / a->qblocks, h = gh % a->heads, g = gh / a->heads;
+    int kvg = a->kvgroups == 1 ? 0 : g, d = a->d, dpad = (d + 15) / 16 * 16, npv = dpad / 16;
+    int q0 = qb * SUPERMAT__QB, nq = SUPERMAT__MIN(SUPERMAT__QB, a->mq - q0), r, j, kb, jd;
+    const float *kp = a->kp + (size_t)(kvg * a->heads + h) * supermat__attn_kp_floats(a->mk, d);
+    const float *vp = a->vp + (size_t)(kvg * a->heads + h) * supermat__attn_vp_floats(a->mk, d);
+    float *S = a->X->scratch[thread], *O = S + SUPERMAT__QB * SUPERMAT__KB, *mrow = O + (size_t)SUPERMAT__QB * dpad, *lrow = mrow + SUPERMAT__QB;
+    const float *qrows[SUPERMAT__QB];
+    supermat__ukr_fn ukr = a->X->ukr;
+    for (r = 0; r < nq; r++) qrows[r] = a->q + ((size_t)g * a->mq + q0 + r) * a->ldq + (size_t)h * d;
+    for (r = 0; r < nq; r++) { mrow[r] = -INFINITY; lrow[r] = 0.0f; }
+    memset(O, 0, sizeof(float) * (size_t)nq * dpad);
+    for (kb = 0; kb < a->mk; kb += SUPERMAT__KB) {
+        int nk = SUPERMAT__MIN(SUPERMAT__KB, a->mk - kb), npk = (nk + 15) / 16;
+        for (j = 0; j < npk; j++) {
+            const float *bp = kp + (size_t)(kb / 16 + j) * 16 * d;
+            for (r = 0; r < nq; r += SUPERMAT__MR) {
+                const float *rows[SUPERMAT__MR];
+                int mr = SUPERMAT__MIN(SUPERMAT__MR, nq - r), i;
+                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = qrows[r + (i < mr ? i : 0)];
+                ukr(d, rows, bp, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 16, NULL, NULL, 0, 0);
+            }
+        }
+        /* online softmax over this block */
+        for (r = 0; r < nq; r++) {
+            float *s = S + (size_t)r * SUPERMAT__KB, mx = -INFINITY, mnew, corr, sum = 0.0f;
+            int c;
+            for (c = 0; c < nk; c++) { s[c] *= a->scale; if (s[c] > mx) mx = s[c]; }
+            mnew = mrow[r] > mx ? mrow[r] : mx;
+            corr = mrow[r] == -INFINITY ? 0.0f : expf(mrow[r] - mnew);
+            for (c = 0; c < nk; c++) s[c] -= mnew;
+#if SUPERMAT__HAS_AVX2
+            if (a->X->avx2) {
+                supermat__exp_row_avx2(s, nk);
+            } else
+#endif
+                for (c = 0; c < nk; c++) s[c] = expf(s[c]);
+            for (c = 0; c < nk; c++) sum += s[c];
+            lrow[r] = lrow[r] * corr + sum;
+            mrow[r] = mnew;
+            if (corr != 1.0f) { float *o = O + (size_t)r * dpad; for (c = 0; c < dpad; c++) o[c] *= corr; }
+        }
+        for (jd = 0; jd < npv; jd++) {
+            const float *bp = vp + ((size_t)jd * a->mk + kb) * 16;
+            for (r = 0; r < nq; r += SUPERMAT__MR) {
+                const float *rows[SUPERMAT__MR];
+                int mr = SUPERMAT__MIN(SUPERMAT__MR, nq - r), i;
+                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = S + (size_t)(r + (i < mr ? i : 0)) * SUPERMAT__KB;
+                ukr(nk, rows, bp, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 16, NULL, NULL, 0, 1);
+            }
+        }
+    }
+    for (r = 0; r < nq; r++) {
+        float inv = 1.0f / lrow[r], *o = a->o + ((size_t)g * a->mq + q0 + r) * a->ldo + (size_t)h * d;
+        const float *src = O + (size_t)r * dpad;
+        int c;
+        for (c = 0; c < d; c++) o[c] = src[c] * inv;
+    }
+}
+
+static void supermat__attention(supermat__ctx *X, const float *q, size_t ldq, int mq, int qgroups, const float *kp, const float *vp,
+                                int mk, int kvgroups, int heads, int d, float scale, float *o, size_t ldo) {
+    supermat__attn_args a;
+    X->flops += 4.0 * (double)mq * qgroups * mk * d * heads;
+    if (!supermat__live(X)) return;
+    a.X = X; a.q = q; a.ldq = ldq; a.mq = mq; a.kp = kp; a.vp = vp; a.mk = mk; a.qgroups = qgroups; a.kvgroups = kvgroups;
+    a.heads = heads; a.d = d; a.scale = scale; a.o = o; a.ldo = ldo;
+    a.qblocks = (mq + SUPERMAT__QB - 1) / SUPERMAT__QB;
+    supermat__par(X, qgroups * heads * a.qblocks, supermat__attn_task, &a);
+}
+
+/* >>model : architecture, tensor binding with validation, weight packing */
+#define SUPERMAT__MAXL 6
+#define SUPERMAT__MAXLAYERS 5
+#define SUPERMAT__MAXBRANCH 4
+
+typedef struct supermat__resnet { supermat__norm n1, n2; supermat__conv c1, c2, sc; int has_sc; supermat__pw temb; int cin, cout; } supermat__resnet;
+typedef struct supermat__xformer {
+    supermat__norm gn, ln1, ln2, ln3;
+    supermat__pw proj_in, proj_out, qkv1, out1, q2, out2, ff1, ff2;
+    float *kp2, *vp2;   /* cross-attention K/V of the constant context, packed */
+    int c, heads, d, mv; /* mv: self-attention over the keys of all views */
+} supermat__xformer;
+typedef struct supermat__vattn { supermat__norm gn; supermat__pw qkv, out; int c; } supermat__vattn;
+typedef struct supermat__level {
+    supermat__resnet res[SUPERMAT__MAXLAYERS];
+    supermat__xformer att[SUPERMAT__MAXLAYERS];
+    int nres, has_attn, has_sampler, cout;
+    supermat__conv sampler;
+} supermat__level;
+
+struct supermat_model {
+    supermat_allocator alloc;
+    supermat_model_info info;
+    /* unet */
+    int L, lpb, groups, ctx_tokens, ctx_dim, branches, class_in, temb_dim, in_ch, out_ch, cross_dim;
+    int boc[SUPERMAT__MAXL], heads[SUPERMAT__MAXL], down_attn[SUPERMAT__MAXL], up_attn[SUPERMAT__MAXL];
+    float eps, x0_coef;
+    int flip_sin_to_cos;
+    float freq_shift;
+    supermat__pw time1, time2, cls1, cls2;
+    supermat__conv conv_in, conv_out[SUPERMAT__MAXBRANCH];
+    supermat__level down[SUPERMAT__MAXL], up[SUPERMAT__MAXL], last[SUPERMAT__MAXBRANCH];
+    supermat__resnet mid_res[2];
+    supermat__xformer mid_att;
+    supermat__norm norm_out;
+    /* vae */
+    int vL, vlpb, vgroups, latent, vin, vout;
+    int vboc[SUPERMAT__MAXL];
+    float sf;
+    supermat__conv e_conv_in, e_conv_out, quant, post_quant, d_conv_in, d_conv_out;
+    supermat__level e_lv[SUPERMAT__MAXL], d_lv[SUPERMAT__MAXL];
+    supermat__resnet e_mid[2], d_mid[2];
+    supermat__vattn e_att, d_att;
+    supermat__norm e_norm_out, d_norm_out;
+    /* memory owned by the model */
+    void **blocks;
+    size_t *block_sizes;
+    int nblocks, cap_blocks;
+};
+
+typedef struct supermat__loader {
+    supermat_model *m;
+    const unsigned char *data;
+    size_t size;
+    int copy;
+    supermat_tensor_info *ti;
+    unsigned char *used;
+    int nt;
+    const char *js;
+    supermat_json_tok *toks;
+    int meta;               /* token index of __metadata__ or -1 */
+    supermat_error *err;
+    supermat_result r;
+    uint64_t params;
+    int avx2;
+} supermat__loader;
+
+static void *supermat__mem(supermat__loader *L, size_t bytes) {
+    supermat_model *m = L->m;
+    void *p;
+    if (L->r) return NULL;
+    if (m->nblocks == m->cap_blocks) {
+        int nc = m->cap_blocks ? 2 * m->cap_blocks : 256;
+        void **nb = (void **)supermat__alloc(&m->alloc, sizeof(void *) * (size_t)nc);
+        size_t *ns = (size_t *)supermat__alloc(&m->alloc, sizeof(size_t) * (size_t)nc);
+        if (!nb || !ns) {
+            supermat__free(&m->alloc, nb, sizeof(void *) * (size_t)nc);
+            supermat__free(&m->alloc, ns, sizeof(size_t) * (size_t)nc);
+            L->r = supermat__fail(L->err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory (model bookkeeping)");
+            return NULL;
+        }
+        if (m->nblocks) { memcpy(nb, m->blocks, sizeof(void *) * (size_t)m->nblocks); memcpy(ns, m->block_sizes, sizeof(size_t) * (size_t)m->nblocks); }
+        supermat__free(&m->alloc, m->blocks, sizeof(void *) * (size_t)m->cap_blocks);
+        supermat__free(&m->alloc, m->block_sizes, sizeof(size_t) * (size_t)m->cap_blocks);
+        m->blocks = nb; m->block_sizes = ns; m->cap_blocks = nc;
+    }
+    p = supermat__alloc(&m->alloc, bytes);
+    if (!p) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory allocating %llu bytes for the model", (unsigned long long)bytes); return NULL; }
+    m->blocks[m->nblocks] = p; m->block_sizes[m->nblocks] = bytes; m->nblocks++;
+    m->info.model_bytes += bytes;
+    return p;
+}
+
+/* metadata */
+static int supermat__meta_str(supermat__loader *L, const char *key, char *buf, size_t cap, int required) {
+    int v = L->meta >= 0 ? supermat_json_find(L->js, L->toks, L->meta, key) : -1;
+    if (v < 0 || supermat_json_string(L->js, &L->toks[v], buf, cap) < 0) {
+        if (required && !L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata key '%s' is missing or not a string (convert the model with `supermat convert`)", key);
+        buf[0] = 0;
+        return -1;
+    }
+    return 0;
+}
+static double supermat__meta_num(supermat__loader *L, const char *key, double lo, double hi, double def, int required) {
+    char buf[64], *end;
+    double x;
+    if (supermat__meta_str(L, key, buf, sizeof buf, required)) return def;
+    x = strtod(buf, &end);
+    if (end == buf || *end || !(x >= lo && x <= hi)) {
+        if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata '%s' = '%s' is not a number in [%g, %g]", key, buf, lo, hi);
+        return def;
+    }
+    return x;
+}
+static int supermat__meta_list(supermat__loader *L, const char *key, int *out, int maxn, int lo, int hi) {
+    char buf[256], *p = buf, *end;
+    int n = 0;
+    if (supermat__meta_str(L, key, buf, sizeof buf, 1)) return 0;
+    while (*p) {
+        long v = strtol(p, &end, 10);
+        if (end == p || v < lo || v > hi || n >= maxn) {
+            if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata '%s' = '%s' is not a list of at most %d integers in [%d, %d]", key, buf, maxn, lo, hi);
+            return 0;
+        }
+        out[n++] = (int)v;
+        p = end;
+        if (*p == ',') p++;
+    }
+    return n;
+}
+static int supermat__meta_types(supermat__loader *L, const char *key, int *has_attn, int maxn) {
+    char buf[512], *p = buf;
+    int n = 0;
+    if (supermat__meta_str(L, key, buf, sizeof buf, 1)) return 0;
+    while (*p && n < maxn) {
+        char *e = strchr(p, ',');
+        if (e) *e = 0;
+        if (!strcmp(p, "CrossAttnDownBlock2D") || !strcmp(p, "CrossAttnUpBlock2D")) has_attn[n++] = 1;
+        else if (!strcmp(p, "DownBlock2D") || !strcmp(p, "UpBlock2D")) has_attn[n++] = 0;
+        else { if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "block type '%s' in '%s' is not supported", p, key); return 0; }
+        if (!e) break;
+        p = e + 1;
+    }
+    return n;
+}
+
+/* tensors */
+static int supermat__find_tensor(supermat__loader *L, const char *name) {
+    int i;
+    for (i = 0; i < L->nt; i++) if (!strcmp(L->ti[i].name, name)) return i;
+    return -1;
+}
+/* Finds `name` and checks its shape (-1 in want = any). Returns the index or -1 (error set). */
+static int supermat__wtensor(supermat__loader *L, const char *name, int ndim, const int64_t *want) {
+    int i, k;
+    if (L->r) return -1;
+    i = supermat__find_tensor(L, name);
+    if (i < 0) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MISSING_TENSOR, name, "tensor '%s' is missing from the model file", name); return -1; }
+    if (L->ti[i].ndim != ndim) goto bad;
+    for (k = 0; k < ndim; k++) if (want[k] >= 0 && L->ti[i].shape[k] != want[k]) goto bad;
+    L->used[i] = 1;
+    return i;
+bad: {
+        char exp[96], got[96];
+        size_t o = 0;
+        exp[0] = got[0] = 0;
+        for (k = 0; k < ndim && o < sizeof exp - 24; k++) o += (size_t)snprintf(exp + o, sizeof exp - o, k ? ", %lld" : "%lld", (long long)want[k]);
+        o = 0;
+        for (k = 0; k < L->ti[i].ndim && o < sizeof got - 24; k++) o += (size_t)snprintf(got + o, sizeof got - o, k ? ", %lld" : "%lld", (long long)L->ti[i].shape[k]);
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_SHAPE_MISMATCH, name, "tensor '%s' has shape [%s], the architecture needs [%s]", name, got, exp);
+        return -1;
+    }
+}
+static float supermat__tval(const supermat__loader *L, int t, size_t i) {
+    return supermat__load_elem(L->data + L->ti[t].offset, L->ti[t].dtype, i);
+}
+/* the f32 values of a 1-D tensor of c elements: borrowed when possible, else converted */
+static const float *supermat__vec(supermat__loader *L, const char *name, int c, int pad16) {
+    int64_t want[1];
+    int t;
+    size_t i, n;
+    float *dst;
+    want[0] = c;
+    t = supermat__wtensor(L, name, 1, want);
+    if (t < 0) return NULL;
+    n = pad16 ? (size_t)(c + 15) / 16 * 16 : (size_t)c;
+    if (!pad16 && !L->copy && L->ti[t].dtype == SUPERMAT_DTYPE_F32 && ((uintptr_t)(L->data + L->ti[t].offset) & 3) == 0) {
+        const float *p = (const float *)(const void *)(L->data + L->ti[t].offset);
+        for (i = 0; i < (size_t)c; i++) if (!(p[i] - p[i] == 0.0f)) goto nonfinite;
+        L->params += (uint64_t)c;
+        return p;
+    }
+    dst = (float *)supermat__mem(L, n * sizeof(float));
+    if (!dst) return NULL;
+    for (i = 0; i < n; i++) {
+        dst[i] = i < (size_t)c ? supermat__tval(L, t, i) : 0.0f;
+        if (!(dst[i] - dst[i] == 0.0f)) goto nonfinite;
+    }
+    L->params += (uint64_t)c;
+    return dst;
+nonfinite:
+    L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, name, "tensor '%s' contains NaN or Inf", name);
+    return NULL;
+}
+
+/* Packs rows of one or more weight tensors [rows][K] (or convs [rows][Cin][k][k], reordered to
+   K = (ky*k + kx)*Cin + ci) into GEMM panels. `first`/`count` select rows of each tensor. */
+typedef struct supermat__wpart { const char *name; const char *bias; int rows_total, first, count; } supermat__wpart;
+
+static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat__wpart *parts, int nparts, int cin, int k,
+                           int is_conv, int need_bias) {
+    int p, K = cin * k * k, N = 0, n0 = 0, np;
+    size_t total;
+    if (L->r) return;
+    for (p = 0; p < nparts; p++) N += parts[p].count;
+    np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    if (!supermat__mul_ok((size_t)np * SUPERMAT__NR, (size_t)K, &total)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, parts[0].name, "weight too large"); return; }
+    pw->K = K; pw->N = N;
+    pw->p = (float *)supermat__mem(L, total * sizeof(float));
+    pw->bias = NULL;
+    if (need_bias) {
+        pw->bias = (float *)supermat__mem(L, (size_t)np * SUPERMAT__NR * sizeof(float));
+        if (pw->bias) memset(pw->bias, 0, (size_t)np * SUPERMAT__NR * sizeof(float));
+    }
+    if (!pw->p) return;
+    /* zero the padding columns of the last panel */
+    if (N % SUPERMAT__NR) {
+        size_t kk;
+        float *last = pw->p + (size_t)(np - 1) * K * SUPERMAT__NR;
+        for (kk = 0; kk < (size_t)K; kk++) memset(last + kk * SUPERMAT__NR + N % SUPERMAT__NR, 0, sizeof(float) * (SUPERMAT__NR - N % SUPERMAT__NR));
+    }
+    for (p = 0; p < nparts; p++) {
+        int64_t want[4];
+        int t, r, ci, ky, kx;
+        want[0] = parts[p].rows_total; want[1] = cin; want[2] = k; want[3] = k;
+        t = supermat__wtensor(L, parts[p].name, is_conv ? 4 : 2, want);
+        if (t < 0) return;
+        for (r = 0; r < parts[p].count; r++) {
+            int n = n0 + r, row = parts[p].first + r;
+            float *dst = pw->p + (size_t)(n / SUPERMAT__NR) * K * SUPERMAT__NR + n % SUPERMAT__NR;
+            size_t base = (size_t)row * K;
+            for (ci = 0; ci < cin; ci++)
+                for (ky = 0; ky < k; ky++)
+                    for (kx = 0; kx < k; kx++) {
+                        float v = supermat__tval(L, t, base + ((size_t)ci * k + ky) * k + kx);
+                        if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, parts[p].name, "tensor '%s' contains NaN or Inf", parts[p].name); return; }
+                        dst[((size_t)(ky * k + kx) * cin + ci) * SUPERMAT__NR] = v;
+                    }
+        }
+        L->params += (uint64_t)parts[p].rows_total * K;
+        if (need_bias && parts[p].bias) {
+            int64_t wb[1];
+            int tb;
+            wb[0] = parts[p].rows_total;
+            tb = supermat__wtensor(L, parts[p].bias, 1, wb);
+            if (tb < 0) return;
+            for (r = 0; r < parts[p].count; r++) {
+                float v = supermat__tval(L, tb, (size_t)parts[p].first + r);
+                if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, parts[p].bias, "tensor '%s' contains NaN or Inf", parts[p].bias); return; }
+                pw->bias[n0 + r] = v;
+            }
+            L->params += (uint64_t)parts[p].rows_total;
+        }
+        n0 += parts[p].count;
+    }
+}
+
+static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const char *prefix, int out, int in, int bias) {
+    char wn[200], bn[200];
+    supermat__wpart part;
+    snprintf(wn, sizeof wn, "%s.weight", prefix);
+    snprintf(bn, sizeof bn, "%s.bias", prefix);
+    part.name = wn; part.bias = bias ? bn : NULL; part.rows_total = out; part.first = 0; part.count = out;
+    supermat__pack(L, pw, &part, 1, in, 1, 0, bias);
+}
+static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const char *prefix, int cin, int cout, int k, int stride) {
+    char wn[200], bn[200];
+    supermat__wpart part;
+    snprintf(wn, sizeof wn, "%s.weight", prefix);
+    snprintf(bn, sizeof bn, "%s.bias", prefix);
+    part.name = wn; part.bias = bn; part.rows_total = cout; part.first = 0; part.count = cout;
+    cv->k = k; cv->stride = stride; cv->cin = cin; cv->cout = cout;
+    supermat__pack(L, &cv->w, &part, 1, cin, k, 1, 1);
+}
+static void supermat__bind_norm(supermat__loader *L, supermat__norm *nm, const char *prefix, int c, float eps) {
+    char n[200];
+    snprintf(n, sizeof n, "%s.weight", prefix);
+    nm->g = supermat__vec(L, n, c, 0);
+    snprintf(n, sizeof n, "%s.bias", prefix);
+    nm->b = supermat__vec(L, n, c, 0);
+    nm->c = c; nm->eps = eps;
+}
+
+static void supermat__bind_resnet(supermat__loader *L, supermat__resnet *r, const char *pre, int cin, int cout, int temb, int groups, float eps) {
+    char n[200];
+    (void)groups;
+    r->cin = cin; r->cout = cout;
+    snprintf(n, sizeof n, "%s.norm1", pre); supermat__bind_norm(L, &r->n1, n, cin, eps);
+    snprintf(n, sizeof n, "%s.conv1", pre); supermat__bind_conv(L, &r->c1, n, cin, cout, 3, 1);
+    if (temb) { snprintf(n, sizeof n, "%s.time_emb_proj", pre); supermat__bind_linear(L, &r->temb, n, cout, temb, 1); }
+    snprintf(n, sizeof n, "%s.norm2", pre); supermat__bind_norm(L, &r->n2, n, cout, eps);
+    snprintf(n, sizeof n, "%s.conv2", pre); supermat__bind_conv(L, &r->c2, n, cout, cout, 3, 1);
+    r->has_sc = cin != cout;
+    if (r->has_sc) { snprintf(n, sizeof n, "%s.conv_shortcut", pre); supermat__bind_conv(L, &r->sc, n, cin, cout, 1, 1); }
+}
+
+static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, const char *pre, int c, int heads, float ln_eps) {
+    char n[200], b[200], q[200], k[200], v[200];
+    supermat__wpart parts[3];
+    supermat_model *m = L->m;
+    int ctx_t, wk, wv, i, j, t;
+    x->c = c; x->heads = heads; x->d = c / heads;
+    if (heads <= 0 || c % heads) { if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "%d channels do not split into %d heads", c, heads); return; }
+    snprintf(n, sizeof n, "%s.norm", pre); supermat__bind_norm(L, &x->gn, n, c, 1e-6f);
+    snprintf(n, sizeof n, "%s.proj_in", pre); supermat__bind_linear(L, &x->proj_in, n, c, c, 1);
+    snprintf(n, sizeof n, "%s.proj_out", pre); supermat__bind_linear(L, &x->proj_out, n, c, c, 1);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm1", pre); supermat__bind_norm(L, &x->ln1, n, c, ln_eps);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm2", pre); supermat__bind_norm(L, &x->ln2, n, c, ln_eps);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm3", pre); supermat__bind_norm(L, &x->ln3, n, c, ln_eps);
+    snprintf(q, sizeof q, "%s.transformer_blocks.0.attn1.to_q.weight", pre);
+    snprintf(k, sizeof k, "%s.transformer_blocks.0.attn1.to_k.weight", pre);
+    snprintf(v, sizeof v, "%s.transformer_blocks.0.attn1.to_v.weight", pre);
+    parts[0].name = q; parts[1].name = k; parts[2].name = v;
+    for (i = 0; i < 3; i++) { parts[i].bias = NULL; parts[i].rows_total = c; parts[i].first = 0; parts[i].count = c; }
+    supermat__pack(L, &x->qkv1, parts, 3, c, 1, 0, 0);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn1.to_out.0", pre); supermat__bind_linear(L, &x->out1, n, c, c, 1);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn2.to_q", pre); supermat__bind_linear(L, &x->q2, n, c, c, 0);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn2.to_out.0", pre); supermat__bind_linear(L, &x->out2, n, c, c, 1);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.ff.net.0.proj", pre); supermat__bind_linear(L, &x->ff1, n, 8 * c, c, 1);
+    snprintf(n, sizeof n, "%s.transformer_blocks.0.ff.net.2", pre); supermat__bind_linear(L, &x->ff2, n, c, 4 * c, 1);
+    /* cross-attention keys and values of the constant context, computed once and packed */
+    {
+        int64_t want[2];
+        float *kv;
+        supermat__attn_pack_args pa;
+        want[0] = c; want[1] = m->cross_dim;
+        snprintf(k, sizeof k, "%s.transformer_blocks.0.attn2.to_k.weight", pre);
+        snprintf(v, sizeof v, "%s.transformer_blocks.0.attn2.to_v.weight", pre);
+        wk = supermat__wtensor(L, k, 2, want);
+        wv = supermat__wtensor(L, v, 2, want);
+        want[0] = m->ctx_tokens; want[1] = m->cross_dim;
+        ctx_t = supermat__wtensor(L, "context", 2, want);
+        if (L->r) return;
+        L->params += 2u * (uint64_t)c * m->cross_dim;
+        kv = (float *)supermat__mem(L, sizeof(float) * 2 * (size_t)m->ctx_tokens * c);
+        x->kp2 = (float *)supermat__mem(L, sizeof(float) * heads * supermat__attn_kp_floats(m->ctx_tokens, x->d));
+        x->vp2 = (float *)supermat__mem(L, sizeof(float) * heads * supermat__attn_vp_floats(m->ctx_tokens, x->d));
+        if (L->r) return;
+        for (t = 0; t < m->ctx_tokens; t++)
+            for (j = 0; j < c; j++) {
+                double sk = 0.0, sv = 0.0;
+                for (i = 0; i < m->cross_dim; i++) {
+                    double cv = supermat__tval(L, ctx_t, (size_t)t * m->cross_dim + i);
+                    sk += cv * supermat__tval(L, wk, (size_t)j * m->cross_dim + i);
+                    sv += cv * supermat__tval(L, wv, (size_t)j * m->cross_dim + i);
+                }
+                if (!(sk - sk == 0.0) || !(sv - sv == 0.0)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, k, "cross-attention keys/values of '%s' are not finite", pre); return; }
+                kv[(size_t)t * c + j] = (float)sk;
+                kv[(size_t)(m->ctx_tokens + t) * c + j] = (float)sv;
+            }
+        pa.k = kv; pa.v = kv + (size_t)m->ctx_tokens * c; pa.ldk = pa.ldv = (size_t)c; pa.mk = m->ctx_tokens;
+        pa.heads = heads; pa.d = x->d; pa.kp = x->kp2; pa.vp = x->vp2;
+        for (i = 0; i < heads; i++) supermat__attn_pack_task(&pa, i, 0);
+    }
+    (void)b;
+}
+
+static void supermat__bind_vattn(supermat__loader *L, supermat__vattn *a, const char *pre, int c, float eps) {
+    char n[200], q[200], k[200], v[200], qb[200], kb[200], vb[200];
+    supermat__wpart parts[3];
+    int i;
+    a->c = c;
+    snprintf(n, sizeof n, "%s.group_norm", pre); supermat__bind_norm(L, &a->gn, n, c, eps);
+    snprintf(q, sizeof q, "%s.to_q.weight", pre); snprintf(qb, sizeof qb, "%s.to_q.bias", pre);
+    snprintf(k, sizeof k, "%s.to_k.weight", pre); snprintf(kb, sizeof kb, "%s.to_k.bias", pre);
+    snprintf(v, sizeof v, "%s.to_v.weight", pre); snprintf(vb, sizeof vb, "%s.to_v.bias", pre);
+    parts[0].name = q; parts[0].bias = qb; parts[1].name = k; parts[1].bias = kb; parts[2].name = v; parts[2].bias = vb;
+    for (i = 0; i < 3; i++) { parts[i].rows_total = c; parts[i].first = 0; parts[i].count = c; }
+    supermat__pack(L, &a->qkv, parts, 3, c, 1, 0, 1);
+    snprintf(n, sizeof n, "%s.to_out.0", pre); supermat__bind_linear(L, &a->out, n, c, c, 1);
+}
+
+/* diffusers' channel bookkeeping for the UNet down and up paths */
+static void supermat__bind_unet(supermat__loader *L) {
+    supermat_model *m = L->m;
+    char n[200];
+    int l, j, b, T = m->temb_dim, rb[SUPERMAT__MAXL], rh[SUPERMAT__MAXL], out_ch, prev, in_ch;
+    uint64_t p0;
+    supermat__bind_linear(L, &m->time1, "time_embedding.linear_1", T, m->boc[0], 1);
+    supermat__bind_linear(L, &m->time2, "time_embedding.linear_2", T, T, 1);
+    if (m->class_in) {
+        supermat__bind_linear(L, &m->cls1, "class_embedding.linear_1", T, m->class_in, 1);
+        supermat__bind_linear(L, &m->cls2, "class_embedding.linear_2", T, T, 1);
+    }
+    supermat__bind_conv(L, &m->conv_in, "conv_in", m->in_ch, m->boc[0], 3, 1);
+    out_ch = m->boc[0];
+    for (l = 0; l < m->L; l++) {
+        supermat__level *lv = &m->down[l];
+        in_ch = out_ch; out_ch = m->boc[l];
+        lv->nres = m->lpb; lv->has_attn = m->down_attn[l]; lv->cout = out_ch;
+        for (j = 0; j < m->lpb; j++) {
+            snprintf(n, sizeof n, "down_blocks.%d.resnets.%d", l, j);
+            supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? in_ch : out_ch, out_ch, T, m->groups, m->eps);
+            if (lv->has_attn) {
+                snprintf(n, sizeof n, "down_blocks.%d.attentions.%d", l, j);
+                supermat__bind_xformer(L, &lv->att[j], n, out_ch, m->heads[l], 1e-5f);
+                lv->att[j].mv = m->class_in > 0 && l > 0;
+            }
+        }
+        lv->has_sampler = l < m->L - 1;
+        if (lv->has_sampler) { snprintf(n, sizeof n, "down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
+    }
+    supermat__bind_resnet(L, &m->mid_res[0], "mid_block.resnets.0", m->boc[m->L - 1], m->boc[m->L - 1], T, m->groups, m->eps);
+    supermat__bind_xformer(L, &m->mid_att, "mid_block.attentions.0", m->boc[m->L - 1], m->heads[m->L - 1], 1e-5f);
+    m->mid_att.mv = m->class_in > 0;
+    supermat__bind_resnet(L, &m->mid_res[1], "mid_block.resnets.1", m->boc[m->L - 1], m->boc[m->L - 1], T, m->groups, m->eps);
+    for (l = 0; l < m->L; l++) { rb[l] = m->boc[m->L - 1 - l]; rh[l] = m->heads[m->L - 1 - l]; }
+    out_ch = rb[0];
+    p0 = 0;
+    for (l = 0; l < m->L; l++) {
+        int nb = l == m->L - 1 ? m->branches : 1;
+        prev = out_ch; out_ch = rb[l]; in_ch = rb[SUPERMAT__MIN(l + 1, m->L - 1)];
+        if (l == m->L - 1) p0 = L->params;
+        for (b = 0; b < nb; b++) {
+            supermat__level *lv = l == m->L - 1 ? &m->last[b] : &m->up[l];
+            lv->nres = m->lpb + 1; lv->has_attn = m->up_attn[l]; lv->cout = out_ch;
+            for (j = 0; j <= m->lpb; j++) {
+                int skip = j == m->lpb ? in_ch : out_ch, rin = j == 0 ? prev : out_ch;
+                if (l == m->L - 1) snprintf(n, sizeof n, "last_up_blocks.%d.resnets.%d", b, j);
+                else snprintf(n, sizeof n, "up_blocks.%d.resnets.%d", l, j);
+                supermat__bind_resnet(L, &lv->res[j], n, rin + skip, out_ch, T, m->groups, m->eps);
+                if (lv->has_attn) {
+                    if (l == m->L - 1) snprintf(n, sizeof n, "last_up_blocks.%d.attentions.%d", b, j);
+                    else snprintf(n, sizeof n, "up_blocks.%d.attentions.%d", l, j);
+                    supermat__bind_xformer(L, &lv->att[j], n, out_ch, rh[l], 1e-5f);
+                    lv->att[j].mv = m->class_in > 0;
+                }
+            }
+            lv->has_sampler = l < m->L - 1;
+            if (lv->has_sampler) { snprintf(n, sizeof n, "up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
+            snprintf(n, sizeof n, "rep_conv_out.%d", b);
+            if (l == m->L - 1) supermat__bind_conv(L, &m->conv_out[b], n, out_ch, m->out_ch, 3, 1);
+        }
+    }
+    m->info.branch_params = m->branches ? (L->params - p0) / (uint64_t)m->branches : 0;
+    supermat__bind_norm(L, &m->norm_out, "conv_norm_out", m->boc[0], m->eps);
+}
+
+static void supermat__bind_vae(supermat__loader *L) {
+    supermat_model *m = L->m;
+    char n[200];
+    int l, j, out_ch, in_ch, prev, top = m->vboc[m->vL - 1];
+    float e = 1e-6f;
+    supermat__bind_conv(L, &m->e_conv_in, "vae.encoder.conv_in", m->vin, m->vboc[0], 3, 1);
+    out_ch = m->vboc[0];
+    for (l = 0; l < m->vL; l++) {
+        supermat__level *lv = &m->e_lv[l];
+        in_ch = out_ch; out_ch = m->vboc[l];
+        lv->nres = m->vlpb; lv->cout = out_ch;
+        for (j = 0; j < m->vlpb; j++) {
+            snprintf(n, sizeof n, "vae.encoder.down_blocks.%d.resnets.%d", l, j);
+            supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? in_ch : out_ch, out_ch, 0, m->vgroups, e);
+        }
+        lv->has_sampler = l < m->vL - 1;
+        if (lv->has_sampler) { snprintf(n, sizeof n, "vae.encoder.down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
+    }
+    supermat__bind_resnet(L, &m->e_mid[0], "vae.encoder.mid_block.resnets.0", top, top, 0, m->vgroups, e);
+    supermat__bind_vattn(L, &m->e_att, "vae.encoder.mid_block.attentions.0", top, e);
+    supermat__bind_resnet(L, &m->e_mid[1], "vae.encoder.mid_block.resnets.1", top, top, 0, m->vgroups, e);
+    supermat__bind_norm(L, &m->e_norm_out, "vae.encoder.conv_norm_out", top, e);
+    supermat__bind_conv(L, &m->e_conv_out, "vae.encoder.conv_out", top, 2 * m->latent, 3, 1);
+    { /* quant_conv: only the mean half of its output is used (the pipeline takes the mode) */
+        supermat__wpart part;
+        part.name = "vae.quant_conv.weight"; part.bias = "vae.quant_conv.bias"; part.rows_total = 2 * m->latent; part.first = 0; part.count = m->latent;
+        m->quant.k = 1; m->quant.stride = 1; m->quant.cin = 2 * m->latent; m->quant.cout = m->latent;
+        supermat__pack(L, &m->quant.w, &part, 1, 2 * m->latent, 1, 1, 1);
+    }
+    supermat__bind_conv(L, &m->post_quant, "vae.post_quant_conv", m->latent, m->latent, 1, 1);
+    supermat__bind_conv(L, &m->d_conv_in, "vae.decoder.conv_in", m->latent, top, 3, 1);
+    supermat__bind_resnet(L, &m->d_mid[0], "vae.decoder.mid_block.resnets.0", top, top, 0, m->vgroups, e);
+    supermat__bind_vattn(L, &m->d_att, "vae.decoder.mid_block.attentions.0", top, e);
+    supermat__bind_resnet(L, &m->d_mid[1], "vae.decoder.mid_block.resnets.1", top, top, 0, m->vgroups, e);
+    out_ch = top;
+    for (l = 0; l < m->vL; l++) {
+        supermat__level *lv = &m->d_lv[l];
+        prev = out_ch; out_ch = m->vboc[m->vL - 1 - l];
+        lv->nres = m->vlpb + 1; lv->cout = out_ch;
+        for (j = 0; j <= m->vlpb; j++) {
+            snprintf(n, sizeof n, "vae.decoder.up_blocks.%d.resnets.%d", l, j);
+            supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? prev : out_ch, out_ch, 0, m->vgroups, e);
+        }
+        lv->has_sampler = l < m->vL - 1;
+        if (lv->has_sampler) { snprintf(n, sizeof n, "vae.decoder.up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
+    }
+    supermat__bind_norm(L, &m->d_norm_out, "vae.decoder.conv_norm_out", m->vboc[0], e);
+    supermat__bind_conv(L, &m->d_conv_out, "vae.decoder.conv_out", m->vboc[0], m->vout, 3, 1);
+}
+
+/* DDIM one step, as diffusers computes it in float32: scaled_linear betas, cumulative product. */
+static float supermat__alphas_cumprod(int T, double b0, double b1, int scaled_linear, int t) {
+    float start, end, step, acp = 1.0f;
+    int i, half = T / 2;
+    if (scaled_linear) { start = (float)sqrt(b0); end = (float)sqrt(b1); }
+    else { start = (float)b0; end = (float)b1; }
+    step = T > 1 ? (end - start) / (float)(T - 1) : 0.0f;
+    for (i = 0; i <= t; i++) {
+        float v = i < half ? start + step * (float)i : end - step * (float)(T - i - 1);
+        float beta = scaled_linear ? v * v : v;
+        acp *= 1.0f - beta;
+    }
+    return acp;
+}
+
+static void supermat__model_free(supermat_model *m) {
+    int i;
+    supermat_allocator a;
+    if (!m) return;
+    a = m->alloc;
+    for (i = 0; i < m->nblocks; i++) supermat__free(&a, m->blocks[i], m->block_sizes[i]);
+    supermat__free(&a, m->blocks, sizeof(void *) * (size_t)m->cap_blocks);
+    supermat__free(&a, m->block_sizes, sizeof(size_t) * (size_t)m->cap_blocks);
+    supermat__free(&a, m, sizeof *m);
+}
+
+SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err) {
+    supermat__loader L;
+    supermat_model *m;
+    supermat_allocator a;
+    uint64_t hlen = 0;
+    int ntok = 0, i, k, n;
+    char buf[128];
+    supermat_result r;
+    if (out) *out = NULL;
+    if (!desc || !out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and out must not be NULL");
+    if (!desc->data) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc->data is NULL");
+    if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
+    if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
+        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
+    a = supermat__resolve_allocator(&desc->allocator);
+    r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
+    if (r) return r;
+    m = (supermat_model *)supermat__alloc(&a, sizeof *m);
+    if (!m) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the model");
+    memset(m, 0, sizeof *m);
+    m->alloc = a;
+    memset(&L, 0, sizeof L);
+    L.m = m; L.data = (const unsigned char *)desc->data; L.size = desc->size; L.copy = desc->copy_data; L.err = err;
+    L.js = (const char *)desc->data + 8; L.meta = -1;
+    L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
+    r = supermat__st_tokens(desc->data, desc->size, desc->size, &a, &L.toks, &ntok, err);
+    if (r) { supermat__model_free(m); return r; }
+    /* the tensor table */
+    n = 0;
+    for (i = 0, k = 1; i < L.toks[0].size; i++, k = L.toks[k].next) {
+        if (supermat__json_eq(L.js, &L.toks[k], "__metadata__")) { L.meta = k + 1; continue; }
+        n++;
+    }
+    if (L.meta >= 0 && L.toks[L.meta].type != SUPERMAT_JSON_OBJECT) L.meta = -1;
+    L.ti = (supermat_tensor_info *)supermat__alloc(&a, sizeof(supermat_tensor_info) * (size_t)(n + 1));
+    L.used = (unsigned char *)supermat__alloc(&a, (size_t)n + 1);
+    if (!L.ti || !L.used) { L.r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the tensor table"); goto done; }
+    memset(L.used, 0, (size_t)n + 1);
+    for (i = 0, k = 1; i < L.toks[0].size && !L.r; i++, k = L.toks[k].next) {
+        if (supermat__json_eq(L.js, &L.toks[k], "__metadata__")) continue;
+        L.r = supermat__st_entry(L.js, L.toks, k, 8 + hlen, desc->size, &L.ti[L.nt], err);
+        if (!L.r) L.nt++;
+    }
+    if (L.r) goto done;
+    /* the architecture from the metadata */
+    if (L.meta < 0) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the file has no __metadata__: it is not a supermat model (make one with `supermat convert`)"); goto done; }
+    if ((int)supermat__meta_num(&L, "supermat.format_version", 0, 1e9, 0, 1) != 1 && !L.r)
+        L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "model format version is not 1");
+    supermat__meta_str(&L, "supermat.kind", buf, sizeof buf, 1);
+    if (L.r) goto done;
+    if (!strcmp(buf, "supermat")) m->info.kind = SUPERMAT_KIND_SUPERMAT;
+    else if (!strcmp(buf, "supermat-mv")) m->info.kind = SUPERMAT_KIND_SUPERMAT_MV;
+    else if (!strcmp(buf, "uv-refine")) m->info.kind = SUPERMAT_KIND_UV_REFINE;
+    else { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "unknown model kind '%s'", buf); goto done; }
+    if (m->info.kind != SUPERMAT_KIND_SUPERMAT) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "model kind '%s' is not supported by this version yet", buf); goto done; }
+    m->in_ch = (int)supermat__meta_num(&L, "unet.in_channels", 1, 64, 4, 1);
+    m->out_ch = (int)supermat__meta_num(&L, "unet.out_channels", 1, 64, 4, 1);
+    m->L = supermat__meta_list(&L, "unet.block_out_channels", m->boc, SUPERMAT__MAXL, 1, 65536);
+    n = supermat__meta_list(&L, "unet.num_heads", m->heads, SUPERMAT__MAXL, 1, 4096);
+    if (!L.r && n != m->L) L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "unet.num_heads has %d entries for %d blocks", n, m->L);
+    m->lpb = (int)supermat__meta_num(&L, "unet.layers_per_block", 1, SUPERMAT__MAXLAYERS - 1, 2, 1);
+    m->groups = (int)supermat__meta_num(&L, "unet.norm_num_groups", 1, 4096, 32, 1);
+    m->eps = (float)supermat__meta_num(&L, "unet.norm_eps", 0, 1, 1e-5, 1);
+    m->cross_dim = (int)supermat__meta_num(&L, "unet.cross_attention_dim", 1, 65536, 1024, 1);
+    n = supermat__meta_types(&L, "unet.down_block_types", m->down_attn, SUPERMAT__MAXL);
+    if (!L.r && n != m->L) L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "unet.down_block_types has %d entries for %d blocks", n, m->L);
+    n = supermat__meta_types(&L, "unet.up_block_types", m->up_attn, SUPERMAT__MAXL);
+    if (!L.r && n != m->L) L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "unet.up_block_types has %d entries for %d blocks", n, m->L);
+    m->flip_sin_to_cos = (int)supermat__meta_num(&L, "unet.flip_sin_to_cos", 0, 1, 1, 1);
+    m->freq_shift = (float)supermat__meta_num(&L, "unet.freq_shift", -1e6, 1e6, 0, 1);
+    m->branches = (int)supermat__meta_num(&L, "unet.branches", 1, SUPERMAT__MAXBRANCH, 2, 1);
+    m->class_in = (int)supermat__meta_num(&L, "unet.class_embed_in", 0, 4096, 0, 0);
+    m->vin = (int)supermat__meta_num(&L, "vae.in_channels", 1, 16, 3, 1);
+    m->vout = (int)supermat__meta_num(&L, "vae.out_channels", 1, 16, 3, 1);
+    m->latent = (int)supermat__meta_num(&L, "vae.latent_channels", 1, 64, 4, 1);
+    m->vL = supermat__meta_list(&L, "vae.block_out_channels", m->vboc, SUPERMAT__MAXL, 1, 65536);
+    m->vlpb = (int)supermat__meta_num(&L, "vae.layers_per_block", 1, SUPERMAT__MAXLAYERS - 1, 2, 1);
+    m->vgroups = (int)supermat__meta_num(&L, "vae.norm_num_groups", 1, 4096, 32, 1);
+    m->sf = (float)supermat__meta_num(&L, "vae.scaling_factor", 1e-6, 1e6, 0.18215, 1);
+    m->ctx_tokens = (int)supermat__meta_num(&L, "context.tokens", 1, 4096, 77, 1);
+    m->ctx_dim = (int)supermat__meta_num(&L, "context.dim", 1, 65536, 1024, 1);
+    {
+        int T = (int)supermat__meta_num(&L, "sched.num_train_timesteps", 1, 1e6, 1000, 1);
+        double b0 = supermat__meta_num(&L, "sched.beta_start", 0, 1, 0.00085, 1), b1 = supermat__meta_num(&L, "sched.beta_end", 0, 1, 0.012, 1);
+        char sched[64], pred[64], spacing[64];
+        int scaled;
+        float acp;
+        supermat__meta_str(&L, "sched.beta_schedule", sched, sizeof sched, 1);
+        supermat__meta_str(&L, "sched.prediction_type", pred, sizeof pred, 1);
+        supermat__meta_str(&L, "sched.timestep_spacing", spacing, sizeof spacing, 0);
+        if (L.r) goto done;
+        if (strcmp(sched, "scaled_linear") && strcmp(sched, "linear")) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "beta schedule '%s' is not supported", sched); goto done; }
+        if (strcmp(pred, "v_prediction") && strcmp(pred, "epsilon")) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "prediction type '%s' is not supported", pred); goto done; }
+        if (spacing[0] && strcmp(spacing, "trailing")) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "timestep spacing '%s': the one-step pipeline uses 'trailing'", spacing); goto done; }
+        scaled = !strcmp(sched, "scaled_linear");
+        m->info.timestep = T - 1; /* trailing spacing, one step */
+        acp = supermat__alphas_cumprod(T, b0, b1, scaled, T - 1);
+        m->info.alphas_cumprod = acp;
+        m->info.v_prediction = !strcmp(pred, "v_prediction");
+        /* x_t = 0: v-pred x0 = sqrt(a)*0 - sqrt(1-a)*v ; eps-pred x0 = (0 - sqrt(1-a)*eps)/sqrt(a) */
+        m->x0_coef = m->info.v_prediction ? -sqrtf(1.0f - acp) : -sqrtf(1.0f - acp) / sqrtf(acp);
+    }
+    if (L.r) goto done;
+    if (m->L < 2 || m->vL < 1) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "the UNet needs at least 2 levels"); goto done; }
+    for (i = 0; i < m->L; i++)
+        if (m->boc[i] % m->groups) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "%d channels do not split into %d groups", m->boc[i], m->groups); goto done; }
+    for (i = 0; i < m->vL; i++)
+        if (m->vboc[i] % m->vgroups) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "VAE: %d channels do not split into %d groups", m->vboc[i], m->vgroups); goto done; }
+    if (m->ctx_dim != m->cross_dim) { L.r = supermat__fail(err, SUPERMAT_ERROR_SHAPE_MISMATCH, "context", "context dim %d != cross_attention_dim %d", m->ctx_dim, m->cross_dim); goto done; }
+    if (m->branches < 2 && m->info.kind == SUPERMAT_KIND_SUPERMAT) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a SuperMat model has 2 branches, the file says %d", m->branches); goto done; }
+    m->temb_dim = 4 * m->boc[0];
+    /* bind and pack everything */
+    supermat__bind_unet(&L);
+    m->info.unet_params = L.params;
+    L.params = 0;
+    supermat__bind_vae(&L);
+    m->info.vae_params = L.params;
+done:
+    if (L.ti) supermat__free(&a, L.ti, sizeof(supermat_tensor_info) * (size_t)(n + 1));
+    if (L.used) supermat__free(&a, L.used, (size_t)n + 1);
+    if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
+    if (L.r) { supermat__model_free(m); return L.r; }
+    m->info.kernel = L.avx2 ? SUPERMAT_KERNEL_AVX2 : SUPERMAT_KERNEL_SCALAR;
+    m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
+    m->info.layers_per_block = m->lpb; m->info.norm_groups = m->groups;
+    for (i = 0; i < m->L; i++) { m->info.block_channels[i] = m->boc[i]; m->info.num_heads[i] = m->heads[i]; }
+    for (i = 0; i < m->vL; i++) m->info.vae_block_channels[i] = m->vboc[i];
+    m->info.vae_levels = m->vL; m->info.latent_channels = m->latent; m->info.scaling_factor = m->sf;
+    m->info.cross_attention_dim = m->cross_dim; m->info.context_tokens = m->ctx_tokens; m->info.branches = m->branches;
+    m->info.class_embed_in = m->class_in;
+    *out = m;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF void supermat_model_get_info(const supermat_model *model, supermat_model_info *info) {
+    if (model && info) *info = model->info;
+}
+SUPERMAT__DEF void supermat_model_destroy(supermat_model *model) { supermat__model_free(model); }
+
+/* >>unet : forward passes. Every function allocates its output first, then its temporaries, from the
+   planned arena; while planning they only allocate and count FLOPs. */
+static supermat__t supermat__resnet_fwd(supermat__ctx *X, const supermat__resnet *r, const supermat__t *x, int groups,
+                                        const float *semb, int nemb, int temb_dim) {
+    supermat__t out = supermat__tensor(X, x->n, x->h, x->w, r->cout), t, h;
+    int np = (r->cout + 15) / 16 * 16, v;
+    float *bias = NULL;
+    t = supermat__tensor(X, x->n, x->h, x->w, r->cin);
+    supermat__groupnorm(X, x, &t, &r->n1, groups, 1);
+    h = supermat__tensor(X, x->n, x->h, x->w, r->cout);
+    if (semb) {
+        bias = supermat__get(X, (size_t)np * nemb);
+        supermat__linear(X, semb, (size_t)temb_dim, nemb, &r->temb, bias, (size_t)np, NULL, 0);
+        if (supermat__live(X)) { int i, e; for (e = 0; e < nemb; e++) for (i = 0; i < np; i++) bias[(size_t)e * np + i] += r->c1.w.bias[i]; }
+    }
+    if (semb && nemb > 1) { /* a time/camera embedding per image: one convolution per image */
+        for (v = 0; v < x->n; v++) {
+            supermat__t tv = t, hv = h;
+            tv.n = hv.n = 1;
+            tv.d = t.d ? t.d + (size_t)v * x->h * x->w * r->cin : NULL;
+            hv.d = h.d ? h.d + (size_t)v * x->h * x->w * r->cout : NULL;
+            if (X->plan) { tv.d = t.d; hv.d = h.d; }
+            supermat__conv2d(X, &tv, x->h, x->w, &r->c1, 0, &hv, bias + (size_t)v * np, NULL);
+        }
+    } else {
+        supermat__conv2d(X, &t, x->h, x->w, &r->c1, 0, &h, bias, NULL);
+    }
+    supermat__put(X, bias);
+    supermat__drop(X, &t);
+    t = supermat__tensor(X, x->n, x->h, x->w, r->cout);
+    supermat__groupnorm(X, &h, &t, &r->n2, groups, 1);
+    supermat__drop(X, &h);
+    if (r->has_sc) {
+        supermat__conv2d(X, x, x->h, x->w, &r->sc, 0, &out, NULL, NULL);
+        supermat__conv2d(X, &t, x->h, x->w, &r->c2, 0, &out, NULL, out.d);
+    } else {
+        supermat__conv2d(X, &t, x->h, x->w, &r->c2, 0, &out, NULL, x->d);
+    }
+    supermat__drop(X, &t);
+    supermat__step(X, 1.0, "resnet");
+    return out;
+}
+
+static supermat__t supermat__xformer_fwd(supermat__ctx *X, const supermat__xformer *a, const supermat__t *x, int groups, int ctx_tokens) {
+    supermat__t out = supermat__tensor(X, x->n, x->h, x->w, x->c);
+    int C = x->c, T = x->h * x->w, M = x->n * T, kvg = a->mv ? 1 : x->n, mk = a->mv ? M : T;
+    float scale = (float)(1.0 / sqrt((double)a->d));
+    float *t = supermat__get(X, (size_t)M * C), *hs = supermat__get(X, (size_t)M * C), *qkv, *kp, *vp, *q, *ff, *g;
+    supermat__t tt = *x;
+    tt.d = t;
+    supermat__groupnorm(X, x, &tt, &a->gn, groups, 0);
+    supermat__linear(X, t, (size_t)C, M, &a->proj_in, hs, (size_t)C, NULL, 0);
+    /* self-attention */
+    supermat__layernorm(X, hs, t, M, &a->ln1);
+    qkv = supermat__get(X, (size_t)M * 3 * C);
+    supermat__linear(X, t, (size_t)C, M, &a->qkv1, qkv, (size_t)3 * C, NULL, 0);
+    kp = supermat__get(X, (size_t)kvg * a->heads * supermat__attn_kp_floats(mk, a->d));
+    vp = supermat__get(X, (size_t)kvg * a->heads * supermat__attn_vp_floats(mk, a->d));
+    supermat__attn_pack(X, qkv + C, (size_t)3 * C, qkv + 2 * C, (size_t)3 * C, mk, kvg, a->heads, a->d, kp, vp);
+    supermat__attention(X, qkv, (size_t)3 * C, T, x->n, kp, vp, mk, kvg, a->heads, a->d, scale, t, (size_t)C);
+    supermat__put(X, vp); supermat__put(X, kp); supermat__put(X, qkv);
+    supermat__linear(X, t, (size_t)C, M, &a->out1, hs, (size_t)C, hs, (size_t)C);
+    /* cross-attention on the constant context */
+    supermat__layernorm(X, hs, t, M, &a->ln2);
+    q = supermat__get(X, (size_t)M * C);
+    supermat__linear(X, t, (size_t)C, M, &a->q2, q, (size_t)C, NULL, 0);
+    supermat__attention(X, q, (size_t)C, M, 1, a->kp2, a->vp2, ctx_tokens, 1, a->heads, a->d, scale, t, (size_t)C);
+    supermat__put(X, q);
+    supermat__linear(X, t, (size_t)C, M, &a->out2, hs, (size_t)C, hs, (size_t)C);
+    /* GEGLU feed-forward */
+    supermat__layernorm(X, hs, t, M, &a->ln3);
+    ff = supermat__get(X, (size_t)M * 8 * C);
+    supermat__linear(X, t, (size_t)C, M, &a->ff1, ff, (size_t)8 * C, NULL, 0);
+    g = supermat__get(X, (size_t)M * 4 * C);
+    supermat__geglu(X, ff, g, M, 4 * C);
+    supermat__put(X, ff);
+    supermat__linear(X, g, (size_t)4 * C, M, &a->ff2, hs, (size_t)C, hs, (size_t)C);
+    supermat__put(X, g);
+    supermat__linear(X, hs, (size_t)C, M, &a->proj_out, out.d, (size_t)C, x->d, (size_t)C);
+    supermat__put(X, hs);
+    supermat__put(X, t);
+    supermat__step(X, 1.0, "transformer");
+    return out;
+}
+
+static supermat__t supermat__vattn_fwd(supermat__ctx *X, const supermat__vattn *a, const supermat__t *x, int groups) {
+    supermat__t out = supermat__tensor(X, x->n, x->h, x->w, x->c), tt = *x;
+    int C = x->c, T = x->h * x->w, M = x->n * T;
+    float *t = supermat__get(X, (size_t)M * C), *qkv, *kp, *vp;
+    tt.d = t;
+    supermat__groupnorm(X, x, &tt, &a->gn, groups, 0);
+    qkv = supermat__get(X, (size_t)M * 3 * C);
+    supermat__linear(X, t, (size_t)C, M, &a->qkv, qkv, (size_t)3 * C, NULL, 0);
+    kp = supermat__get(X, (size_t)x->n * supermat__attn_kp_floats(T, C));
+    vp = supermat__get(X, (size_t)x->n * supermat__attn_vp_floats(T, C));
+    supermat__attn_pack(X, qkv + C, (size_t)3 * C, qkv + 2 * C, (size_t)3 * C, T, x->n, 1, C, kp, vp);
+    supermat__attention(X, qkv, (size_t)3 * C, T, x->n, kp, vp, T, x->n, 1, C, (float)(1.0 / sqrt((double)C)), t, (size_t)C);
+    supermat__put(X, vp); supermat__put(X, kp); supermat__put(X, qkv);
+    supermat__linear(X, t, (size_t)C, M, &a->out, out.d, (size_t)C, x->d, (size_t)C);
+    supermat__put(X, t);
+    supermat__step(X, 1.0, "vae attention");
+    return out;
+}
+
+/* conv producing a new tensor; (uh, uw) = virtual nearest-resized input size */
+static supermat__t supermat__conv_new(supermat__ctx *X, const supermat__t *x, int uh, int uw, const supermat__conv *cv, int pad_mode) {
+    int pad = pad_mode ? 1 : 2 * (cv->k / 2);
+    int oh = (uh + pad - cv->k) / cv->stride + 1, ow = (uw + pad - cv->k) / cv->stride + 1;
+    supermat__t out = supermat__tensor(X, x->n, oh, ow, cv->cout);
+    supermat__conv2d(X, x, uh, uw, cv, pad_mode, &out, NULL, NULL);
+    return out;
+}
+
+static supermat__t supermat__concat(supermat__ctx *X, const supermat__t *a, const supermat__t *b) {
+    supermat__t out = supermat__tensor(X, a->n, a->h, a->w, a->c + b->c);
+    size_t p, np = (size_t)a->n * a->h * a->w;
+    if (supermat__live(X)) {
+        if (a->h != b->h || a->w != b->w) { X->status = SUPERMAT_ERROR_INTERNAL; return out; }
+        for (p = 0; p < np; p++) {
+            memcpy(out.d + p * out.c, a->d + p * a->c, sizeof(float) * (size_t)a->c);
+            memcpy(out.d + p * out.c + a->c, b->d + p * b->c, sizeof(float) * (size_t)b->c);
+        }
+    }
+    return out;
+}
+
+/* one up level: pops nres skips from the end of `skips` (without freeing them) */
+static supermat__t supermat__up_fwd(supermat__ctx *X, const supermat_model *m, const supermat__level *lv, supermat__t h, int own_h,
+                                    const supermat__t *skips, int *nskips, const float *semb, int nemb) {
+    int j;
+    for (j = 0; j < lv->nres; j++) {
+        const supermat__t *s = &skips[--(*nskips)];
+        supermat__t cat = supermat__concat(X, &h, s), r;
+        if (own_h) supermat__drop(X, &h);
+        r = supermat__resnet_fwd(X, &lv->res[j], &cat, m->groups, semb, nemb, m->temb_dim);
+        supermat__drop(X, &cat);
+        if (lv->has_attn) {
+            supermat__t a = supermat__xformer_fwd(X, &lv->att[j], &r, m->groups, m->ctx_tokens);
+            supermat__drop(X, &r);
+            r = a;
+        }
+        h = r;
+        own_h = 1;
+    }
+    if (lv->has_sampler) {
+        const supermat__t *next = &skips[*nskips - 1];
+        supermat__t u = supermat__conv_new(X, &h, next->h, next->w, &lv->sampler, 0);
+        supermat__drop(X, &h);
+        h = u;
+    }
+    return h;
+}
+
+/* The UNet: trunk once, then each wanted branch. v[b] receives branch b's output (allocated here,
+   NULL data for branches not wanted). */
+static void supermat__unet_fwd(supermat__ctx *X, const supermat_model *m, const supermat__t *lat, const float *cams, int want,
+                               supermat__t *v, double *flops_trunk, double *flops_branch) {
+    supermat__t skips[1 + SUPERMAT__MAXL * (SUPERMAT__MAXLAYERS + 1)], h;
+    int ns = 0, l, j, b, nemb = cams ? lat->n : 1, T = m->temb_dim, half = m->boc[0] / 2, i, keep;
+    float *emb0 = supermat__get(X, (size_t)m->boc[0]), *e1 = supermat__get(X, (size_t)T * nemb), *emb = supermat__get(X, (size_t)T * nemb);
+    double f0 = X->flops;
+    /* timestep embedding (float32, as diffusers) */
+    if (supermat__live(X)) {
+        float lg = (float)(-log(10000.0));
+        for (i = 0; i < half; i++) {
+            float ex = lg * (float)i / ((float)half - m->freq_shift);
+            float arg = (float)m->info.timestep * expf(ex);
+            emb0[m->flip_sin_to_cos ? half + i : i] = sinf(arg);
+            emb0[m->flip_sin_to_cos ? i : half + i] = cosf(arg);
+        }
+    }
+    supermat__linear(X, emb0, 0, 1, &m->time1, e1, (size_t)T, NULL, 0);
+    if (supermat__live(X)) supermat__silu(X, e1, e1, T);
+    supermat__linear(X, e1, (size_t)T, 1, &m->time2, emb, (size_t)T, NULL, 0);
+    if (cams) { /* camera embedding per view, added to the time embedding */
+        float *c1 = supermat__get(X, (size_t)T * nemb);
+        for (i = 1; i < nemb; i++) if (supermat__live(X)) memcpy(emb + (size_t)i * T, emb, sizeof(float) * (size_t)T);
+        supermat__linear(X, cams, (size_t)m->class_in, nemb, &m->cls1, c1, (size_t)T, NULL, 0);
+        if (supermat__live(X)) supermat__silu(X, c1, c1, T * nemb);
+        supermat__linear(X, c1, (size_t)T, nemb, &m->cls2, emb, (size_t)T, emb, (size_t)T);
+        supermat__put(X, c1);
+    }
+    if (supermat__live(X)) supermat__silu(X, emb, emb, T * nemb); /* every resnet applies SiLU first */
+    supermat__put(X, e1);
+    supermat__put(X, emb0);
+    /* down */
+    skips[ns++] = supermat__conv_new(X, lat, lat->h, lat->w, &m->conv_in, 0);
+    h = skips[0];
+    for (l = 0; l < m->L; l++) {
+        const supermat__level *lv = &m->down[l];
+        for (j = 0; j < lv->nres; j++) {
+            supermat__t r = supermat__resnet_fwd(X, &lv->res[j], &h, m->groups, emb, nemb, T);
+            if (lv->has_attn) {
+                supermat__t a = supermat__xformer_fwd(X, &lv->att[j], &r, m->groups, m->ctx_tokens);
+                supermat__drop(X, &r);
+                r = a;
+            }
+            skips[ns++] = h = r;
+        }
+        if (lv->has_sampler) skips[ns++] = h = supermat__conv_new(X, &h, h.h, h.w, &lv->sampler, 0);
+    }
+    /* mid */
+    h = supermat__resnet_fwd(X, &m->mid_res[0], &skips[ns - 1], m->groups, emb, nemb, T);
+    {
+        supermat__t a = supermat__xformer_fwd(X, &m->mid_att, &h, m->groups, m->ctx_tokens);
+        supermat__drop(X, &h);
+        h = supermat__resnet_fwd(X, &m->mid_res[1], &a, m->groups, emb, nemb, T);
+        supermat__drop(X, &a);
+    }
+    /* up (trunk): consumed skips are freed */
+    for (l = 0; l < m->L - 1; l++) {
+        int before = ns;
+        h = supermat__up_fwd(X, m, &m->up[l], h, 1, skips, &ns, emb, nemb);
+        for (j = ns; j < before; j++) supermat__drop(X, &skips[j]);
+    }
+    *flops_trunk += X->flops - f0;
+    /* the expert branches share the trunk output and the remaining skips */
+    keep = ns;
+    for (b = 0; b < m->branches; b++) {
+        supermat__t hb, t;
+        int nsb = keep;
+        v[b].d = NULL;
+        if (!(want & (1 << b))) continue;
+        f0 = X->flops;
+        v[b] = supermat__tensor(X, lat->n, lat->h, lat->w, m->out_ch);
+        hb = supermat__up_fwd(X, m, &m->last[b], h, 0, skips, &nsb, emb, nemb);
+        t = supermat__tensor(X, hb.n, hb.h, hb.w, hb.c);
+        supermat__groupnorm(X, &hb, &t, &m->norm_out, m->groups, 1);
+        supermat__drop(X, &hb);
+        supermat__conv2d(X, &t, t.h, t.w, &m->conv_out[b], 0, &v[b], NULL, NULL);
+        supermat__drop(X, &t);
+        *flops_branch += X->flops - f0;
+    }
+    supermat__drop(X, &h);
+    for (j = 0; j < keep; j++) supermat__drop(X, &skips[j]);
+    supermat__put(X, emb);
+}
+
+/* >>vae */
+static supermat__t supermat__vae_encode(supermat__ctx *X, const supermat_model *m, const supermat__t *img) {
+    supermat__t h = supermat__conv_new(X, img, img->h, img->w, &m->e_conv_in, 0), r, t, lat;
+    int l, j;
+    for (l = 0; l < m->vL; l++) {
+        const supermat__level *lv = &m->e_lv[l];
+        for (j = 0; j < lv->nres; j++) { r = supermat__resnet_fwd(X, &lv->res[j], &h, m->vgroups, NULL, 0, 0); supermat__drop(X, &h); h = r; }
+        if (lv->has_sampler) { r = supermat__conv_new(X, &h, h.h, h.w, &lv->sampler, 1); supermat__drop(X, &h); h = r; }
+    }
+    r = supermat__resnet_fwd(X, &m->e_mid[0], &h, m->vgroups, NULL, 0, 0); supermat__drop(X, &h);
+    h = supermat__vattn_fwd(X, &m->e_att, &r, m->vgroups); supermat__drop(X, &r);
+    r = supermat__resnet_fwd(X, &m->e_mid[1], &h, m->vgroups, NULL, 0, 0); supermat__drop(X, &h);
+    t = supermat__tensor(X, r.n, r.h, r.w, r.c);
+    supermat__groupnorm(X, &r, &t, &m->e_norm_out, m->vgroups, 1);
+    supermat__drop(X, &r);
+    h = supermat__conv_new(X, &t, t.h, t.w, &m->e_conv_out, 0);
+    supermat__drop(X, &t);
+    lat = supermat__conv_new(X, &h, h.h, h.w, &m->quant, 0); /* the mean half: the distribution's mode */
+    supermat__drop(X, &h);
+    if (supermat__live(X)) { size_t i, n = supermat__numel(&lat); for (i = 0; i < n; i++) lat.d[i] *= m->sf; }
+    return lat;
+}
+
+static supermat__t supermat__vae_decode(supermat__ctx *X, const supermat_model *m, const supermat__t *z) {
+    supermat__t h = supermat__conv_new(X, z, z->h, z->w, &m->post_quant, 0), r, t;
+    int l, j;
+    r = supermat__conv_new(X, &h, h.h, h.w, &m->d_conv_in, 0); supermat__drop(X, &h);
+    h = supermat__resnet_fwd(X, &m->d_mid[0], &r, m->vgroups, NULL, 0, 0); supermat__drop(X, &r);
+    r = supermat__vattn_fwd(X, &m->d_att, &h, m->vgroups); supermat__drop(X, &h);
+    h = supermat__resnet_fwd(X, &m->d_mid[1], &r, m->vgroups, NULL, 0, 0); supermat__drop(X, &r);
+    for (l = 0; l < m->vL; l++) {
+        const supermat__level *lv = &m->d_lv[l];
+        for (j = 0; j < lv->nres; j++) { r = supermat__resnet_fwd(X, &lv->res[j], &h, m->vgroups, NULL, 0, 0); supermat__drop(X, &h); h = r; }
+        if (lv->has_sampler) { r = supermat__conv_new(X, &h, 2 * h.h, 2 * h.w, &lv->sampler, 0); supermat__drop(X, &h); h = r; }
+    }
+    t = supermat__tensor(X, h.n, h.h, h.w, h.c);
+    supermat__groupnorm(X, &h, &t, &m->d_norm_out, m->vgroups, 1);
+    supermat__drop(X, &h);
+    h = supermat__conv_new(X, &t, t.h, t.w, &m->d_conv_out, 0);
+    supermat__drop(X, &t);
+    return h;
+}
+
+/* >>session */
+struct supermat_session {
+    const supermat_model *m;
+    supermat_allocator alloc;
+    int w, h;
+    unsigned outputs;
+    supermat_pool *pool;
+    supermat_threading thr;
+    char *arena;
+    size_t arena_size;
+    float **scratch;
+    float *scratch_mem;
+    size_t scratch_floats;
+    double *gn_stats;
+    size_t gn_cap;
+    supermat_flops flops;
+    size_t total_bytes;
+};
+
+static int supermat__branch_mask(const supermat_model *m, unsigned outputs) {
+    int want = 0;
+    (void)m;
+    if (outputs & SUPERMAT_OUTPUT_ALBEDO) want |= 1;
+    if (outputs & (SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC)) want |= 2;
+    return want;
+}
+
+static size_t supermat__scratch_floats(const supermat_model *m) {
+    size_t s = (size_t)SUPERMAT__MC * SUPERMAT__KC, dmax = 16, cmax = 0;
+    int l;
+    for (l = 0; l < m->L; l++) {
+        size_t d = (size_t)(m->boc[l] / m->heads[l] + 15) / 16 * 16;
+        if (d > dmax) dmax = d;
+        if ((size_t)m->boc[l] * 3 > cmax) cmax = (size_t)m->boc[l] * 3;
+    }
+    for (l = 0; l < m->vL; l++) {
+        size_t d = (size_t)(m->vboc[l] + 15) / 16 * 16;
+        if (d > dmax) dmax = d;
+        if ((size_t)m->vboc[l] * 2 > cmax) cmax = (size_t)m->vboc[l] * 2;
+    }
+    s = SUPERMAT__MAX(s, (size_t)SUPERMAT__QB * (SUPERMAT__KB + dmax) + 2 * SUPERMAT__QB);
+    s = SUPERMAT__MAX(s, 2 * cmax);
+    return (s + 15) / 16 * 16;
+}
+
+/* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
+static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
+                              supermat_flops *fl) {
+    const supermat_model *m = S->m;
+    supermat__t img = supermat__tensor(X, 1, S->h, S->w, 3), lat, v[SUPERMAT__MAXBRANCH];
+    int want = supermat__branch_mask(m, S->outputs), b;
+    double f0;
+    memset(fl, 0, sizeof *fl);
+    if (supermat__live(X)) {
+        const supermat_image *in = &rd->input;
+        size_t stride = in->stride ? in->stride : (size_t)in->width * in->channels * (in->format == SUPERMAT_FORMAT_F32 ? 4 : 1);
+        int x, y;
+        for (y = 0; y < S->h; y++) {
+            const unsigned char *row = (const unsigned char *)in->pixels + (size_t)y * stride;
+            for (x = 0; x < S->w; x++) {
+                float px[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+                int c;
+                for (c = 0; c < in->channels; c++) {
+                    if (in->format == SUPERMAT_FORMAT_F32) memcpy(&px[c], row + ((size_t)x * in->channels + c) * 4, 4);
+                    else px[c] = (float)row[(size_t)x * in->channels + c] / 255.0f;
+                }
+                if (in->channels == 3) px[3] = 1.0f;
+                for (c = 0; c < 3; c++) {
+                    float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]);
+                    img.d[((size_t)y * S->w + x) * 3 + c] = comp * 2.0f - 1.0f;
+                }
+            }
+        }
+        if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, 1, img.h, img.w, 3);
+    }
+    f0 = X->flops;
+    lat = supermat__vae_encode(X, m, &img);
+    fl->encode = X->flops - f0;
+    supermat__drop(X, &img);
+    if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_LATENT, 0, lat.d, lat.n, lat.h, lat.w, lat.c);
+    supermat__unet_fwd(X, m, &lat, NULL, want, v, &fl->trunk, &fl->branch);
+    supermat__drop(X, &lat);
+    for (b = 0; b < m->branches; b++) {
+        if (!v[b].d) { dec[b].d = NULL; continue; }
+        if (supermat__live(X)) {
+            size_t i, n = supermat__numel(&v[b]);
+            if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_UNET_OUT, b, v[b].d, v[b].n, v[b].h, v[b].w, v[b].c);
+            for (i = 0; i < n; i++) v[b].d[i] *= m->x0_coef;
+            if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_X0, b, v[b].d, v[b].n, v[b].h, v[b].w, v[b].c);
+            for (i = 0; i < n; i++) v[b].d[i] /= m->sf;
+        }
+    }
+    for (b = 0; b < m->branches; b++) {
+        if (!v[b].d) continue;
+        f0 = X->flops;
+        dec[b] = supermat__vae_decode(X, m, &v[b]);
+        fl->decode += X->flops - f0;
+        if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_DECODED, b, dec[b].d, dec[b].n, dec[b].h, dec[b].w, dec[b].c);
+    }
+    for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
+    fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
+}
+
+static supermat_result supermat__check_session_desc(const supermat_session_desc *d, supermat_error *err) {
+    if (!d || !d->model) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session desc and its model must not be NULL");
+    if (d->width < 8 || d->height < 8 || d->width % 8 || d->height % 8 || d->width > 16384 || d->height > 16384)
+        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "image size %dx%d: width and height must be multiples of 8 in [8, 16384]", d->width, d->height);
+    if (d->outputs & ~(unsigned)SUPERMAT_OUTPUT_ALL) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown output bits 0x%x", d->outputs);
+    if (d->threads < 0) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threads must be >= 0");
+    if (d->threading.parallel_for && d->threading.max_threads < 1) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threading.max_threads must be >= 1");
+    return SUPERMAT_SUCCESS;
+}
+
+static int supermat__threads_for(const supermat_session_desc *d) {
+    if (d->threading.parallel_for) return d->threading.max_threads;
+#if SUPERMAT__HAS_PTHREADS
+    if (d->threads == 0) { long n = sysconf(_SC_NPROCESSORS_ONLN); return n > 0 ? (int)SUPERMAT__MIN(n, 64) : 1; }
+    return SUPERMAT__MIN(d->threads, 64);
+#else
+    return 1;
+#endif
+}
+
+/* plans the arena; fills sizes */
+static supermat_result supermat__plan(supermat_session *S, int threads, supermat_error *err) {
+    supermat__ctx X;
+    supermat__t dec[SUPERMAT__MAXBRANCH];
+    const supermat_model *m = S->m;
+    int b;
+    memset(&X, 0, sizeof X);
+    X.plan = 1;
+    X.err = err;
+    supermat__forward(&X, S, NULL, dec, &S->flops);
+    for (b = m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
+    if (X.status || X.nblk != 0) return supermat__fail(err, SUPERMAT_ERROR_INTERNAL, NULL, "memory planning failed (status %d, %d blocks left)", (int)X.status, X.nblk);
+    S->arena_size = X.peak;
+    S->scratch_floats = supermat__scratch_floats(m);
+    S->gn_cap = (size_t)SUPERMAT__MAX(m->groups, m->vgroups) * 1;
+    S->total_bytes = sizeof(supermat_session) + S->arena_size + (size_t)threads * (S->scratch_floats * sizeof(float) + sizeof(float *))
+                   + 2 * S->gn_cap * sizeof(double);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF supermat_result supermat_session_memory(const supermat_session_desc *desc, size_t *bytes, supermat_error *err) {
+    supermat_session S;
+    supermat_result r = supermat__check_session_desc(desc, err);
+    if (r) return r;
+    if (!bytes) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bytes is NULL");
+    memset(&S, 0, sizeof S);
+    S.m = desc->model; S.w = desc->width; S.h = desc->height; S.outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
+    r = supermat__plan(&S, supermat__threads_for(desc), err);
+    if (r) return r;
+    *bytes = S.total_bytes;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF void supermat_session_destroy(supermat_session *S) {
+    supermat_allocator a;
+    int threads;
+    if (!S) return;
+    a = S->alloc;
+    threads = S->thr.parallel_for ? S->thr.max_threads : 1;
+#if SUPERMAT__HAS_PTHREADS
+    if (S->pool) supermat_pool_destroy(S->pool);
+#endif
+    supermat__free(&a, S->arena, S->arena_size);
+    supermat__free(&a, S->scratch_mem, (size_t)threads * S->scratch_floats * sizeof(float));
+    supermat__free(&a, S->scratch, (size_t)threads * sizeof(float *));
+    supermat__free(&a, S->gn_stats, 2 * S->gn_cap * sizeof(double));
+    supermat__free(&a, S, sizeof *S);
+}
+
+SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_desc *desc, supermat_session **out, supermat_error *err) {
+    supermat_session *S;
+    supermat_allocator a;
+    supermat_result r;
+    int threads, i;
+    if (out) *out = NULL;
+    r = supermat__check_session_desc(desc, err);
+    if (r) return r;
+    if (!out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "out is NULL");
+    a = supermat__resolve_allocator(&desc->allocator);
+    S = (supermat_session *)supermat__alloc(&a, sizeof *S);
+    if (!S) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the session");
+    memset(S, 0, sizeof *S);
+    S->alloc = a; S->m = desc->model; S->w = desc->width; S->h = desc->height;
+    S->outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
+    if (desc->threading.parallel_for) S->thr = desc->threading;
+#if SUPERMAT__HAS_PTHREADS
+    else if (supermat__threads_for(desc) > 1) {
+        r = supermat_pool_create(supermat__threads_for(desc), &a, &S->pool, &S->thr);
+        if (r) { supermat__free(&a, S, sizeof *S); return supermat__fail(err, r, NULL, "could not create the thread pool"); }
+    }
+#endif
+    threads = S->thr.parallel_for ? S->thr.max_threads : 1;
+    r = supermat__plan(S, threads, err);
+    if (r) { supermat_session_destroy(S); return r; }
+    S->arena = (char *)supermat__alloc(&a, S->arena_size);
+    S->scratch = (float **)supermat__alloc(&a, (size_t)threads * sizeof(float *));
+    S->scratch_mem = (float *)supermat__alloc(&a, (size_t)threads * S->scratch_floats * sizeof(float));
+    S->gn_stats = (double *)supermat__alloc(&a, 2 * S->gn_cap * sizeof(double));
+    if (!S->arena || !S->scratch || !S->scratch_mem || !S->gn_stats) {
+        size_t need = S->total_bytes;
+        supermat_session_destroy(S);
+        return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory: the session needs %llu bytes", (unsigned long long)need);
+    }
+    for (i = 0; i < threads; i++) S->scratch[i] = S->scratch_mem + (size_t)i * S->scratch_floats;
+    *out = S;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF void supermat_session_flops(const supermat_session *s, supermat_flops *out) {
+    if (s && out) *out = s->flops;
+}
+
+/* >>run */
+static supermat_result supermat__check_image(const supermat_image *im, const char *what, int w, int h, int input, supermat_error *err) {
+    size_t es = im->format == SUPERMAT_FORMAT_F32 ? 4 : 1;
+    if ((unsigned)im->format >= SUPERMAT_FORMAT_COUNT) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: unknown pixel format %d", what, (int)im->format);
+    if ((im->width || !input) && (im->width ? im->width : w) != w) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
+    if ((im->height || !input) && (im->height ? im->height : h) != h) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
+    if (input && (im->width != w || im->height != h)) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
+    if (input ? (im->channels != 3 && im->channels != 4) : (im->channels < 1 || im->channels > 4))
+        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s has %d channels", what, im->channels);
+    if (im->stride && im->stride < (size_t)w * im->channels * es) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: stride %llu is smaller than a row", what, (unsigned long long)im->stride);
+    return SUPERMAT_SUCCESS;
+}
+
+/* writes channel(s) of a decoded image (3 channels in [-1,1]) as x/2+0.5 clamped */
+static void supermat__write(const supermat_image *o, const supermat__t *dec, int src_channel, const supermat_image *in, int w, int h) {
+    size_t es = o->format == SUPERMAT_FORMAT_F32 ? 4 : 1, stride = o->stride ? o->stride : (size_t)w * o->channels * es;
+    size_t istride = in->stride ? in->stride : (size_t)w * in->channels * (in->format == SUPERMAT_FORMAT_F32 ? 4 : 1);
+    int x, y, c;
+    for (y = 0; y < h; y++) {
+        unsigned char *row = (unsigned char *)o->pixels + (size_t)y * stride;
+        for (x = 0; x < w; x++) {
+            const float *px = dec->d + ((size_t)y * w + x) * 3;
+            for (c = 0; c < o->channels; c++) {
+                float v;
+                if (c == 3) { /* alpha from the input */
+                    if (in->channels == 4) {
+                        const unsigned char *ir = (const unsigned char *)in->pixels + (size_t)y * istride;
+                        if (in->format == SUPERMAT_FORMAT_F32) memcpy(&v, ir + ((size_t)x * 4 + 3) * 4, 4);
+                        else v = ir[(size_t)x * 4 + 3] / 255.0f;
+                    } else v = 1.0f;
+                } else {
+                    v = px[src_channel >= 0 ? src_channel : c] / 2.0f + 0.5f;
+                    v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+                }
+                if (o->format == SUPERMAT_FORMAT_F32) memcpy(row + ((size_t)x * o->channels + c) * 4, &v, 4);
+                else row[(size_t)x * o->channels + c] = (unsigned char)rintf(v * 255.0f);
+            }
+        }
+    }
+}
+
+SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_run_desc *rd, supermat_error *err) {
+    supermat__ctx X;
+    supermat__t dec[SUPERMAT__MAXBRANCH];
+    const supermat_image *outs[4];
+    const char *names[4] = {"albedo", "roughness", "metallic", "orm"};
+    unsigned need[4] = {SUPERMAT_OUTPUT_ALBEDO, SUPERMAT_OUTPUT_ROUGHNESS, SUPERMAT_OUTPUT_METALLIC, SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC};
+    supermat_flops fl;
+    supermat_result r;
+    int i, b;
+    if (!S || !rd) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session and run desc must not be NULL");
+    if (!rd->input.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "input.pixels is NULL");
+    r = supermat__check_image(&rd->input, "the input image", S->w, S->h, 1, err);
+    if (r) return r;
+    outs[0] = &rd->albedo; outs[1] = &rd->roughness; outs[2] = &rd->metallic; outs[3] = &rd->orm;
+    for (i = 0; i < 4; i++) {
+        if (!outs[i]->pixels) continue;
+        r = supermat__check_image(outs[i], names[i], S->w, S->h, 0, err);
+        if (r) return r;
+        if ((S->outputs & need[i]) != need[i])
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the %s output was not requested when the session was created", names[i]);
+    }
+    if (rd->input.format == SUPERMAT_FORMAT_F32) { /* reject NaN/Inf */
+        size_t stride = rd->input.stride ? rd->input.stride : (size_t)S->w * rd->input.channels * 4;
+        int x, y, c;
+        for (y = 0; y < S->h; y++)
+            for (x = 0; x < S->w; x++)
+                for (c = 0; c < rd->input.channels; c++) {
+                    float v;
+                    memcpy(&v, (const unsigned char *)rd->input.pixels + (size_t)y * stride + ((size_t)x * rd->input.channels + c) * 4, 4);
+                    if (!(v - v == 0.0f)) return supermat__fail(err, SUPERMAT_ERROR_NONFINITE, NULL, "input pixel (%d, %d) channel %d is NaN or Inf", x, y, c);
+                }
+    }
+    memset(&X, 0, sizeof X);
+    X.err = err; X.base = S->arena; X.cap = S->arena_size;
+    X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2;
+#if SUPERMAT__HAS_AVX2
+    X.ukr = X.avx2 ? supermat__ukr_avx2 : supermat__ukr_scalar;
+#else
+    X.ukr = supermat__ukr_scalar;
+#endif
+    X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;
+    X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;
+    X.progress = rd->progress; X.progress_user = rd->progress_user;
+    X.work_total = 0;
+    { /* count the steps for the progress fraction (a plan-mode walk costs no memory) */
+        supermat__ctx P;
+        supermat__t pd[SUPERMAT__MAXBRANCH];
+        supermat_flops pf;
+        memset(&P, 0, sizeof P);
+        P.plan = 1;
+        supermat__forward(&P, S, NULL, pd, &pf);
+        X.work_total = P.work_total;
+    }
+    supermat__forward(&X, S, rd, dec, &fl);
+    if (X.status == SUPERMAT_SUCCESS) {
+        for (i = 0; i < 4; i++) {
+            const supermat_image *o = outs[i];
+            if (!o->pixels) continue;
+            if (i == 0) supermat__write(o, &dec[0], -1, &rd->input, S->w, S->h);
+            else if (i == 1) supermat__write(o, &dec[1], 1, &rd->input, S->w, S->h);
+            else if (i == 2) supermat__write(o, &dec[1], 2, &rd->input, S->w, S->h);
+            else supermat__write(o, &dec[1], -1, &rd->input, S->w, S->h);
+        }
+    }
+    for (b = S->m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
+    if (X.status) {
+        if (X.status != SUPERMAT_ERROR_CANCELLED) return supermat__fail(err, X.status, NULL, "internal error during the run");
+        return X.status;
+    }
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+#endif /* SUPERMAT_IMPLEMENTATION_DONE */
+#endif /* SUPERMAT_IMPLEMENTATION */
+
+/*
+------------------------------------------------------------------------------
+This software is available under 2 licenses -- choose whichever you prefer.
+------------------------------------------------------------------------------
+ALTERNATIVE A - MIT License
+Copyright (c) 2026 the supermat authors
+Permission is hereby granted, free of charge, to any person obtaining a copy of
+this software and associated documentation files (the "Software"), to deal in
+the Software without restriction, including without limitation the rights to
+use, copy, modify, merge, publish, distribute, sublicense, and/or sell copies
+of the Software, and to permit persons to whom the Software is furnished to do
+so, subject to the following conditions:
+The above copyright notice and this permission notice shall be included in all
+copies or substantial portions of the Software.
+THE SOFTWARE IS PROVIDED "AS IS", WITHOUT WARRANTY OF ANY KIND, EXPRESS OR
+IMPLIED, INCLUDING BUT NOT LIMITED TO THE WARRANTIES OF MERCHANTABILITY,
+FITNESS FOR A PARTICULAR PURPOSE AND NONINFRINGEMENT. IN NO EVENT SHALL THE
+AUTHORS OR COPYRIGHT HOLDERS BE LIABLE FOR ANY CLAIM, DAMAGES OR OTHER
+LIABILITY, WHETHER IN AN ACTION OF CONTRACT, TORT OR OTHERWISE, ARISING FROM,
+OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE
+SOFTWARE.
+------------------------------------------------------------------------------
+ALTERNATIVE B - Public Domain (www.unlicense.org)
+This is free and unencumbered software released into the public domain.
+Anyone is free to copy, modify, publish, use, compile, sell, or distribute this
+software, either in source code form or as a compiled binary, for any purpose,
+commercial or non-commercial, and by any means.
+In jurisdictions that recognize copyright laws, the author or authors of this
+software dedicate any and all copyright interest in the software to the public
+domain. We make this dedication in addition to any and all copyright interest
+in the software under copyright law.
+------------------------------------------------------------------------------
+*/

@@ -1,0 +1,78 @@
+/* Small helpers shared by the tests: file loading, .npy reading, relative L2, pass/fail counting. */
+#ifndef SUPERMAT_TEST_UTIL_H
+#define SUPERMAT_TEST_UTIL_H
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int tu_pass, tu_fail;
+#define TU_CHECK(cond, ...) do { if (cond) tu_pass++; else { tu_fail++; printf("FAIL %s:%d: ", __FILE__, __LINE__); printf(__VA_ARGS__); printf("\n"); } } while (0)
+
+static int tu_finish(const char *name) {
+    printf("%s: %d passed, %d failed\n", name, tu_pass, tu_fail);
+    return tu_fail ? 1 : 0;
+}
+
+static unsigned char *tu_load(const char *path, size_t *size) {
+    FILE *f = fopen(path, "rb");
+    unsigned char *buf;
+    long n;
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    buf = (unsigned char *)malloc(n > 0 ? (size_t)n : 1);
+    if (buf && n > 0 && fread(buf, 1, (size_t)n, f) != (size_t)n) { free(buf); buf = NULL; }
+    fclose(f);
+    if (buf) *size = (size_t)n;
+    return buf;
+}
+
+/* A little-endian float32 or uint8 C-order .npy: returns floats, fills shape. */
+typedef struct tu_npy { float *data; int ndim; long shape[8]; size_t n; } tu_npy;
+static int tu_npy_load(const char *path, tu_npy *out) {
+    size_t size = 0, i, hl, off;
+    unsigned char *b = tu_load(path, &size);
+    const char *h, *p;
+    int f32, u8;
+    memset(out, 0, sizeof *out);
+    if (!b) return -1;
+    if (size < 12 || memcmp(b, "\x93NUMPY", 6)) { free(b); return -1; }
+    if (b[6] == 1) { hl = b[8] | (b[9] << 8); off = 10; } else { hl = b[8] | (b[9] << 8) | ((size_t)b[10] << 16) | ((size_t)b[11] << 24); off = 12; }
+    h = (const char *)b + off;
+    f32 = strstr(h, "'<f4'") != NULL;
+    u8 = strstr(h, "'|u1'") != NULL;
+    if ((!f32 && !u8) || strstr(h, "'fortran_order': True")) { free(b); return -1; }
+    p = strstr(h, "'shape': (");
+    if (!p) { free(b); return -1; }
+    p += 10;
+    out->n = 1;
+    while (*p && *p != ')') {
+        char *e;
+        long v = strtol(p, &e, 10);
+        if (e == p) break;
+        out->shape[out->ndim++] = v;
+        out->n *= (size_t)v;
+        p = e;
+        while (*p == ',' || *p == ' ') p++;
+    }
+    off += hl;
+    if (size < off + out->n * (f32 ? 4 : 1)) { free(b); return -1; }
+    out->data = (float *)malloc(out->n * sizeof(float) + 1);
+    for (i = 0; i < out->n; i++) {
+        if (f32) memcpy(&out->data[i], b + off + 4 * i, 4);
+        else out->data[i] = (float)b[off + i];
+    }
+    free(b);
+    return 0;
+}
+
+/* relative L2 of a vs reference b */
+static double tu_rel_l2(const float *a, const float *b, size_t n) {
+    double num = 0, den = 0;
+    size_t i;
+    for (i = 0; i < n; i++) { double d = (double)a[i] - b[i]; num += d * d; den += (double)b[i] * b[i]; }
+    return den > 0 ? sqrt(num / den) : sqrt(num);
+}
+#endif
