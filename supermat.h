@@ -12,15 +12,15 @@
  *
  * QUICK START (compiled by the test suite)
  *
- *     supermat_model_desc md = {0};
+ *     supermat_model_desc md; memset(&md, 0, sizeof md);
  *     md.data = file_bytes; md.size = file_size;          // a model file made by `supermat convert`
  *     supermat_model *model; supermat_error err;
  *     if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { puts(err.message); return 1; }
- *     supermat_session_desc sd = {0};
+ *     supermat_session_desc sd; memset(&sd, 0, sizeof sd);
  *     sd.model = model; sd.width = 512; sd.height = 512;   // any multiple of 8
  *     supermat_session *s;
  *     if (supermat_session_create(&sd, &s, &err) != SUPERMAT_SUCCESS) { ... }
- *     supermat_run_desc rd = {0};
+ *     supermat_run_desc rd; memset(&rd, 0, sizeof rd);
  *     rd.input.pixels = rgba; rd.input.width = 512; rd.input.height = 512; rd.input.channels = 4;
  *     rd.albedo.pixels = albedo_rgb8;    rd.albedo.channels = 3;      // format 0 = 8-bit
  *     rd.roughness.pixels = rough8;      rd.roughness.channels = 1;
@@ -287,6 +287,7 @@ typedef enum supermat_stage {
     SUPERMAT_STAGE_UNET_OUT,  /* per branch: the UNet output (v or epsilon) */
     SUPERMAT_STAGE_X0,        /* per branch: the one-step x0 latent */
     SUPERMAT_STAGE_DECODED,   /* per branch: raw VAE decode, before x/2+0.5 */
+    SUPERMAT_STAGE_TRUNK,     /* the shared UNet trunk's output (input of every branch tail) */
     SUPERMAT_STAGE_COUNT
 } supermat_stage;
 
@@ -391,6 +392,9 @@ SUPERMAT__DEF const char *supermat_result_string(supermat_result r) {
     }
 }
 
+#if defined(__GNUC__) || defined(__clang__)
+static supermat_result supermat__fail(supermat_error *err, supermat_result r, const char *tensor, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+#endif
 static supermat_result supermat__fail(supermat_error *err, supermat_result r, const char *tensor, const char *fmt, ...) {
     if (err) {
         va_list ap;
@@ -407,6 +411,19 @@ static supermat_result supermat__fail(supermat_error *err, supermat_result r, co
         }
     }
     return r;
+}
+
+/* formats a tensor name; names longer than the buffer are cut (and then simply not found) */
+#if defined(__GNUC__) || defined(__clang__)
+static int supermat__name(char *buf, size_t cap, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+#endif
+static int supermat__name(char *buf, size_t cap, const char *fmt, ...) {
+    va_list ap;
+    int n;
+    va_start(ap, fmt);
+    n = vsnprintf(buf, cap, fmt, ap);
+    va_end(ap);
+    return n;
 }
 
 static void supermat__ok(supermat_error *err) {
@@ -651,7 +668,9 @@ static supermat_result supermat__st_tokens(const void *buf, size_t buf_size, uin
     int ntok;
     supermat_json_tok *toks;
     const char *js = (const char *)buf + 8;
-    supermat_result r = supermat__st_header(buf, buf_size, file_size, &hlen, err);
+    supermat_result r;
+    hlen = 0;
+    r = supermat__st_header(buf, buf_size, file_size, &hlen, err);
     if (r) return r;
     ntok = supermat_json_parse(js, (size_t)hlen, NULL, 0);
     if (ntok < 0)
@@ -757,7 +776,7 @@ SUPERMAT__DEF int supermat_safetensors_metadata(const void *buf, size_t buf_size
     supermat_json_tok *toks;
     int ntok, m, v, res = -1;
     const char *js = (const char *)buf + 8;
-    uint64_t hlen;
+    uint64_t hlen = 0;
     if (!buf || buf_size < 8 || !key) return -1;
     if (supermat__st_header(buf, buf_size, buf_size, &hlen, NULL)) return -1;
     if (supermat__st_tokens(buf, buf_size, 8 + hlen, &a, &toks, &ntok, NULL)) return -1;
@@ -1791,13 +1810,16 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
             int n = n0 + r, row = parts[p].first + r;
             float *dst = pw->p + (size_t)(n / SUPERMAT__NR) * K * SUPERMAT__NR + n % SUPERMAT__NR;
             size_t base = (size_t)row * K;
-            for (ci = 0; ci < cin; ci++)
-                for (ky = 0; ky < k; ky++)
-                    for (kx = 0; kx < k; kx++) {
-                        float v = supermat__tval(L, t, base + ((size_t)ci * k + ky) * k + kx);
+            for (ky = 0; ky < k; ky++)
+                for (kx = 0; kx < k; kx++) {
+                    float *d = dst + (size_t)(ky * k + kx) * cin * SUPERMAT__NR;
+                    size_t src = base + (size_t)ky * k + kx, kk = (size_t)k * k;
+                    for (ci = 0; ci < cin; ci++) {
+                        float v = supermat__tval(L, t, src + (size_t)ci * kk);
                         if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, parts[p].name, "tensor '%s' contains NaN or Inf", parts[p].name); return; }
-                        dst[((size_t)(ky * k + kx) * cin + ci) * SUPERMAT__NR] = v;
+                        d[(size_t)ci * SUPERMAT__NR] = v;
                     }
+                }
         }
         L->params += (uint64_t)parts[p].rows_total * K;
         if (need_bias && parts[p].bias) {
@@ -1820,25 +1842,25 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
 static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const char *prefix, int out, int in, int bias) {
     char wn[200], bn[200];
     supermat__wpart part;
-    snprintf(wn, sizeof wn, "%s.weight", prefix);
-    snprintf(bn, sizeof bn, "%s.bias", prefix);
+    supermat__name(wn, sizeof wn, "%s.weight", prefix);
+    supermat__name(bn, sizeof bn, "%s.bias", prefix);
     part.name = wn; part.bias = bias ? bn : NULL; part.rows_total = out; part.first = 0; part.count = out;
     supermat__pack(L, pw, &part, 1, in, 1, 0, bias);
 }
 static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const char *prefix, int cin, int cout, int k, int stride) {
     char wn[200], bn[200];
     supermat__wpart part;
-    snprintf(wn, sizeof wn, "%s.weight", prefix);
-    snprintf(bn, sizeof bn, "%s.bias", prefix);
+    supermat__name(wn, sizeof wn, "%s.weight", prefix);
+    supermat__name(bn, sizeof bn, "%s.bias", prefix);
     part.name = wn; part.bias = bn; part.rows_total = cout; part.first = 0; part.count = cout;
     cv->k = k; cv->stride = stride; cv->cin = cin; cv->cout = cout;
     supermat__pack(L, &cv->w, &part, 1, cin, k, 1, 1);
 }
 static void supermat__bind_norm(supermat__loader *L, supermat__norm *nm, const char *prefix, int c, float eps) {
     char n[200];
-    snprintf(n, sizeof n, "%s.weight", prefix);
+    supermat__name(n, sizeof n, "%s.weight", prefix);
     nm->g = supermat__vec(L, n, c, 0);
-    snprintf(n, sizeof n, "%s.bias", prefix);
+    supermat__name(n, sizeof n, "%s.bias", prefix);
     nm->b = supermat__vec(L, n, c, 0);
     nm->c = c; nm->eps = eps;
 }
@@ -1847,13 +1869,13 @@ static void supermat__bind_resnet(supermat__loader *L, supermat__resnet *r, cons
     char n[200];
     (void)groups;
     r->cin = cin; r->cout = cout;
-    snprintf(n, sizeof n, "%s.norm1", pre); supermat__bind_norm(L, &r->n1, n, cin, eps);
-    snprintf(n, sizeof n, "%s.conv1", pre); supermat__bind_conv(L, &r->c1, n, cin, cout, 3, 1);
-    if (temb) { snprintf(n, sizeof n, "%s.time_emb_proj", pre); supermat__bind_linear(L, &r->temb, n, cout, temb, 1); }
-    snprintf(n, sizeof n, "%s.norm2", pre); supermat__bind_norm(L, &r->n2, n, cout, eps);
-    snprintf(n, sizeof n, "%s.conv2", pre); supermat__bind_conv(L, &r->c2, n, cout, cout, 3, 1);
+    supermat__name(n, sizeof n, "%s.norm1", pre); supermat__bind_norm(L, &r->n1, n, cin, eps);
+    supermat__name(n, sizeof n, "%s.conv1", pre); supermat__bind_conv(L, &r->c1, n, cin, cout, 3, 1);
+    if (temb) { supermat__name(n, sizeof n, "%s.time_emb_proj", pre); supermat__bind_linear(L, &r->temb, n, cout, temb, 1); }
+    supermat__name(n, sizeof n, "%s.norm2", pre); supermat__bind_norm(L, &r->n2, n, cout, eps);
+    supermat__name(n, sizeof n, "%s.conv2", pre); supermat__bind_conv(L, &r->c2, n, cout, cout, 3, 1);
     r->has_sc = cin != cout;
-    if (r->has_sc) { snprintf(n, sizeof n, "%s.conv_shortcut", pre); supermat__bind_conv(L, &r->sc, n, cin, cout, 1, 1); }
+    if (r->has_sc) { supermat__name(n, sizeof n, "%s.conv_shortcut", pre); supermat__bind_conv(L, &r->sc, n, cin, cout, 1, 1); }
 }
 
 static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, const char *pre, int c, int heads, float ln_eps) {
@@ -1863,31 +1885,31 @@ static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, co
     int ctx_t, wk, wv, i, j, t;
     x->c = c; x->heads = heads; x->d = c / heads;
     if (heads <= 0 || c % heads) { if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "%d channels do not split into %d heads", c, heads); return; }
-    snprintf(n, sizeof n, "%s.norm", pre); supermat__bind_norm(L, &x->gn, n, c, 1e-6f);
-    snprintf(n, sizeof n, "%s.proj_in", pre); supermat__bind_linear(L, &x->proj_in, n, c, c, 1);
-    snprintf(n, sizeof n, "%s.proj_out", pre); supermat__bind_linear(L, &x->proj_out, n, c, c, 1);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm1", pre); supermat__bind_norm(L, &x->ln1, n, c, ln_eps);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm2", pre); supermat__bind_norm(L, &x->ln2, n, c, ln_eps);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.norm3", pre); supermat__bind_norm(L, &x->ln3, n, c, ln_eps);
-    snprintf(q, sizeof q, "%s.transformer_blocks.0.attn1.to_q.weight", pre);
-    snprintf(k, sizeof k, "%s.transformer_blocks.0.attn1.to_k.weight", pre);
-    snprintf(v, sizeof v, "%s.transformer_blocks.0.attn1.to_v.weight", pre);
+    supermat__name(n, sizeof n, "%s.norm", pre); supermat__bind_norm(L, &x->gn, n, c, 1e-6f);
+    supermat__name(n, sizeof n, "%s.proj_in", pre); supermat__bind_linear(L, &x->proj_in, n, c, c, 1);
+    supermat__name(n, sizeof n, "%s.proj_out", pre); supermat__bind_linear(L, &x->proj_out, n, c, c, 1);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.norm1", pre); supermat__bind_norm(L, &x->ln1, n, c, ln_eps);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.norm2", pre); supermat__bind_norm(L, &x->ln2, n, c, ln_eps);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.norm3", pre); supermat__bind_norm(L, &x->ln3, n, c, ln_eps);
+    supermat__name(q, sizeof q, "%s.transformer_blocks.0.attn1.to_q.weight", pre);
+    supermat__name(k, sizeof k, "%s.transformer_blocks.0.attn1.to_k.weight", pre);
+    supermat__name(v, sizeof v, "%s.transformer_blocks.0.attn1.to_v.weight", pre);
     parts[0].name = q; parts[1].name = k; parts[2].name = v;
     for (i = 0; i < 3; i++) { parts[i].bias = NULL; parts[i].rows_total = c; parts[i].first = 0; parts[i].count = c; }
     supermat__pack(L, &x->qkv1, parts, 3, c, 1, 0, 0);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn1.to_out.0", pre); supermat__bind_linear(L, &x->out1, n, c, c, 1);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn2.to_q", pre); supermat__bind_linear(L, &x->q2, n, c, c, 0);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.attn2.to_out.0", pre); supermat__bind_linear(L, &x->out2, n, c, c, 1);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.ff.net.0.proj", pre); supermat__bind_linear(L, &x->ff1, n, 8 * c, c, 1);
-    snprintf(n, sizeof n, "%s.transformer_blocks.0.ff.net.2", pre); supermat__bind_linear(L, &x->ff2, n, c, 4 * c, 1);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.attn1.to_out.0", pre); supermat__bind_linear(L, &x->out1, n, c, c, 1);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.attn2.to_q", pre); supermat__bind_linear(L, &x->q2, n, c, c, 0);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.attn2.to_out.0", pre); supermat__bind_linear(L, &x->out2, n, c, c, 1);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.ff.net.0.proj", pre); supermat__bind_linear(L, &x->ff1, n, 8 * c, c, 1);
+    supermat__name(n, sizeof n, "%s.transformer_blocks.0.ff.net.2", pre); supermat__bind_linear(L, &x->ff2, n, c, 4 * c, 1);
     /* cross-attention keys and values of the constant context, computed once and packed */
     {
         int64_t want[2];
         float *kv;
         supermat__attn_pack_args pa;
         want[0] = c; want[1] = m->cross_dim;
-        snprintf(k, sizeof k, "%s.transformer_blocks.0.attn2.to_k.weight", pre);
-        snprintf(v, sizeof v, "%s.transformer_blocks.0.attn2.to_v.weight", pre);
+        supermat__name(k, sizeof k, "%s.transformer_blocks.0.attn2.to_k.weight", pre);
+        supermat__name(v, sizeof v, "%s.transformer_blocks.0.attn2.to_v.weight", pre);
         wk = supermat__wtensor(L, k, 2, want);
         wv = supermat__wtensor(L, v, 2, want);
         want[0] = m->ctx_tokens; want[1] = m->cross_dim;
@@ -1922,14 +1944,14 @@ static void supermat__bind_vattn(supermat__loader *L, supermat__vattn *a, const 
     supermat__wpart parts[3];
     int i;
     a->c = c;
-    snprintf(n, sizeof n, "%s.group_norm", pre); supermat__bind_norm(L, &a->gn, n, c, eps);
-    snprintf(q, sizeof q, "%s.to_q.weight", pre); snprintf(qb, sizeof qb, "%s.to_q.bias", pre);
-    snprintf(k, sizeof k, "%s.to_k.weight", pre); snprintf(kb, sizeof kb, "%s.to_k.bias", pre);
-    snprintf(v, sizeof v, "%s.to_v.weight", pre); snprintf(vb, sizeof vb, "%s.to_v.bias", pre);
+    supermat__name(n, sizeof n, "%s.group_norm", pre); supermat__bind_norm(L, &a->gn, n, c, eps);
+    supermat__name(q, sizeof q, "%s.to_q.weight", pre); supermat__name(qb, sizeof qb, "%s.to_q.bias", pre);
+    supermat__name(k, sizeof k, "%s.to_k.weight", pre); supermat__name(kb, sizeof kb, "%s.to_k.bias", pre);
+    supermat__name(v, sizeof v, "%s.to_v.weight", pre); supermat__name(vb, sizeof vb, "%s.to_v.bias", pre);
     parts[0].name = q; parts[0].bias = qb; parts[1].name = k; parts[1].bias = kb; parts[2].name = v; parts[2].bias = vb;
     for (i = 0; i < 3; i++) { parts[i].rows_total = c; parts[i].first = 0; parts[i].count = c; }
     supermat__pack(L, &a->qkv, parts, 3, c, 1, 0, 1);
-    snprintf(n, sizeof n, "%s.to_out.0", pre); supermat__bind_linear(L, &a->out, n, c, c, 1);
+    supermat__name(n, sizeof n, "%s.to_out.0", pre); supermat__bind_linear(L, &a->out, n, c, c, 1);
 }
 
 /* diffusers' channel bookkeeping for the UNet down and up paths */
@@ -1951,16 +1973,16 @@ static void supermat__bind_unet(supermat__loader *L) {
         in_ch = out_ch; out_ch = m->boc[l];
         lv->nres = m->lpb; lv->has_attn = m->down_attn[l]; lv->cout = out_ch;
         for (j = 0; j < m->lpb; j++) {
-            snprintf(n, sizeof n, "down_blocks.%d.resnets.%d", l, j);
+            supermat__name(n, sizeof n, "down_blocks.%d.resnets.%d", l, j);
             supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? in_ch : out_ch, out_ch, T, m->groups, m->eps);
             if (lv->has_attn) {
-                snprintf(n, sizeof n, "down_blocks.%d.attentions.%d", l, j);
+                supermat__name(n, sizeof n, "down_blocks.%d.attentions.%d", l, j);
                 supermat__bind_xformer(L, &lv->att[j], n, out_ch, m->heads[l], 1e-5f);
                 lv->att[j].mv = m->class_in > 0 && l > 0;
             }
         }
         lv->has_sampler = l < m->L - 1;
-        if (lv->has_sampler) { snprintf(n, sizeof n, "down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
+        if (lv->has_sampler) { supermat__name(n, sizeof n, "down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
     }
     supermat__bind_resnet(L, &m->mid_res[0], "mid_block.resnets.0", m->boc[m->L - 1], m->boc[m->L - 1], T, m->groups, m->eps);
     supermat__bind_xformer(L, &m->mid_att, "mid_block.attentions.0", m->boc[m->L - 1], m->heads[m->L - 1], 1e-5f);
@@ -1978,19 +2000,19 @@ static void supermat__bind_unet(supermat__loader *L) {
             lv->nres = m->lpb + 1; lv->has_attn = m->up_attn[l]; lv->cout = out_ch;
             for (j = 0; j <= m->lpb; j++) {
                 int skip = j == m->lpb ? in_ch : out_ch, rin = j == 0 ? prev : out_ch;
-                if (l == m->L - 1) snprintf(n, sizeof n, "last_up_blocks.%d.resnets.%d", b, j);
-                else snprintf(n, sizeof n, "up_blocks.%d.resnets.%d", l, j);
+                if (l == m->L - 1) supermat__name(n, sizeof n, "last_up_blocks.%d.resnets.%d", b, j);
+                else supermat__name(n, sizeof n, "up_blocks.%d.resnets.%d", l, j);
                 supermat__bind_resnet(L, &lv->res[j], n, rin + skip, out_ch, T, m->groups, m->eps);
                 if (lv->has_attn) {
-                    if (l == m->L - 1) snprintf(n, sizeof n, "last_up_blocks.%d.attentions.%d", b, j);
-                    else snprintf(n, sizeof n, "up_blocks.%d.attentions.%d", l, j);
+                    if (l == m->L - 1) supermat__name(n, sizeof n, "last_up_blocks.%d.attentions.%d", b, j);
+                    else supermat__name(n, sizeof n, "up_blocks.%d.attentions.%d", l, j);
                     supermat__bind_xformer(L, &lv->att[j], n, out_ch, rh[l], 1e-5f);
                     lv->att[j].mv = m->class_in > 0;
                 }
             }
             lv->has_sampler = l < m->L - 1;
-            if (lv->has_sampler) { snprintf(n, sizeof n, "up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
-            snprintf(n, sizeof n, "rep_conv_out.%d", b);
+            if (lv->has_sampler) { supermat__name(n, sizeof n, "up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
+            supermat__name(n, sizeof n, "rep_conv_out.%d", b);
             if (l == m->L - 1) supermat__bind_conv(L, &m->conv_out[b], n, out_ch, m->out_ch, 3, 1);
         }
     }
@@ -2010,11 +2032,11 @@ static void supermat__bind_vae(supermat__loader *L) {
         in_ch = out_ch; out_ch = m->vboc[l];
         lv->nres = m->vlpb; lv->cout = out_ch;
         for (j = 0; j < m->vlpb; j++) {
-            snprintf(n, sizeof n, "vae.encoder.down_blocks.%d.resnets.%d", l, j);
+            supermat__name(n, sizeof n, "vae.encoder.down_blocks.%d.resnets.%d", l, j);
             supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? in_ch : out_ch, out_ch, 0, m->vgroups, e);
         }
         lv->has_sampler = l < m->vL - 1;
-        if (lv->has_sampler) { snprintf(n, sizeof n, "vae.encoder.down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
+        if (lv->has_sampler) { supermat__name(n, sizeof n, "vae.encoder.down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
     }
     supermat__bind_resnet(L, &m->e_mid[0], "vae.encoder.mid_block.resnets.0", top, top, 0, m->vgroups, e);
     supermat__bind_vattn(L, &m->e_att, "vae.encoder.mid_block.attentions.0", top, e);
@@ -2038,11 +2060,11 @@ static void supermat__bind_vae(supermat__loader *L) {
         prev = out_ch; out_ch = m->vboc[m->vL - 1 - l];
         lv->nres = m->vlpb + 1; lv->cout = out_ch;
         for (j = 0; j <= m->vlpb; j++) {
-            snprintf(n, sizeof n, "vae.decoder.up_blocks.%d.resnets.%d", l, j);
+            supermat__name(n, sizeof n, "vae.decoder.up_blocks.%d.resnets.%d", l, j);
             supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? prev : out_ch, out_ch, 0, m->vgroups, e);
         }
         lv->has_sampler = l < m->vL - 1;
-        if (lv->has_sampler) { snprintf(n, sizeof n, "vae.decoder.up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
+        if (lv->has_sampler) { supermat__name(n, sizeof n, "vae.decoder.up_blocks.%d.upsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 1); }
     }
     supermat__bind_norm(L, &m->d_norm_out, "vae.decoder.conv_norm_out", m->vboc[0], e);
     supermat__bind_conv(L, &m->d_conv_out, "vae.decoder.conv_out", m->vboc[0], m->vout, 3, 1);
@@ -2375,8 +2397,19 @@ static supermat__t supermat__up_fwd(supermat__ctx *X, const supermat_model *m, c
 
 /* The UNet: trunk once, then each wanted branch. v[b] receives branch b's output (allocated here,
    NULL data for branches not wanted). */
+/* a branch's UNet output is ready: report it, turn it into x0 (reported too), then into the decoder's
+   input x0 / scaling_factor */
+static void supermat__branch_done(supermat__ctx *X, const supermat_model *m, const supermat_run_desc *rd, int b, supermat__t *v) {
+    size_t i, n = supermat__numel(v);
+    if (!supermat__live(X)) return;
+    if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_UNET_OUT, b, v->d, v->n, v->h, v->w, v->c);
+    for (i = 0; i < n; i++) v->d[i] *= m->x0_coef;
+    if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_X0, b, v->d, v->n, v->h, v->w, v->c);
+    for (i = 0; i < n; i++) v->d[i] /= m->sf;
+}
+
 static void supermat__unet_fwd(supermat__ctx *X, const supermat_model *m, const supermat__t *lat, const float *cams, int want,
-                               supermat__t *v, double *flops_trunk, double *flops_branch) {
+                               const supermat_run_desc *rd, supermat__t *v, double *flops_trunk, double *flops_branch) {
     supermat__t skips[1 + SUPERMAT__MAXL * (SUPERMAT__MAXLAYERS + 1)], h;
     int ns = 0, l, j, b, nemb = cams ? lat->n : 1, T = m->temb_dim, half = m->boc[0] / 2, i, keep;
     float *emb0 = supermat__get(X, (size_t)m->boc[0]), *e1 = supermat__get(X, (size_t)T * nemb), *emb = supermat__get(X, (size_t)T * nemb);
@@ -2436,6 +2469,7 @@ static void supermat__unet_fwd(supermat__ctx *X, const supermat_model *m, const 
         for (j = ns; j < before; j++) supermat__drop(X, &skips[j]);
     }
     *flops_trunk += X->flops - f0;
+    if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_TRUNK, 0, h.d, h.n, h.h, h.w, h.c);
     /* the expert branches share the trunk output and the remaining skips */
     keep = ns;
     for (b = 0; b < m->branches; b++) {
@@ -2452,6 +2486,7 @@ static void supermat__unet_fwd(supermat__ctx *X, const supermat_model *m, const 
         supermat__conv2d(X, &t, t.h, t.w, &m->conv_out[b], 0, &v[b], NULL, NULL);
         supermat__drop(X, &t);
         *flops_branch += X->flops - f0;
+        supermat__branch_done(X, m, rd, b, &v[b]);
     }
     supermat__drop(X, &h);
     for (j = 0; j < keep; j++) supermat__drop(X, &skips[j]);
@@ -2581,19 +2616,10 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     fl->encode = X->flops - f0;
     supermat__drop(X, &img);
     if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_LATENT, 0, lat.d, lat.n, lat.h, lat.w, lat.c);
-    supermat__unet_fwd(X, m, &lat, NULL, want, v, &fl->trunk, &fl->branch);
+    supermat__unet_fwd(X, m, &lat, NULL, want, rd, v, &fl->trunk, &fl->branch);
     supermat__drop(X, &lat);
     for (b = 0; b < m->branches; b++) {
-        if (!v[b].d) { dec[b].d = NULL; continue; }
-        if (supermat__live(X)) {
-            size_t i, n = supermat__numel(&v[b]);
-            if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_UNET_OUT, b, v[b].d, v[b].n, v[b].h, v[b].w, v[b].c);
-            for (i = 0; i < n; i++) v[b].d[i] *= m->x0_coef;
-            if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_X0, b, v[b].d, v[b].n, v[b].h, v[b].w, v[b].c);
-            for (i = 0; i < n; i++) v[b].d[i] /= m->sf;
-        }
-    }
-    for (b = 0; b < m->branches; b++) {
+        dec[b].d = NULL;
         if (!v[b].d) continue;
         f0 = X->flops;
         dec[b] = supermat__vae_decode(X, m, &v[b]);

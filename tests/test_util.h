@@ -9,12 +9,12 @@
 static int tu_pass, tu_fail;
 #define TU_CHECK(cond, ...) do { if (cond) tu_pass++; else { tu_fail++; printf("FAIL %s:%d: ", __FILE__, __LINE__); printf(__VA_ARGS__); printf("\n"); } } while (0)
 
-static int tu_finish(const char *name) {
+static inline int tu_finish(const char *name) {
     printf("%s: %d passed, %d failed\n", name, tu_pass, tu_fail);
     return tu_fail ? 1 : 0;
 }
 
-static unsigned char *tu_load(const char *path, size_t *size) {
+static inline unsigned char *tu_load(const char *path, size_t *size) {
     FILE *f = fopen(path, "rb");
     unsigned char *buf;
     long n;
@@ -31,7 +31,7 @@ static unsigned char *tu_load(const char *path, size_t *size) {
 
 /* A little-endian float32 or uint8 C-order .npy: returns floats, fills shape. */
 typedef struct tu_npy { float *data; int ndim; long shape[8]; size_t n; } tu_npy;
-static int tu_npy_load(const char *path, tu_npy *out) {
+static inline int tu_npy_load(const char *path, tu_npy *out) {
     size_t size = 0, i, hl, off;
     unsigned char *b = tu_load(path, &size);
     const char *h, *p;
@@ -69,7 +69,7 @@ static int tu_npy_load(const char *path, tu_npy *out) {
 }
 
 /* relative L2 of a vs reference b */
-static double tu_rel_l2(const float *a, const float *b, size_t n) {
+static inline double tu_rel_l2(const float *a, const float *b, size_t n) {
     double num = 0, den = 0;
     size_t i;
     for (i = 0; i < n; i++) { double d = (double)a[i] - b[i]; num += d * d; den += (double)b[i] * b[i]; }

@@ -1,0 +1,1204 @@
+/* Tests of the model converter (tools/sm_convert.c): the torch.save reader (zip, zip64, pickle), the CLIP
+   text encoder, the output file, and every error path (truncated / corrupted files must fail cleanly).
+   usage: test_convert DATA_DIR [TWIN_DIR]
+     DATA_DIR  tests/data (uses DATA_DIR/tiny), or a folder holding supermat.pth, supermat_mv.pth,
+               uv_refine_bc.pth and base/ directly (e.g. the reference harness's models_tiny)
+     TWIN_DIR  optional: a folder with <checkpoint>.safetensors copies made by the reference harness; the
+               converted tensors are then compared with those too (else with this reader's own values)
+   Scratch files go to ./test_convert_tmp (removed at the end). */
+#define SUPERMAT_IMPLEMENTATION
+#include "supermat.h"
+#include "sm_convert.h"
+#include "test_util.h"
+
+#include <stdint.h>
+#include <time.h>
+#ifdef _WIN32
+#include <direct.h>
+#define tc_mkdir(p) _mkdir(p)
+#define tc_rmdir(p) _rmdir(p)
+#else
+#include <sys/stat.h>
+#include <unistd.h>
+#define tc_mkdir(p) mkdir(p, 0755)
+#define tc_rmdir(p) rmdir(p)
+#endif
+
+#define TMP "test_convert_tmp"
+
+/* ---- small utilities ------------------------------------------------------------------------- */
+static int tc_exists(const char *p) {
+    FILE *f = fopen(p, "rb");
+    if (!f) return 0;
+    fclose(f);
+    return 1;
+}
+
+static int tc_write(const char *path, const void *data, size_t n) {
+    FILE *f = fopen(path, "wb");
+    size_t w;
+    if (!f) return -1;
+    w = fwrite(data, 1, n, f);
+    return (fclose(f) == 0 && w == n) ? 0 : -1;
+}
+
+static int tc_copy(const char *src, const char *dst) {
+    size_t n = 0;
+    unsigned char *b = tu_load(src, &n);
+    int r;
+    if (!b) return -1;
+    r = tc_write(dst, b, n);
+    free(b);
+    return r;
+}
+
+/* scratch files, removed at exit (deepest first) */
+static char tc_made[512][700];
+static int tc_nmade;
+static void tc_track(const char *p) {
+    if (tc_nmade < 512) snprintf(tc_made[tc_nmade++], sizeof tc_made[0], "%s", p);
+}
+static void tc_mkdir_tracked(const char *p) {
+    tc_mkdir(p);
+    tc_track(p);
+}
+static void tc_cleanup(void) {
+    int i;
+    for (i = tc_nmade - 1; i >= 0; i--)
+        if (remove(tc_made[i]) != 0) tc_rmdir(tc_made[i]);
+}
+
+static uint32_t tc_crc32(const unsigned char *p, size_t n) { /* bitwise, independent of the converter's */
+    uint32_t c = 0xFFFFFFFFu;
+    size_t i;
+    int k;
+    for (i = 0; i < n; i++) {
+        c ^= p[i];
+        for (k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return ~c;
+}
+
+static uint32_t tc_rand_state = 12345;
+static uint32_t tc_rand(void) {
+    tc_rand_state = tc_rand_state * 1664525u + 1013904223u;
+    return tc_rand_state >> 8;
+}
+
+static uint16_t tc_rd16(const unsigned char *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
+static uint32_t tc_rd32(const unsigned char *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24); }
+static void tc_wr32(unsigned char *p, uint32_t v) { p[0] = (unsigned char)v; p[1] = (unsigned char)(v >> 8); p[2] = (unsigned char)(v >> 16); p[3] = (unsigned char)(v >> 24); }
+
+/* ---- reference F16 / BF16 rounding (nearest, ties to even), written independently -------------- */
+static double tc_f16_value(unsigned h) {
+    unsigned e = (h >> 10) & 31, m = h & 1023;
+    double v = e ? ldexp(1024.0 + m, (int)e - 25) : ldexp((double)m, -24);
+    return (h & 0x8000) ? -v : v;
+}
+static uint16_t tc_ref_f16(float f) {
+    double a = fabs((double)f);
+    unsigned lo = 0, hi = 0x7bff, s = f < 0 ? 0x8000u : 0u;
+    if (a >= 65520.0) return (uint16_t)(s | 0x7c00u);
+    while (hi - lo > 1) { /* the last code with value <= a */
+        unsigned mid = (lo + hi) / 2;
+        if (tc_f16_value(mid) <= a) lo = mid;
+        else hi = mid;
+    }
+    if (tc_f16_value(hi) <= a) lo = hi;
+    if (lo < 0x7bff) {
+        double d0 = a - tc_f16_value(lo), d1 = tc_f16_value(lo + 1) - a;
+        if (d1 < d0 || (d1 == d0 && (lo & 1))) lo++;
+    }
+    return (uint16_t)(s | lo);
+}
+static double tc_bf16_value(unsigned h) {
+    uint32_t u = (uint32_t)h << 16;
+    float f;
+    memcpy(&f, &u, 4);
+    return f;
+}
+static uint16_t tc_ref_bf16(float f) {
+    uint32_t u;
+    unsigned t;
+    double d0, d1, a = f;
+    memcpy(&u, &f, 4);
+    t = u >> 16;
+    d0 = fabs(a - tc_bf16_value(t));
+    d1 = fabs(tc_bf16_value(t + 1) - a);
+    if (d1 < d0 || (d1 == d0 && (t & 1))) t++;
+    return (uint16_t)t;
+}
+
+/* ---- a byte buffer --------------------------------------------------------------------------- */
+typedef struct tc_buf { unsigned char *p; size_t n, cap; } tc_buf;
+static void tc_put(tc_buf *b, const void *d, size_t n) {
+    if (b->n + n > b->cap) {
+        size_t nc = b->cap ? b->cap : 1024;
+        while (nc < b->n + n) nc *= 2;
+        b->p = (unsigned char *)realloc(b->p, nc);
+        b->cap = nc;
+    }
+    if (n) memcpy(b->p + b->n, d, n);
+    b->n += n;
+}
+static void tc_u8(tc_buf *b, unsigned v) { unsigned char c = (unsigned char)v; tc_put(b, &c, 1); }
+static void tc_u16(tc_buf *b, unsigned v) { tc_u8(b, v & 255); tc_u8(b, (v >> 8) & 255); }
+static void tc_u32(tc_buf *b, uint32_t v) { tc_u16(b, v & 0xFFFF); tc_u16(b, v >> 16); }
+static void tc_u64(tc_buf *b, uint64_t v) { tc_u32(b, (uint32_t)v); tc_u32(b, (uint32_t)(v >> 32)); }
+static void tc_str(tc_buf *b, const char *s) { tc_put(b, s, strlen(s)); }
+
+/* ---- a miniature torch.save: the same zip layout and pickle opcodes PyTorch writes -------------- */
+typedef struct tw_storage { const void *data; long long numel; int dt; } tw_storage; /* dt: 0 F32, 1 F16, 2 BF16, 3 I64 */
+typedef struct tw_tensor { const char *name; int storage, ndim; long long offset, shape[4], stride[4]; } tw_tensor;
+typedef struct tw_opts { int zip64, wrap, compressed, no_descriptor, drop_storage, param, proto4; } tw_opts;
+static const char *const tw_cls[4] = {"FloatStorage", "HalfStorage", "BFloat16Storage", "LongStorage"};
+static const int tw_size[4] = {4, 2, 2, 8};
+
+static void tw_unicode(tc_buf *b, const char *s, int proto4) {
+    if (proto4 && strlen(s) < 256) { tc_u8(b, 0x8c); tc_u8(b, (unsigned)strlen(s)); }
+    else { tc_u8(b, 'X'); tc_u32(b, (uint32_t)strlen(s)); }
+    tc_str(b, s);
+}
+static void tw_int(tc_buf *b, long long v) {
+    if (v >= 0 && v < 256) { tc_u8(b, 'K'); tc_u8(b, (unsigned)v); }
+    else if (v >= INT32_MIN && v <= INT32_MAX) { tc_u8(b, 'J'); tc_u32(b, (uint32_t)v); }
+    else { tc_u8(b, 0x8a); tc_u8(b, 8); tc_u64(b, (uint64_t)v); }
+}
+static void tw_global(tc_buf *b, const char *mod, const char *name, int proto4) {
+    if (proto4) { tw_unicode(b, mod, 1); tw_unicode(b, name, 1); tc_u8(b, 0x93); tc_u8(b, 0x94); }
+    else { tc_u8(b, 'c'); tc_str(b, mod); tc_u8(b, '\n'); tc_str(b, name); tc_u8(b, '\n'); }
+}
+
+static void tw_pickle(tc_buf *b, const tw_tensor *t, int nt, const tw_storage *s, const tw_opts *o) {
+    int i, k, p4 = o->proto4;
+    char key[16];
+    (void)s;
+    tc_u8(b, 0x80); tc_u8(b, p4 ? 4 : 2);
+    if (p4) { tc_u8(b, 0x95); tc_u64(b, 0); } /* a FRAME header (its length is not used by the reader) */
+    if (o->wrap) { tc_u8(b, '}'); tc_u8(b, '('); tw_unicode(b, "epoch", p4); tw_int(b, 7); tw_unicode(b, "state_dict", p4); }
+    tw_global(b, "collections", "OrderedDict", p4);
+    tc_u8(b, ')'); tc_u8(b, 'R');
+    tc_u8(b, 'q'); tc_u8(b, 1); /* BINPUT 1 */
+    tc_u8(b, '(');
+    for (i = 0; i < nt; i++) {
+        tw_unicode(b, t[i].name, p4);
+        if (o->param) tw_global(b, "torch._utils", "_rebuild_parameter", p4);
+        if (o->param) tc_u8(b, '(');
+        tw_global(b, "torch._utils", "_rebuild_tensor_v2", p4);
+        tc_u8(b, '(');
+        tc_u8(b, '('); /* the persistent id */
+        tw_unicode(b, "storage", p4);
+        tw_global(b, "torch", tw_cls[s[t[i].storage].dt], p4);
+        snprintf(key, sizeof key, "%d", t[i].storage);
+        tw_unicode(b, key, p4);
+        tw_unicode(b, "cpu", p4);
+        tw_int(b, s[t[i].storage].numel);
+        tc_u8(b, 't');
+        tc_u8(b, 'Q');
+        tw_int(b, t[i].offset);
+        tc_u8(b, '(');
+        for (k = 0; k < t[i].ndim; k++) tw_int(b, t[i].shape[k]);
+        tc_u8(b, 't');
+        tc_u8(b, '(');
+        for (k = 0; k < t[i].ndim; k++) tw_int(b, t[i].stride[k]);
+        tc_u8(b, 't');
+        tc_u8(b, 0x89);
+        tw_global(b, "collections", "OrderedDict", p4);
+        tc_u8(b, ')'); tc_u8(b, 'R');
+        tc_u8(b, 't');
+        tc_u8(b, 'R');
+        if (o->param) { tc_u8(b, 0x89); tc_u8(b, 'h'); tc_u8(b, 1); tc_u8(b, 't'); tc_u8(b, 'R'); } /* (data, False, <memo 1>) */
+    }
+    tc_u8(b, 'u');
+    if (o->wrap) tc_u8(b, 'u');
+    tc_u8(b, '.');
+}
+
+typedef struct tw_entry { char name[64]; uint64_t lho, size; uint32_t crc; } tw_entry;
+
+static void tw_add(tc_buf *z, tw_entry *e, const char *name, const void *data, size_t n, const tw_opts *o, int method) {
+    size_t nl = strlen(name), pad, base;
+    int desc = !o->no_descriptor;
+    snprintf(e->name, sizeof e->name, "%s", name);
+    e->lho = z->n;
+    e->size = n;
+    e->crc = tc_crc32((const unsigned char *)data, n);
+    tc_u32(z, 0x04034b50u);
+    tc_u16(z, o->zip64 ? 45 : 20);
+    tc_u16(z, desc ? 0x0808 : 0x0800);
+    tc_u16(z, (unsigned)method);
+    tc_u16(z, 0); tc_u16(z, 0x21); /* time, date */
+    tc_u32(z, desc ? 0 : e->crc);
+    tc_u32(z, desc ? 0 : (uint32_t)n);
+    tc_u32(z, desc ? 0 : (uint32_t)n);
+    tc_u16(z, (unsigned)nl);
+    /* torch pads the local extra field so that the data starts on a 64-byte boundary */
+    base = z->n + 2 + nl + 4;
+    pad = (64 - base % 64) % 64;
+    tc_u16(z, (unsigned)(4 + pad));
+    tc_put(z, name, nl);
+    tc_u16(z, 0x4246); tc_u16(z, (unsigned)pad); /* "FB" */
+    while (pad--) tc_u8(z, 'Z');
+    tc_put(z, data, n);
+    if (desc) {
+        tc_u32(z, 0x08074b50u);
+        tc_u32(z, e->crc);
+        if (o->zip64) { tc_u64(z, n); tc_u64(z, n); }
+        else { tc_u32(z, (uint32_t)n); tc_u32(z, (uint32_t)n); }
+    }
+}
+
+static unsigned char *tw_save(const tw_tensor *t, int nt, const tw_storage *s, int ns, const tw_opts *o, size_t *size) {
+    tc_buf z, pk;
+    tw_entry e[40];
+    int ne = 0, i;
+    uint64_t cd_off, cd_size, z64_off;
+    memset(&z, 0, sizeof z);
+    memset(&pk, 0, sizeof pk);
+    tw_pickle(&pk, t, nt, s, o);
+    tw_add(&z, &e[ne++], "archive/data.pkl", pk.p, pk.n, o, o->compressed ? 8 : 0);
+    tw_add(&z, &e[ne++], "archive/byteorder", "little", 6, o, 0);
+    for (i = 0; i < ns && ne < 38; i++) {
+        char nm[64];
+        if (o->drop_storage && i == ns - 1) continue;
+        snprintf(nm, sizeof nm, "archive/data/%d", i);
+        tw_add(&z, &e[ne++], nm, s[i].data, (size_t)(s[i].numel * tw_size[s[i].dt]), o, 0);
+    }
+    tw_add(&z, &e[ne++], "archive/version", "3\n", 2, o, 0);
+    cd_off = z.n;
+    for (i = 0; i < ne; i++) {
+        size_t nl = strlen(e[i].name);
+        tc_u32(&z, 0x02014b50u);
+        tc_u16(&z, o->zip64 ? 45 : 20); tc_u16(&z, o->zip64 ? 45 : 20);
+        tc_u16(&z, o->no_descriptor ? 0x0800 : 0x0808);
+        tc_u16(&z, (unsigned)(o->compressed && i == 0 ? 8 : 0));
+        tc_u16(&z, 0); tc_u16(&z, 0x21);
+        tc_u32(&z, e[i].crc);
+        tc_u32(&z, o->zip64 ? 0xFFFFFFFFu : (uint32_t)e[i].size);
+        tc_u32(&z, o->zip64 ? 0xFFFFFFFFu : (uint32_t)e[i].size);
+        tc_u16(&z, (unsigned)nl);
+        tc_u16(&z, o->zip64 ? 28 : 0);
+        tc_u16(&z, 0); tc_u16(&z, 0); tc_u16(&z, 0); tc_u32(&z, 0);
+        tc_u32(&z, o->zip64 ? 0xFFFFFFFFu : (uint32_t)e[i].lho);
+        tc_put(&z, e[i].name, nl);
+        if (o->zip64) { tc_u16(&z, 1); tc_u16(&z, 24); tc_u64(&z, e[i].size); tc_u64(&z, e[i].size); tc_u64(&z, e[i].lho); }
+    }
+    cd_size = z.n - cd_off;
+    if (o->zip64) {
+        z64_off = z.n;
+        tc_u32(&z, 0x06064b50u); tc_u64(&z, 44); tc_u16(&z, 45); tc_u16(&z, 45); tc_u32(&z, 0); tc_u32(&z, 0);
+        tc_u64(&z, (uint64_t)ne); tc_u64(&z, (uint64_t)ne); tc_u64(&z, cd_size); tc_u64(&z, cd_off);
+        tc_u32(&z, 0x07064b50u); tc_u32(&z, 0); tc_u64(&z, z64_off); tc_u32(&z, 1);
+    }
+    tc_u32(&z, 0x06054b50u); tc_u16(&z, 0); tc_u16(&z, 0);
+    tc_u16(&z, o->zip64 ? 0xFFFF : (unsigned)ne); tc_u16(&z, o->zip64 ? 0xFFFF : (unsigned)ne);
+    tc_u32(&z, o->zip64 ? 0xFFFFFFFFu : (uint32_t)cd_size);
+    tc_u32(&z, o->zip64 ? 0xFFFFFFFFu : (uint32_t)cd_off);
+    tc_u16(&z, 0);
+    free(pk.p);
+    *size = z.n;
+    return z.p;
+}
+
+static void tw_contig(tw_tensor *t, const char *name, int storage, long long off, int ndim, const long long *shape) {
+    int k;
+    long long st = 1;
+    memset(t, 0, sizeof *t);
+    t->name = name;
+    t->storage = storage;
+    t->offset = off;
+    t->ndim = ndim;
+    for (k = ndim - 1; k >= 0; k--) {
+        t->shape[k] = shape[k];
+        t->stride[k] = st;
+        st *= shape[k];
+    }
+}
+
+/* ---- 1. the reader on hand-made checkpoints -------------------------------------------------- */
+static void test_reader_small(void) {
+    float a[24], c[3];
+    uint16_t h[10], bf[6];
+    long long i64[4] = {1, 2, 3, 4};
+    tw_storage s[4];
+    tw_tensor t[6];
+    long long sh_a[2] = {4, 6}, sh_v[1] = {5}, sh_h[2] = {2, 5}, sh_bf[1] = {6}, sh_e[2] = {0, 3};
+    int i, v, r;
+    char err[512];
+    for (i = 0; i < 24; i++) a[i] = (float)i * 0.25f - 3.0f;
+    for (i = 0; i < 10; i++) h[i] = (uint16_t)(0x3c00 + i);
+    for (i = 0; i < 6; i++) bf[i] = (uint16_t)(0x3f80 + 3 * i);
+    c[0] = c[1] = c[2] = 1.5f;
+    s[0].data = a; s[0].numel = 24; s[0].dt = 0;
+    s[1].data = h; s[1].numel = 10; s[1].dt = 1;
+    s[2].data = bf; s[2].numel = 6; s[2].dt = 2;
+    s[3].data = c; s[3].numel = 3; s[3].dt = 0;
+    tw_contig(&t[0], "a.weight", 0, 0, 2, sh_a);
+    tw_contig(&t[1], "a.view", 0, 7, 1, sh_v);    /* shares storage 0 from element 7 */
+    tw_contig(&t[2], "h", 1, 0, 2, sh_h);
+    tw_contig(&t[3], "bf", 2, 0, 1, sh_bf);
+    tw_contig(&t[4], "scalar", 3, 2, 0, NULL);    /* 0-d tensor at element 2 */
+    tw_contig(&t[5], "empty", 3, 0, 2, sh_e);
+    for (v = 0; v < 16; v++) {
+        tw_opts o;
+        size_t n;
+        unsigned char *f;
+        sm_pth *p = NULL;
+        memset(&o, 0, sizeof o);
+        o.zip64 = v & 1;
+        o.wrap = (v >> 1) & 1;
+        o.no_descriptor = (v >> 2) & 1;
+        o.proto4 = (v >> 3) & 1;
+        o.param = v == 6;
+        f = tw_save(t, 6, s, 4, &o, &n);
+        r = sm_pth_open_memory(f, n, &p, err, sizeof err);
+        TU_CHECK(r == 0, "variant %d (zip64 %d wrap %d proto4 %d): %s", v, o.zip64, o.wrap, o.proto4, err);
+        if (!r) {
+            unsigned char buf[128];
+            const supermat_tensor_info *ti;
+            TU_CHECK(sm_pth_count(p) == 6, "variant %d: %d tensors", v, sm_pth_count(p));
+            ti = sm_pth_tensor(p, 0);
+            TU_CHECK(ti && !strcmp(ti->name, "a.weight") && ti->dtype == SUPERMAT_DTYPE_F32 && ti->ndim == 2 && ti->shape[0] == 4 && ti->shape[1] == 6 && ti->nbytes == 96, "a.weight info");
+            TU_CHECK(sm_pth_read(p, 0, buf, err, sizeof err) == 0 && !memcmp(buf, a, 96), "a.weight bytes: %s", err);
+            i = sm_pth_find(p, "a.view");
+            TU_CHECK(i == 1 && sm_pth_read(p, i, buf, err, sizeof err) == 0 && !memcmp(buf, a + 7, 20), "shared-storage view");
+            i = sm_pth_find(p, "h");
+            ti = sm_pth_tensor(p, i);
+            TU_CHECK(ti && ti->dtype == SUPERMAT_DTYPE_F16 && sm_pth_read(p, i, buf, err, sizeof err) == 0 && !memcmp(buf, h, 20), "F16 tensor");
+            i = sm_pth_find(p, "bf");
+            ti = sm_pth_tensor(p, i);
+            TU_CHECK(ti && ti->dtype == SUPERMAT_DTYPE_BF16 && sm_pth_read(p, i, buf, err, sizeof err) == 0 && !memcmp(buf, bf, 12), "BF16 tensor");
+            i = sm_pth_find(p, "scalar");
+            ti = sm_pth_tensor(p, i);
+            TU_CHECK(ti && ti->ndim == 0 && ti->nbytes == 4 && sm_pth_read(p, i, buf, err, sizeof err) == 0 && !memcmp(buf, c + 2, 4), "0-d tensor");
+            ti = sm_pth_tensor(p, sm_pth_find(p, "empty"));
+            TU_CHECK(ti && ti->nbytes == 0 && ti->ndim == 2 && ti->shape[0] == 0, "empty tensor");
+            TU_CHECK(sm_pth_find(p, "nope") == -1 && sm_pth_tensor(p, 6) == NULL, "lookups");
+            sm_pth_close(p);
+        }
+        free(f);
+    }
+    /* files the reader must refuse, with a message saying why */
+    {
+        static const struct { const char *what, *expect; } cases[] = {
+            {"non-contiguous", "contiguous"}, {"int64", "I64"},        {"missing storage", "missing"},
+            {"past storage", "past its storage"}, {"compressed", "compressed"}, {"legacy", "legacy"},
+            {"crc", "CRC"},                 {"not a dict", "not a dict"},
+        };
+        int cse;
+        for (cse = 0; cse < (int)(sizeof cases / sizeof cases[0]); cse++) {
+            tw_opts o;
+            tw_tensor tt[2];
+            tw_storage ss[2];
+            long long sh[2] = {4, 6};
+            size_t n = 0;
+            unsigned char *f = NULL;
+            sm_pth *p = NULL;
+            memset(&o, 0, sizeof o);
+            ss[0] = s[0];
+            ss[1] = s[3];
+            tw_contig(&tt[0], "x", 0, 0, 2, sh);
+            tw_contig(&tt[1], "y", 1, 0, 1, sh_v);
+            tt[1].shape[0] = 3;
+            if (cse == 0) { tt[0].stride[0] = 1; tt[0].stride[1] = 4; }
+            if (cse == 1) { ss[1].data = i64; ss[1].numel = 4; ss[1].dt = 3; }
+            if (cse == 2) o.drop_storage = 1;
+            if (cse == 3) tt[1].offset = 1;
+            if (cse == 4) o.compressed = 1;
+            if (cse == 5) {
+                static const unsigned char legacy[] = {0x80, 0x02, 0x8a, 0x0a, 0x6c, 0xfc, 0x9c, 0x46, 0xf9, 0x20, 0x6a, 0xa8, 0x50, 0x19, 0x2e};
+                f = (unsigned char *)malloc(sizeof legacy);
+                memcpy(f, legacy, sizeof legacy);
+                n = sizeof legacy;
+            } else f = tw_save(tt, 2, ss, 2, &o, &n);
+            if (cse == 6) f[200] ^= 1; /* inside data.pkl */
+            if (cse == 7) { /* replace the pickle by a list: find data.pkl's data (it is 64-aligned, first) */
+                static const unsigned char lst[] = {0x80, 0x02, ']', 'q', 0, '.'};
+                size_t k;
+                for (k = 64; k + 6 < n; k++)
+                    if (f[k] == 0x80 && f[k + 1] == 2) { memcpy(f + k, lst, sizeof lst); break; }
+                /* fix the CRC so that the pickle VM itself sees it */
+                for (k = 0; k + 46 < n; k++)
+                    if (tc_rd32(f + k) == 0x02014b50u && !memcmp(f + k + 46, "archive/data.pkl", 16)) {
+                        uint32_t len = tc_rd32(f + k + 24);
+                        unsigned char *d = f + 64;
+                        while (d[0] != 0x80) d++;
+                        tc_wr32(f + k + 16, tc_crc32(d, len));
+                        break;
+                    }
+            }
+            r = sm_pth_open_memory(f, n, &p, err, sizeof err);
+            TU_CHECK(r != 0 && p == NULL && strstr(err, cases[cse].expect) != NULL, "%s: expected an error mentioning '%s', got %d '%s'", cases[cse].what, cases[cse].expect, r, err);
+            free(f);
+        }
+    }
+    {
+        sm_pth *none = NULL;
+        TU_CHECK(sm_pth_open("does/not/exist.pth", &none, err, sizeof err) != 0 && none == NULL && strstr(err, "exist.pth"), "missing file: %s", err);
+    }
+}
+
+/* ---- 2. robustness: truncation and corruption sweeps (run under ASan/UBSan in CI) ------------ */
+static const unsigned char *tc_find_pickle(const unsigned char *f, size_t n, size_t *len, size_t *cd_entry) {
+    size_t k;
+    for (k = 0; k + 46 < n; k++)
+        if (tc_rd32(f + k) == 0x02014b50u) {
+            unsigned nl = tc_rd16(f + k + 28);
+            if (nl >= 8 && k + 46 + nl <= n && !memcmp(f + k + 46 + nl - 8, "data.pkl", 8)) {
+                uint32_t lho = tc_rd32(f + k + 42);
+                *len = tc_rd32(f + k + 24);
+                *cd_entry = k;
+                return f + lho + 30 + tc_rd16(f + lho + 26) + tc_rd16(f + lho + 28);
+            }
+        }
+    return NULL;
+}
+
+static void test_sweeps(const char *pth) {
+    size_t n = 0, plen = 0, cde = 0, cut, k, step;
+    unsigned char *f = tu_load(pth, &n), *g;
+    const unsigned char *pk;
+    int cuts = 0, flips = 0, ok_after_flip = 0, crashes_would_show = 0, r, nt = -1, nt0 = -1;
+    char err[512];
+    sm_pth *p = NULL;
+    TU_CHECK(f != NULL, "cannot read %s", pth);
+    if (!f) return;
+    pk = tc_find_pickle(f, n, &plen, &cde);
+    TU_CHECK(pk != NULL && plen > 0, "data.pkl not found in %s", pth);
+    if (!pk) { free(f); return; }
+    TU_CHECK(sm_pickle_check(pk, plen, &nt0, err, sizeof err) == 0 && nt0 > 0, "pickle check: %s", err);
+    /* the pickle alone: truncated at every byte of the first 4 KiB, then a stride; each must fail */
+    step = plen > 4096 ? (plen - 4096) / 200 + 1 : 1;
+    for (cut = 0; cut < plen; cut += cut < 4096 ? 1 : step) {
+        r = sm_pickle_check(pk, cut, &nt, err, sizeof err);
+        if (r == 0) { TU_CHECK(0, "pickle truncated to %lu bytes was accepted", (unsigned long)cut); break; }
+        cuts++;
+    }
+    /* the file, truncated: a stride over the whole file, plus the last 100 bytes one by one */
+    g = (unsigned char *)malloc(n);
+    memcpy(g, f, n);
+    step = n / 300 + 1;
+    for (cut = 0; cut < n; cut += cut + 100 >= n ? 1 : step) {
+        r = sm_pth_open_memory(g, cut, &p, err, sizeof err);
+        if (r == 0) { TU_CHECK(0, "file truncated to %lu bytes was accepted", (unsigned long)cut); sm_pth_close(p); break; }
+        cuts++;
+    }
+    /* truncated inside the tensors but with the central directory kept: zero a range before it */
+    memcpy(g, f, n);
+    {
+        uint32_t cd_off = 0;
+        for (k = n - 22; k > 0; k--)
+            if (tc_rd32(f + k) == 0x06054b50u) { cd_off = tc_rd32(f + k + 16); break; }
+        TU_CHECK(cd_off > 0 && cd_off < n, "EOCD");
+        for (k = 0; k < 40 && cd_off; k++) {
+            size_t from = (size_t)cd_off - (size_t)cd_off * (k + 1) / 41;
+            memset(g + from, 0, (size_t)cd_off - from);
+            p = NULL;
+            r = sm_pth_open_memory(g, n, &p, err, sizeof err);
+            if (r == 0) { /* the headers may survive; the data CRC must then catch it on read */
+                int i, bad = 0;
+                unsigned char *buf;
+                for (i = 0; i < sm_pth_count(p); i++) {
+                    const supermat_tensor_info *t = sm_pth_tensor(p, i);
+                    buf = (unsigned char *)malloc((size_t)t->nbytes + 1);
+                    if (sm_pth_read(p, i, buf, err, sizeof err) != 0) bad++;
+                    free(buf);
+                }
+                TU_CHECK(bad > 0, "zeroed [%lu, %lu) went unnoticed", (unsigned long)from, (unsigned long)cd_off);
+                sm_pth_close(p);
+            }
+            memcpy(g + from, f + from, (size_t)cd_off - from);
+            cuts++;
+        }
+    }
+    /* flipped bytes in data.pkl: refused through the CRC; and, with the CRC fixed up, the pickle VM must
+       not crash (it may accept a flip inside a name or a number) */
+    for (k = 0; k < 300; k++) {
+        size_t at = tc_rand() % plen, off = (size_t)(pk - f) + at;
+        unsigned char nv = (unsigned char)(tc_rand() & 255);
+        if (nv == f[off]) nv ^= 0x5a;
+        g[off] = nv;
+        p = NULL;
+        r = sm_pth_open_memory(g, n, &p, err, sizeof err);
+        if (r == 0) { TU_CHECK(0, "flipped data.pkl byte %lu accepted", (unsigned long)at); sm_pth_close(p); }
+        TU_CHECK(r != 0 && strstr(err, "CRC"), "flip %lu: %s", (unsigned long)at, err);
+        tc_wr32(g + cde + 16, tc_crc32(g + (pk - f), plen));
+        p = NULL;
+        r = sm_pth_open_memory(g, n, &p, err, sizeof err);
+        if (r == 0) { ok_after_flip++; sm_pth_close(p); }
+        r = sm_pickle_check(g + (pk - f), plen, &nt, err, sizeof err);
+        g[off] = f[off];
+        memcpy(g + cde + 16, f + cde + 16, 4);
+        flips++;
+    }
+    /* random bytes anywhere in the pickle, several at once, and the central directory */
+    for (k = 0; k < 300; k++) {
+        int j;
+        size_t at[4];
+        for (j = 0; j < 4; j++) g[at[j] = (size_t)(pk - f) + tc_rand() % plen] = (unsigned char)tc_rand();
+        sm_pickle_check(g + (pk - f), plen, &nt, err, sizeof err);
+        for (j = 3; j >= 0; j--) g[at[j]] = f[at[j]];
+        for (j = 0; j < 3; j++) g[at[j] = cde + tc_rand() % (n - cde)] = (unsigned char)tc_rand();
+        p = NULL;
+        if (sm_pth_open_memory(g, n, &p, err, sizeof err) == 0) sm_pth_close(p);
+        for (j = 2; j >= 0; j--) g[at[j]] = f[at[j]];
+        flips++;
+    }
+    /* random programs over the opcodes the VM knows (and a few it does not) */
+    {
+        static const unsigned char ops[] = {0x80, 0x95, '}', ']', ')', '(', 't', 0x85, 0x86, 0x87, 'X', 0x8c, 0x8d, 'B', 'C', 'T', 'U', 'c',
+                                            0x93, 'Q', 'R', 0x81, 'b', 'J', 'K', 'M', 0x8a, 0x8b, 'G', 'N', 0x88, 0x89, 'q', 'r', 0x94, 'h',
+                                            'j', 's', 'u', 'e', 'a', '0', '1', '2', '.', 'I', 'p', 0xff};
+        unsigned char prog[256];
+        for (k = 0; k < 3000; k++) {
+            size_t len = 1 + tc_rand() % sizeof prog, j;
+            for (j = 0; j < len; j++) {
+                uint32_t x = tc_rand();
+                prog[j] = (x & 3) ? ops[(x >> 2) % sizeof ops] : (unsigned char)(x >> 8); /* small arguments too */
+            }
+            if (k & 1) { prog[0] = 0x80; prog[1] = 2; }
+            sm_pickle_check(prog, len, &nt, err, sizeof err);
+        }
+        flips += 3000;
+    }
+    (void)crashes_would_show;
+    printf("  sweeps: %d truncations refused, %d corruptions survived (%d single flips accepted once the CRC was fixed)\n", cuts, flips, ok_after_flip);
+    free(g);
+    free(f);
+}
+
+/* ---- 3. converting the tiny models ----------------------------------------------------------- */
+typedef struct tc_st { /* a safetensors file read by the test's own header walk */
+    unsigned char *b;
+    size_t n;
+    uint64_t hl;
+    supermat_json_tok *tok;
+    int ntok;
+} tc_st;
+
+static int tc_st_load(tc_st *s, const char *path) {
+    int i;
+    memset(s, 0, sizeof *s);
+    s->b = tu_load(path, &s->n);
+    if (!s->b || s->n < 8) return -1;
+    for (i = 7; i >= 0; i--) s->hl = (s->hl << 8) | s->b[i];
+    if (s->hl > s->n - 8) return -1;
+    s->ntok = supermat_json_parse((const char *)s->b + 8, (size_t)s->hl, NULL, 0);
+    if (s->ntok <= 0) return -1;
+    s->tok = (supermat_json_tok *)malloc(sizeof(supermat_json_tok) * (size_t)s->ntok);
+    return supermat_json_parse((const char *)s->b + 8, (size_t)s->hl, s->tok, s->ntok) == s->ntok ? 0 : -1;
+}
+static void tc_st_free(tc_st *s) { free(s->b); free(s->tok); }
+
+/* tensor `name`: dtype string, shape, data pointer, byte count; 0 if found */
+static int tc_st_get(const tc_st *s, const char *name, char *dt, long long *shape, int *ndim, const unsigned char **data, size_t *nbytes) {
+    const char *js = (const char *)s->b + 8;
+    int v = supermat_json_find(js, s->tok, 0, name), d, sh, off, k;
+    double x = 0, b0 = 0, b1 = 0;
+    if (v < 0) return -1;
+    d = supermat_json_find(js, s->tok, v, "dtype");
+    sh = supermat_json_find(js, s->tok, v, "shape");
+    off = supermat_json_find(js, s->tok, v, "data_offsets");
+    if (d < 0 || sh < 0 || off < 0) return -1;
+    supermat_json_string(js, &s->tok[d], dt, 8);
+    *ndim = s->tok[sh].size;
+    for (k = 0; k < *ndim && k < 8; k++) {
+        supermat_json_number(js, &s->tok[sh + 1 + k], &x);
+        shape[k] = (long long)x;
+    }
+    supermat_json_number(js, &s->tok[off + 1], &b0);
+    supermat_json_number(js, &s->tok[off + 2], &b1);
+    *data = s->b + 8 + s->hl + (size_t)b0;
+    *nbytes = (size_t)(b1 - b0);
+    return 0;
+}
+
+static void tc_expect_meta(const tc_st *s, const char *key, const char *want) {
+    char v[400];
+    int r = supermat_safetensors_metadata(s->b, s->n, key, v, sizeof v);
+    TU_CHECK(r == 0 && !strcmp(v, want), "metadata %s = '%s', expected '%s'", key, r == 0 ? v : "(absent)", want);
+}
+
+/* A few values of the tiny checkpoints read with torch (independent of this reader):
+   name, element count, first element, sum over all elements (float64). */
+typedef struct tc_known { const char *file, *name; long long numel; double first, sum; } tc_known;
+static const tc_known tc_known_values[] = {
+    {"supermat.pth", "conv_in.weight", 1152, 0.0858772025, 0.4196256804279983},
+    {"supermat.pth", "up_blocks.1.resnets.2.conv_shortcut.weight", 8192, -0.0152353588, -10.126492618818702},
+    {"supermat.pth", "rep_conv_out.1.bias", 4, 0.047363773, 0.0051604975014925003},
+    {"supermat.pth", "rep_conv_out.1.weight", 1152, 0.0140415458, 1.7124194596462985},
+    {"supermat_mv.pth", "conv_in.weight", 1152, -0.0476974249, 0.54423384682741016},
+    {"supermat_mv.pth", "up_blocks.1.resnets.2.conv2.weight", 36864, 0.0376929939, -0.21033806812488365},
+    {"supermat_mv.pth", "rep_conv_out.1.bias", 4, 0.0264414288, 0.021334579214453697},
+    {"supermat_mv.pth", "class_embedding.linear_1.weight", 2048, 0.0573475361, -10.608817547559738},
+    {"uv_refine_bc.pth", "time_embedding.linear_1.weight", 4096, -0.0531131625, -3.1131097887482611},
+    {"uv_refine_bc.pth", "up_blocks.2.attentions.0.transformer_blocks.0.attn2.to_k.weight", 2048, 0.0882288441, -1.8684160880657146},
+    {"uv_refine_bc.pth", "rep_conv_out.0.bias", 4, 0.0397641063, 0.010477527976036072},
+    {"uv_refine_bc.pth", "rep_conv_in.0.weight", 2304, -0.0431065336, 2.9966987903644622},
+    {"uv_refine_bc.pth", "first_down_blocks.0.resnets.0.conv1.weight", 9216, -0.0145620527, 0.16576154001799637},
+};
+
+static void test_known_values(const char *dir) {
+    int i, j;
+    char path[600], err[512];
+    for (i = 0; i < (int)(sizeof tc_known_values / sizeof tc_known_values[0]); i++) {
+        const tc_known *k = &tc_known_values[i];
+        sm_pth *p = NULL;
+        int idx;
+        snprintf(path, sizeof path, "%s/%s", dir, k->file);
+        if (sm_pth_open(path, &p, err, sizeof err)) { TU_CHECK(0, "%s", err); continue; }
+        idx = sm_pth_find(p, k->name);
+        TU_CHECK(idx >= 0, "%s: %s missing", k->file, k->name);
+        if (idx >= 0) {
+            const supermat_tensor_info *t = sm_pth_tensor(p, idx);
+            float *x = (float *)malloc((size_t)t->nbytes + 4);
+            double sum = 0;
+            TU_CHECK((long long)(t->nbytes / 4) == k->numel && t->dtype == SUPERMAT_DTYPE_F32, "%s: %lld elements", k->name, (long long)(t->nbytes / 4));
+            if ((long long)(t->nbytes / 4) == k->numel && sm_pth_read(p, idx, x, err, sizeof err) == 0) {
+                for (j = 0; j < k->numel; j++) sum += x[j];
+                TU_CHECK(x[0] == (float)k->first && fabs(sum - k->sum) <= 1e-9 * (1 + fabs(k->sum)) + 1e-6,
+                         "%s/%s: first %.9g sum %.12g, torch says %.9g %.12g", k->file, k->name, x[0], sum, k->first, k->sum);
+            }
+            free(x);
+        }
+        sm_pth_close(p);
+    }
+}
+
+static int tc_convert(const char *kind, const char *ckpt, const char *base, const char *out, supermat_dtype dt, char *err, size_t cap) {
+    sm_convert_desc d;
+    memset(&d, 0, sizeof d);
+    d.kind = kind;
+    d.checkpoint = ckpt;
+    d.base_dir = base;
+    d.output = out;
+    d.dtype = dt;
+    d.threads = 2;
+    return sm_convert(&d, err, cap);
+}
+
+/* checks the converted file against its sources; returns the number of tensors */
+static void tc_check_output(const char *out, const char *ckpt, const char *twin, const char *base, const char *kind, supermat_dtype dt,
+                            const char *in_ch, const char *branches, const char *class_in) {
+    tc_st o, tw;
+    sm_pth *ck = NULL, *vae = NULL;
+    char path[600], err[512], dts[8];
+    int i, r, nt = 0, have_twin = 0, bad_bytes = 0, bad_twin = 0, bad_vae = 0, ndim, prev_end_ok = 1;
+    long long shape[8];
+    const unsigned char *data;
+    size_t nbytes;
+    uint64_t expect_off = 0;
+    supermat_error se;
+    tu_npy ref;
+    if (tc_st_load(&o, out)) { TU_CHECK(0, "%s: cannot parse the output", out); tc_st_free(&o); return; }
+    TU_CHECK(sm_pth_open(ckpt, &ck, err, sizeof err) == 0, "%s", err);
+    snprintf(path, sizeof path, "%s/vae/diffusion_pytorch_model.safetensors", base);
+    TU_CHECK(sm_pth_open(path, &vae, err, sizeof err) == 0, "%s", err);
+    if (!ck || !vae) goto done;
+    if (twin && tc_st_load(&tw, twin) == 0) have_twin = 1;
+    else if (twin) tc_st_free(&tw);
+    TU_CHECK(o.hl % 8 == 0, "header length %llu is not a multiple of 8", (unsigned long long)o.hl);
+    TU_CHECK(supermat_safetensors_count(o.b, o.n, o.n, &nt, &se) == SUPERMAT_SUCCESS, "supermat.h rejects the output: %s", se.message);
+    TU_CHECK(nt == sm_pth_count(ck) + sm_pth_count(vae) + 1, "%d tensors, expected %d + %d + 1", nt, sm_pth_count(ck), sm_pth_count(vae));
+    /* order and layout: checkpoint tensors, then VAE, then context, back to back */
+    {
+        const char *js = (const char *)o.b + 8;
+        int k = 1, m, idx = 0;
+        for (m = 0; m < o.tok[0].size; m++, k = o.tok[k].next) {
+            char name[200];
+            int v = k + 1, off;
+            double b0 = 0, b1 = 0;
+            supermat_json_string(js, &o.tok[k], name, sizeof name);
+            if (!strcmp(name, "__metadata__")) continue;
+            off = supermat_json_find(js, o.tok, v, "data_offsets");
+            supermat_json_number(js, &o.tok[off + 1], &b0);
+            supermat_json_number(js, &o.tok[off + 2], &b1);
+            if ((uint64_t)b0 != expect_off) prev_end_ok = 0;
+            expect_off = (uint64_t)b1;
+            if (idx < sm_pth_count(ck)) { if (strcmp(name, sm_pth_tensor(ck, idx)->name)) prev_end_ok = 0; }
+            else if (idx < nt - 1) { if (strncmp(name, "vae.", 4)) prev_end_ok = 0; }
+            else if (strcmp(name, "context")) prev_end_ok = 0;
+            idx++;
+        }
+        TU_CHECK(prev_end_ok && 8 + o.hl + expect_off == o.n, "tensors are not in checkpoint, VAE, context order back to back");
+    }
+    for (i = 0; i < sm_pth_count(ck); i++) {
+        const supermat_tensor_info *t = sm_pth_tensor(ck, i);
+        unsigned char *src = (unsigned char *)malloc((size_t)t->nbytes + 4);
+        size_t ne = t->nbytes / 4, j;
+        if (tc_st_get(&o, t->name, dts, shape, &ndim, &data, &nbytes) || sm_pth_read(ck, i, src, err, sizeof err)) { bad_bytes++; free(src); continue; }
+        if (ndim != t->ndim || (ndim && shape[0] != t->shape[0])) bad_bytes++;
+        if (dt == SUPERMAT_DTYPE_DEFAULT || dt == SUPERMAT_DTYPE_F32) {
+            if (strcmp(dts, "F32") || nbytes != t->nbytes || memcmp(data, src, nbytes)) bad_bytes++;
+        } else {
+            const char *want = dt == SUPERMAT_DTYPE_F16 ? "F16" : "BF16";
+            if (strcmp(dts, want) || nbytes != ne * 2) bad_bytes++;
+            else
+                for (j = 0; j < ne; j++) {
+                    float f;
+                    uint16_t h, e;
+                    memcpy(&f, src + 4 * j, 4);
+                    memcpy(&h, data + 2 * j, 2);
+                    e = dt == SUPERMAT_DTYPE_F16 ? tc_ref_f16(f) : tc_ref_bf16(f);
+                    if (h != e) { bad_bytes++; break; }
+                }
+        }
+        if (have_twin) {
+            char dt2[8];
+            long long sh2[8];
+            int nd2;
+            const unsigned char *d2;
+            size_t n2;
+            if (tc_st_get(&tw, t->name, dt2, sh2, &nd2, &d2, &n2) || n2 != t->nbytes || memcmp(d2, src, n2)) bad_twin++;
+        }
+        free(src);
+    }
+    TU_CHECK(bad_bytes == 0, "%s: %d checkpoint tensors differ from the source", out, bad_bytes);
+    if (have_twin) {
+        TU_CHECK(bad_twin == 0 && sm_pth_count(ck) == (int)(tw.tok[0].size - (supermat_json_find((const char *)tw.b + 8, tw.tok, 0, "__metadata__") >= 0)),
+                 "%s: %d tensors differ from the harness's safetensors twin", ckpt, bad_twin);
+        printf("  %s: all %d checkpoint tensors equal the safetensors twin\n", kind, sm_pth_count(ck));
+    }
+    for (i = 0; i < sm_pth_count(vae); i++) {
+        const supermat_tensor_info *t = sm_pth_tensor(vae, i);
+        unsigned char *src = (unsigned char *)malloc((size_t)t->nbytes + 4);
+        char nm[200];
+        snprintf(nm, sizeof nm, "vae.%s", t->name);
+        if (tc_st_get(&o, nm, dts, shape, &ndim, &data, &nbytes) || sm_pth_read(vae, i, src, err, sizeof err)) bad_vae++;
+        else if (dt == SUPERMAT_DTYPE_DEFAULT && (nbytes != t->nbytes || memcmp(data, src, nbytes))) bad_vae++;
+        else if (dt == SUPERMAT_DTYPE_F16 && (strcmp(dts, "F16") || nbytes * 2 != t->nbytes)) bad_vae++;
+        free(src);
+    }
+    TU_CHECK(bad_vae == 0, "%s: %d VAE tensors differ", out, bad_vae);
+    /* the context */
+    snprintf(path, sizeof path, "%s/empty_prompt_embeds.npy", base);
+    if (tu_npy_load(path, &ref) == 0) {
+        r = tc_st_get(&o, "context", dts, shape, &ndim, &data, &nbytes);
+        TU_CHECK(r == 0 && !strcmp(dts, "F32") && ndim == 2 && (size_t)(shape[0] * shape[1]) == ref.n && nbytes == ref.n * 4, "context tensor shape");
+        if (r == 0 && nbytes == ref.n * 4) {
+            float *c = (float *)malloc(nbytes);
+            double e;
+            memcpy(c, data, nbytes);
+            e = tu_rel_l2(c, ref.data, ref.n);
+            TU_CHECK(e <= 1e-5, "context relative L2 %.3g > 1e-5", e);
+            printf("  %s: context [%lld, %lld] relative L2 vs empty_prompt_embeds.npy %.3g\n", kind, shape[0], shape[1], e);
+            free(c);
+        }
+        free(ref.data);
+    } else TU_CHECK(0, "cannot read %s", path);
+    /* metadata */
+    tc_expect_meta(&o, "supermat.format_version", "1");
+    tc_expect_meta(&o, "supermat.kind", kind);
+    tc_expect_meta(&o, "unet.in_channels", in_ch);
+    tc_expect_meta(&o, "unet.branches", branches);
+    tc_expect_meta(&o, "unet.class_embed_in", class_in);
+    tc_expect_meta(&o, "unet.out_channels", "4");
+    tc_expect_meta(&o, "unet.block_out_channels", "32,64,64,64");
+    tc_expect_meta(&o, "unet.num_heads", "2,4,4,4");
+    tc_expect_meta(&o, "unet.layers_per_block", "2");
+    tc_expect_meta(&o, "unet.norm_num_groups", "16");
+    tc_expect_meta(&o, "unet.norm_eps", "1e-05");
+    tc_expect_meta(&o, "unet.cross_attention_dim", "32");
+    tc_expect_meta(&o, "unet.down_block_types", "CrossAttnDownBlock2D,CrossAttnDownBlock2D,CrossAttnDownBlock2D,DownBlock2D");
+    tc_expect_meta(&o, "unet.up_block_types", "UpBlock2D,CrossAttnUpBlock2D,CrossAttnUpBlock2D,CrossAttnUpBlock2D");
+    tc_expect_meta(&o, "unet.flip_sin_to_cos", "1");
+    tc_expect_meta(&o, "unet.freq_shift", "0");
+    tc_expect_meta(&o, "unet.upcast_attention", "1");
+    tc_expect_meta(&o, "unet.use_linear_projection", "1");
+    tc_expect_meta(&o, "unet.act_fn", "silu");
+    tc_expect_meta(&o, "unet.transformer_layers_per_block", "1");
+    tc_expect_meta(&o, "vae.in_channels", "3");
+    tc_expect_meta(&o, "vae.out_channels", "3");
+    tc_expect_meta(&o, "vae.latent_channels", "4");
+    tc_expect_meta(&o, "vae.block_out_channels", "32,64,64,64");
+    tc_expect_meta(&o, "vae.layers_per_block", "2");
+    tc_expect_meta(&o, "vae.norm_num_groups", "16");
+    tc_expect_meta(&o, "vae.scaling_factor", "0.18215");
+    tc_expect_meta(&o, "vae.act_fn", "silu");
+    tc_expect_meta(&o, "sched.num_train_timesteps", "1000");
+    tc_expect_meta(&o, "sched.beta_start", "0.00085");
+    tc_expect_meta(&o, "sched.beta_end", "0.012");
+    tc_expect_meta(&o, "sched.beta_schedule", "scaled_linear");
+    tc_expect_meta(&o, "sched.prediction_type", "v_prediction");
+    tc_expect_meta(&o, "sched.steps_offset", "1");
+    tc_expect_meta(&o, "sched.set_alpha_to_one", "0");
+    tc_expect_meta(&o, "sched.timestep_spacing", "trailing");
+    tc_expect_meta(&o, "context.tokens", "77");
+    tc_expect_meta(&o, "context.dim", "32");
+    {
+        char src[300];
+        snprintf(src, sizeof src, "%s", ckpt);
+        tc_expect_meta(&o, "supermat.source", strrchr(src, '/') ? strrchr(src, '/') + 1 : src);
+    }
+done:
+    if (have_twin) tc_st_free(&tw);
+    sm_pth_close(ck);
+    sm_pth_close(vae);
+    tc_st_free(&o);
+}
+
+/* the whole tiny checkpoint re-encoded as F16 into a zip64 archive by the miniature torch.save */
+static void test_f16_zip64(const char *ckpt, const char *base) {
+    sm_pth *p = NULL;
+    char err[512], out[300], pth[300];
+    int i, n, r;
+    tw_storage *s;
+    tw_tensor *t;
+    uint16_t **h;
+    size_t size;
+    unsigned char *f;
+    tw_opts o;
+    tc_st st;
+    if (sm_pth_open(ckpt, &p, err, sizeof err)) { TU_CHECK(0, "%s", err); return; }
+    n = sm_pth_count(p);
+    s = (tw_storage *)calloc((size_t)n, sizeof *s);
+    t = (tw_tensor *)calloc((size_t)n, sizeof *t);
+    h = (uint16_t **)calloc((size_t)n, sizeof *h);
+    for (i = 0; i < n; i++) {
+        const supermat_tensor_info *ti = sm_pth_tensor(p, i);
+        size_t ne = ti->nbytes / 4, j;
+        float *x = (float *)malloc(ti->nbytes + 4);
+        long long sh[8];
+        int k;
+        sm_pth_read(p, i, x, err, sizeof err);
+        h[i] = (uint16_t *)malloc(ne * 2 + 2);
+        for (j = 0; j < ne; j++) h[i][j] = tc_ref_f16(x[j]);
+        free(x);
+        s[i].data = h[i];
+        s[i].numel = (long long)ne;
+        s[i].dt = 1;
+        for (k = 0; k < ti->ndim; k++) sh[k] = ti->shape[k];
+        tw_contig(&t[i], ti->name, i, 0, ti->ndim, sh);
+    }
+    memset(&o, 0, sizeof o);
+    o.zip64 = 1;
+    /* tw_save keeps up to 38 entries: write in a loop of our own instead for the full checkpoint */
+    {
+        tc_buf z, pk;
+        tw_entry *e = (tw_entry *)calloc((size_t)n + 3, sizeof *e);
+        int ne = 0;
+        uint64_t cd_off, cd_size, z64_off;
+        memset(&z, 0, sizeof z);
+        memset(&pk, 0, sizeof pk);
+        tw_pickle(&pk, t, n, s, &o);
+        tw_add(&z, &e[ne++], "archive/data.pkl", pk.p, pk.n, &o, 0);
+        for (i = 0; i < n; i++) {
+            char nm[64];
+            snprintf(nm, sizeof nm, "archive/data/%d", i);
+            tw_add(&z, &e[ne++], nm, s[i].data, (size_t)s[i].numel * 2, &o, 0);
+        }
+        cd_off = z.n;
+        for (i = 0; i < ne; i++) {
+            size_t nl = strlen(e[i].name);
+            tc_u32(&z, 0x02014b50u); tc_u16(&z, 45); tc_u16(&z, 45); tc_u16(&z, 0x0808); tc_u16(&z, 0); tc_u16(&z, 0); tc_u16(&z, 0x21);
+            tc_u32(&z, e[i].crc); tc_u32(&z, 0xFFFFFFFFu); tc_u32(&z, 0xFFFFFFFFu); tc_u16(&z, (unsigned)nl); tc_u16(&z, 28);
+            tc_u16(&z, 0); tc_u16(&z, 0); tc_u16(&z, 0); tc_u32(&z, 0); tc_u32(&z, 0xFFFFFFFFu);
+            tc_put(&z, e[i].name, nl);
+            tc_u16(&z, 1); tc_u16(&z, 24); tc_u64(&z, e[i].size); tc_u64(&z, e[i].size); tc_u64(&z, e[i].lho);
+        }
+        cd_size = z.n - cd_off;
+        z64_off = z.n;
+        tc_u32(&z, 0x06064b50u); tc_u64(&z, 44); tc_u16(&z, 45); tc_u16(&z, 45); tc_u32(&z, 0); tc_u32(&z, 0);
+        tc_u64(&z, (uint64_t)ne); tc_u64(&z, (uint64_t)ne); tc_u64(&z, cd_size); tc_u64(&z, cd_off);
+        tc_u32(&z, 0x07064b50u); tc_u32(&z, 0); tc_u64(&z, z64_off); tc_u32(&z, 1);
+        tc_u32(&z, 0x06054b50u); tc_u16(&z, 0); tc_u16(&z, 0); tc_u16(&z, 0xFFFF); tc_u16(&z, 0xFFFF);
+        tc_u32(&z, 0xFFFFFFFFu); tc_u32(&z, 0xFFFFFFFFu); tc_u16(&z, 0);
+        f = z.p;
+        size = z.n;
+        free(pk.p);
+        free(e);
+    }
+    snprintf(pth, sizeof pth, TMP "/supermat_f16_zip64.pth");
+    snprintf(out, sizeof out, TMP "/from_f16.safetensors");
+    TU_CHECK(tc_write(pth, f, size) == 0, "write %s", pth);
+    tc_track(pth);
+    free(f);
+    r = tc_convert("supermat", pth, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r == 0, "F16 zip64 checkpoint: %s", err);
+    tc_track(out);
+    if (r == 0 && tc_st_load(&st, out) == 0) {
+        int bad = 0;
+        for (i = 0; i < n; i++) {
+            char dt[8];
+            long long sh[8];
+            int nd;
+            const unsigned char *d;
+            size_t nb;
+            if (tc_st_get(&st, t[i].name, dt, sh, &nd, &d, &nb) || strcmp(dt, "F16") || nb != (size_t)s[i].numel * 2 || memcmp(d, h[i], nb)) bad++;
+        }
+        TU_CHECK(bad == 0, "F16 zip64 checkpoint: %d tensors differ", bad);
+        tc_st_free(&st);
+    }
+    /* and widened back to F32 */
+    r = tc_convert("supermat", pth, base, out, SUPERMAT_DTYPE_F32, err, sizeof err);
+    TU_CHECK(r == 0, "F16 -> F32: %s", err);
+    if (r == 0 && tc_st_load(&st, out) == 0) {
+        int bad = 0;
+        for (i = 0; i < n; i++) {
+            char dt[8];
+            long long sh[8], j;
+            int nd;
+            const unsigned char *d;
+            size_t nb;
+            if (tc_st_get(&st, t[i].name, dt, sh, &nd, &d, &nb) || strcmp(dt, "F32") || nb != (size_t)s[i].numel * 4) { bad++; continue; }
+            for (j = 0; j < s[i].numel; j++) {
+                float fv;
+                memcpy(&fv, d + 4 * j, 4);
+                if ((double)fv != tc_f16_value(h[i][j])) { bad++; break; }
+            }
+        }
+        TU_CHECK(bad == 0, "F16 -> F32: %d tensors differ", bad);
+        tc_st_free(&st);
+    }
+    for (i = 0; i < n; i++) free(h[i]);
+    free(h);
+    free(s);
+    free(t);
+    sm_pth_close(p);
+    printf("  an F16, zip64 re-save of the checkpoint converts (kept F16, and widened to F32)\n");
+}
+
+/* ---- 4. the text encoder --------------------------------------------------------------------- */
+static void test_text_encoder(const char *base) {
+    float *c1 = NULL, *c2 = NULL;
+    int t1, d1, t2, d2, r1, r2;
+    char err[512];
+    r1 = sm_text_encode_empty(base, 1, 0, &c1, &t1, &d1, err, sizeof err);
+    TU_CHECK(r1 == 0, "text encoder: %s", err);
+    r2 = sm_text_encode_empty(base, 2, 0, &c2, &t2, &d2, err, sizeof err);
+    TU_CHECK(r2 == 0, "text encoder (2 threads): %s", err);
+    if (!r1 && !r2) TU_CHECK(t1 == t2 && d1 == d2 && !memcmp(c1, c2, sizeof(float) * (size_t)t1 * d1), "1 and 2 threads differ");
+    free(c1);
+    free(c2);
+}
+
+/* a base folder copy under TMP, optionally without one file and with an edited UNet config */
+static const char *const tc_base_files[] = {"unet/config.json", "vae/config.json", "vae/diffusion_pytorch_model.safetensors", "text_encoder/config.json",
+                                            "text_encoder/model.safetensors", "scheduler/scheduler_config.json", "empty_prompt_embeds.npy", NULL};
+static void tc_make_base(const char *base, const char *dst, const char *skip) {
+    static const char *const dirs[] = {"unet", "vae", "text_encoder", "scheduler", "tokenizer", NULL};
+    char a[600], b[600];
+    int i;
+    tc_mkdir_tracked(dst);
+    for (i = 0; dirs[i]; i++) {
+        snprintf(b, sizeof b, "%s/%s", dst, dirs[i]);
+        tc_mkdir_tracked(b);
+    }
+    for (i = 0; tc_base_files[i]; i++) {
+        if (skip && !strcmp(skip, tc_base_files[i])) continue;
+        snprintf(a, sizeof a, "%s/%s", base, tc_base_files[i]);
+        snprintf(b, sizeof b, "%s/%s", dst, tc_base_files[i]);
+        tc_copy(a, b);
+        tc_track(b);
+    }
+}
+
+static void tc_write_text(const char *path, const char *text) {
+    tc_write(path, text, strlen(text));
+    tc_track(path);
+}
+
+static void test_tokenizer(const char *base) {
+    char dst[300], p[400], err[512];
+    float *c0 = NULL, *c = NULL;
+    int t, d, r;
+    snprintf(dst, sizeof dst, TMP "/base_tok");
+    tc_make_base(base, dst, NULL);
+    r = sm_text_encode_empty(base, 1, 0, &c0, &t, &d, err, sizeof err);
+    TU_CHECK(r == 0, "%s", err);
+    snprintf(p, sizeof p, "%s/tokenizer/vocab.json", dst);
+    tc_write_text(p, "{\"!\": 0, \"\\\"\": 1, \"<|startoftext|>\": 49406, \"<|endoftext|>\": 49407}");
+    snprintf(p, sizeof p, "%s/tokenizer/special_tokens_map.json", dst);
+    tc_write_text(p, "{\"bos_token\": \"<|startoftext|>\", \"eos_token\": {\"content\": \"<|endoftext|>\", \"lstrip\": false}, \"pad_token\": \"!\"}");
+    r = sm_text_encode_empty(dst, 1, 0, &c, &t, &d, err, sizeof err);
+    TU_CHECK(r == 0 && c0 && c && !memcmp(c, c0, sizeof(float) * (size_t)t * d), "tokenizer/ with the SD 2.1 ids: %s", r ? err : "different context");
+    free(c);
+    c = NULL;
+    /* pad = eos (the Stable Diffusion 1.x tokenizer): a different context */
+    tc_write_text(p, "{\"bos_token\": \"<|startoftext|>\", \"eos_token\": \"<|endoftext|>\", \"pad_token\": \"<|endoftext|>\"}");
+    r = sm_text_encode_empty(dst, 1, 0, &c, &t, &d, err, sizeof err);
+    TU_CHECK(r == 0 && c0 && c && memcmp(c + 2 * d, c0 + 2 * d, sizeof(float) * (size_t)d) != 0, "pad = eos: %s", r ? err : "same context");
+    free(c);
+    c = NULL;
+    /* a pad token that is not in the vocabulary */
+    tc_write_text(p, "{\"pad_token\": \"<pad>\"}");
+    r = sm_text_encode_empty(dst, 1, 0, &c, &t, &d, err, sizeof err);
+    TU_CHECK(r != 0 && c == NULL && strstr(err, "<pad>") && strstr(err, "vocab.json"), "unknown pad token: %d %s", r, err);
+    free(c0);
+}
+
+/* ---- 5. error paths of sm_convert ------------------------------------------------------------ */
+static void tc_expect_fail(int r, const char *err, const char *out, const char *what, const char *needle) {
+    char tmp[400];
+    snprintf(tmp, sizeof tmp, "%s.tmp", out);
+    TU_CHECK(r != 0, "%s: conversion succeeded", what);
+    TU_CHECK(!needle || strstr(err, needle), "%s: message '%s' does not mention '%s'", what, err, needle);
+    TU_CHECK(!tc_exists(out) && !tc_exists(tmp), "%s: output or .tmp left behind", what);
+}
+
+static void test_errors(const char *dir, const char *base) {
+    char err[512], s[512], mv[512], uv[512], out[300], dst[300], p[400];
+    int r, i;
+    size_t n;
+    unsigned char *f;
+    snprintf(s, sizeof s, "%s/supermat.pth", dir);
+    snprintf(mv, sizeof mv, "%s/supermat_mv.pth", dir);
+    snprintf(uv, sizeof uv, "%s/uv_refine_bc.pth", dir);
+    snprintf(out, sizeof out, TMP "/bad.safetensors");
+    remove(out);
+    /* wrong kinds */
+    r = tc_convert("supermat", mv, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    tc_expect_fail(r, err, out, "MV checkpoint as supermat", "class_embedding");
+    r = tc_convert("supermat-mv", s, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    tc_expect_fail(r, err, out, "single-view checkpoint as supermat-mv", "class_embedding.linear_1.weight");
+    r = tc_convert("uv-refine", s, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    tc_expect_fail(r, err, out, "supermat as uv-refine", "rep_conv_in.0.weight");
+    r = tc_convert("supermat", uv, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    tc_expect_fail(r, err, out, "uv-refine as supermat", "rep_conv_in.0.weight");
+    r = tc_convert("supermat-v2", s, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    tc_expect_fail(r, err, out, "unknown kind", "supermat-v2");
+    r = tc_convert("supermat", s, base, out, (supermat_dtype)7, err, sizeof err);
+    tc_expect_fail(r, err, out, "bad dtype", "dtype");
+    r = sm_convert(NULL, err, sizeof err);
+    TU_CHECK(r != 0, "NULL desc");
+    /* a base file missing, one at a time */
+    for (i = 0; tc_base_files[i]; i++) {
+        if (!strcmp(tc_base_files[i], "empty_prompt_embeds.npy")) continue;
+        snprintf(dst, sizeof dst, TMP "/base_missing%d", i);
+        tc_make_base(base, dst, tc_base_files[i]);
+        r = tc_convert("supermat", s, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+        snprintf(p, sizeof p, "missing %s", tc_base_files[i]);
+        tc_expect_fail(r, err, out, p, tc_base_files[i]);
+    }
+    /* a base whose UNet config disagrees with the checkpoint */
+    snprintf(dst, sizeof dst, TMP "/base_cross");
+    tc_make_base(base, dst, NULL);
+    snprintf(p, sizeof p, "%s/unet/config.json", dst);
+    f = tu_load(p, &n);
+    if (f) {
+        char *txt = (char *)malloc(n + 1), *q;
+        memcpy(txt, f, n);
+        txt[n] = 0;
+        q = strstr(txt, "\"cross_attention_dim\": 32");
+        TU_CHECK(q != NULL, "unet config layout");
+        if (q) {
+            q[23] = '6'; q[24] = '4'; /* 64 */
+            tc_write(p, txt, n);
+            r = tc_convert("supermat", s, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+            tc_expect_fail(r, err, out, "cross_attention_dim mismatch", "attn2.to_k.weight");
+            q[23] = '3'; q[24] = '2';
+            q = strstr(txt, "\"in_channels\": 4");
+            if (q) {
+                q[15] = '9';
+                tc_write(p, txt, n);
+                r = tc_convert("supermat", s, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+                tc_expect_fail(r, err, out, "in_channels mismatch", "conv_in.weight");
+            }
+        }
+        free(txt);
+        free(f);
+    }
+    /* truncated and corrupted checkpoints through the whole conversion */
+    f = tu_load(s, &n);
+    if (f) {
+        static const double at[] = {0.0, 0.001, 0.3, 0.9, 0.995, 0.9999};
+        char bad[300];
+        snprintf(bad, sizeof bad, TMP "/broken.pth");
+        tc_track(bad);
+        for (i = 0; i < (int)(sizeof at / sizeof at[0]); i++) {
+            tc_write(bad, f, (size_t)(at[i] * (double)n));
+            r = tc_convert("supermat", bad, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+            tc_expect_fail(r, err, out, "truncated checkpoint", "broken.pth");
+        }
+        /* a flipped bit in the last tensor's data: found by the CRC while streaming, nothing left behind */
+        {
+            size_t k = n;
+            while (k > 4 && tc_rd32(f + k - 4) != 0x06054b50u) k--;
+            /* the last storage entry ends shortly before the central directory */
+            k = tc_rd32(f + k - 4 + 16);
+            f[k - 200] ^= 0x10;
+            tc_write(bad, f, n);
+            r = tc_convert("supermat", bad, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+            tc_expect_fail(r, err, out, "corrupt tensor data", "CRC");
+            f[k - 200] ^= 0x10;
+        }
+        free(f);
+    }
+    /* an output folder that does not exist */
+    r = tc_convert("supermat", s, base, TMP "/no/such/dir/x.safetensors", SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r != 0 && strstr(err, "no/such/dir"), "unwritable output: %s", err);
+}
+
+int main(int argc, char **argv) {
+    const char *data = argc > 1 ? argv[1] : "tests/data", *twins = argc > 2 ? argv[2] : NULL;
+    char dir[400], base[450], ck[500], twin[500], out[300], err[512];
+    static const struct { const char *kind, *file, *in_ch, *branches, *class_in; } kinds[3] = {
+        {"supermat", "supermat", "4", "2", "0"}, {"supermat-mv", "supermat_mv", "4", "2", "16"}, {"uv-refine", "uv_refine_bc", "8", "1", "0"}};
+    int k, r;
+    clock_t t0;
+    snprintf(dir, sizeof dir, "%s/tiny", data);
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    if (!tc_exists(ck)) snprintf(dir, sizeof dir, "%s", data);
+    snprintf(base, sizeof base, "%s/base", dir);
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    if (!tc_exists(ck)) {
+        printf("test_convert: no tiny models under %s\n", data);
+        return 1;
+    }
+    tc_mkdir_tracked(TMP);
+
+    printf("reader on hand-made checkpoints\n");
+    test_reader_small();
+    printf("values against torch\n");
+    test_known_values(dir);
+    printf("truncation and corruption sweeps\n");
+    test_sweeps(ck);
+    printf("text encoder\n");
+    test_text_encoder(base);
+    test_tokenizer(base);
+    printf("conversions\n");
+    for (k = 0; k < 3; k++) {
+        double secs;
+        snprintf(ck, sizeof ck, "%s/%s.pth", dir, kinds[k].file);
+        snprintf(out, sizeof out, TMP "/%s.safetensors", kinds[k].file);
+        t0 = clock();
+        r = tc_convert(k == 1 ? NULL : kinds[k].kind, ck, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err); /* MV: kind detected */
+        secs = (double)(clock() - t0) / CLOCKS_PER_SEC;
+        TU_CHECK(r == 0, "%s: %s", kinds[k].kind, err);
+        tc_track(out);
+        if (r) continue;
+        printf("  %s: converted in %.3f s CPU\n", kinds[k].kind, secs);
+        snprintf(twin, sizeof twin, "%s/%s.safetensors", twins ? twins : dir, kinds[k].file);
+        tc_check_output(out, ck, tc_exists(twin) ? twin : NULL, base, kinds[k].kind, SUPERMAT_DTYPE_DEFAULT, kinds[k].in_ch, kinds[k].branches, kinds[k].class_in);
+        if (k == 0) { /* the model loads in the runtime */
+            size_t n = 0;
+            unsigned char *b = tu_load(out, &n);
+            supermat_model_desc md;
+            supermat_model *m = NULL;
+            supermat_error e;
+            memset(&md, 0, sizeof md);
+            md.data = b;
+            md.size = n;
+            r = b ? supermat_model_create(&md, &m, &e) : -1;
+            TU_CHECK(r == SUPERMAT_SUCCESS, "supermat_model_create on the converted file: %s", b ? e.message : "unreadable");
+            if (m) supermat_model_destroy(m);
+            free(b);
+        }
+    }
+    printf("dtype conversion\n");
+    for (k = 0; k < 2; k++) {
+        supermat_dtype dt = k ? SUPERMAT_DTYPE_BF16 : SUPERMAT_DTYPE_F16;
+        snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+        snprintf(out, sizeof out, TMP "/supermat_%s.safetensors", k ? "bf16" : "f16");
+        r = tc_convert("supermat", ck, base, out, dt, err, sizeof err);
+        TU_CHECK(r == 0, "dtype %d: %s", (int)dt, err);
+        tc_track(out);
+        if (!r) tc_check_output(out, ck, NULL, base, "supermat", dt, "4", "2", "0");
+    }
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    test_f16_zip64(ck, base);
+    printf("error paths\n");
+    test_errors(dir, base);
+    tc_cleanup();
+    return tu_finish("test_convert");
+}

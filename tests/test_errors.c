@@ -1,0 +1,324 @@
+/* Bad input and failure paths: truncated and corrupted model files, wrong shapes, missing tensors, NaN
+   weights and pixels, bad sizes, an allocator that fails at the N-th call, cancellation, and results that
+   are bit-identical for any thread count. Every case must return a clear error, never crash, never leak
+   (this test runs under ASan/UBSan in CI) and never write an output on failure.
+   usage: test_errors MODEL.safetensors */
+#define SUPERMAT_IMPLEMENTATION
+#include "../supermat.h"
+#include "test_util.h"
+
+/* an allocator that counts and fails at the N-th call */
+typedef struct counting { long calls, fail_at, live; size_t bytes; } counting;
+static void *c_alloc(void *user, size_t size, size_t align) {
+    counting *c = (counting *)user;
+    void *p;
+    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
+    if (align < sizeof(void *)) align = sizeof(void *);
+    if (posix_memalign(&p, align, size)) return NULL;
+    c->live++; c->bytes += size;
+    return p;
+}
+static void c_free(void *user, void *p, size_t size) {
+    counting *c = (counting *)user;
+    if (!p) return;
+    c->live--; c->bytes -= size;
+    free(p);
+}
+
+static unsigned char *model_data;
+static size_t model_size;
+
+static supermat_result create(const unsigned char *data, size_t size, supermat_model **m, supermat_error *err) {
+    supermat_model_desc md;
+    memset(&md, 0, sizeof md);
+    md.data = data; md.size = size;
+    return supermat_model_create(&md, m, err);
+}
+
+/* header text helpers: the tensor entry of `name` */
+static char *header_find(unsigned char *data, const char *needle) {
+    uint64_t hl = 0;
+    int i;
+    char *h, *p;
+    for (i = 7; i >= 0; i--) hl = (hl << 8) | data[i];
+    h = (char *)data + 8;
+    p = h;
+    while ((size_t)(p - h) + strlen(needle) <= hl) { if (!memcmp(p, needle, strlen(needle))) return p; p++; }
+    return NULL;
+}
+
+static void test_truncated(void) {
+    size_t cut, step, header_end;
+    uint64_t hl = 0;
+    int i, errors = 0, crashes_would_show = 0;
+    for (i = 7; i >= 0; i--) hl = (hl << 8) | model_data[i];
+    header_end = 8 + (size_t)hl;
+    /* every byte through the header, then a stride through the data */
+    for (cut = 0; cut < model_size; cut += step) {
+        supermat_model *m = NULL;
+        supermat_error err;
+        unsigned char *copy = (unsigned char *)malloc(cut + 1);
+        supermat_result r;
+        step = cut < header_end + 64 ? (cut < 64 ? 1 : 97) : model_size / 40 + 1;
+        memcpy(copy, model_data, cut);
+        r = create(copy, cut, &m, &err);
+        if (r == SUPERMAT_SUCCESS) { TU_CHECK(0, "a model truncated at %zu of %zu bytes was accepted", cut, model_size); supermat_model_destroy(m); }
+        else { errors++; if (!err.message[0]) TU_CHECK(0, "empty message at cut %zu", cut); }
+        free(copy);
+    }
+    (void)crashes_would_show;
+    TU_CHECK(errors > 100, "truncation sweep: %d errors", errors);
+    printf("truncation sweep: %d truncated files rejected\n", errors);
+}
+
+static void test_corrupted(void) {
+    /* flip bytes of the header: success or a clean error, never a crash; count outcomes */
+    uint64_t hl = 0;
+    int i, k, ok = 0, bad = 0;
+    for (i = 7; i >= 0; i--) hl = (hl << 8) | model_data[i];
+    for (k = 0; k < 400; k++) {
+        unsigned char *copy = (unsigned char *)malloc(model_size);
+        supermat_model *m = NULL;
+        supermat_error err;
+        size_t pos = 8 + (size_t)(((unsigned long long)k * 2654435761ull) % hl);
+        memcpy(copy, model_data, model_size);
+        copy[pos] ^= (unsigned char)(1 + k % 255);
+        if (k % 50 == 0) copy[k % 8] ^= 0x40; /* the length field too */
+        if (create(copy, model_size, &m, &err) == SUPERMAT_SUCCESS) { ok++; supermat_model_destroy(m); }
+        else { bad++; TU_CHECK(err.message[0] != 0, "corruption %d: empty message", k); }
+        free(copy);
+    }
+    printf("header corruption: %d rejected, %d still valid (e.g. a flipped metadata digit)\n", bad, ok);
+    TU_CHECK(bad > 200, "only %d of 400 corrupted headers rejected", bad);
+}
+
+static void expect(const char *what, unsigned char *copy, supermat_result want, const char *tensor) {
+    supermat_model *m = NULL;
+    supermat_error err;
+    supermat_result r = create(copy, model_size, &m, &err);
+    TU_CHECK(r == want, "%s: got %s (%s), want %s", what, supermat_result_string(r), err.message, supermat_result_string(want));
+    if (tensor) TU_CHECK(!strcmp(err.tensor, tensor), "%s: error names tensor '%s', want '%s' (%s)", what, err.tensor, tensor, err.message);
+    if (r == want) printf("  %-28s -> %s: %s\n", what, supermat_result_string(r), err.message);
+    supermat_model_destroy(m);
+}
+
+static void test_semantic(void) {
+    unsigned char *copy = (unsigned char *)malloc(model_size);
+    char *p;
+    supermat_tensor_info ti;
+    supermat_error err;
+    int n, i;
+    /* wrong shape, same element count: conv_in.weight [C,4,3,3] -> [C,4,9,1] */
+    memcpy(copy, model_data, model_size);
+    p = header_find(copy, "\"conv_in.weight\"");
+    TU_CHECK(p != NULL, "conv_in.weight in the header");
+    if (p && (p = strstr(p, "3, 3]")) != NULL) { memcpy(p, "9, 1]", 5); expect("wrong shape", copy, SUPERMAT_ERROR_SHAPE_MISMATCH, "conv_in.weight"); }
+    else if (p == NULL || 1) {
+        memcpy(copy, model_data, model_size);
+        p = header_find(copy, "\"conv_in.weight\"");
+        if (p && (p = strstr(p, "3,3]")) != NULL) { memcpy(p, "9,1]", 4); expect("wrong shape", copy, SUPERMAT_ERROR_SHAPE_MISMATCH, "conv_in.weight"); }
+    }
+    /* a missing tensor (renamed) */
+    memcpy(copy, model_data, model_size);
+    p = header_find(copy, "\"vae.decoder.conv_out.bias\"");
+    TU_CHECK(p != NULL, "vae.decoder.conv_out.bias in the header");
+    if (p) { p[strlen("\"vae.decoder.conv_out.bias") - 1] = 'X'; expect("missing tensor", copy, SUPERMAT_ERROR_MISSING_TENSOR, "vae.decoder.conv_out.bias"); }
+    /* an unsupported dtype */
+    memcpy(copy, model_data, model_size);
+    p = header_find(copy, "\"F32\"");
+    if (p) { memcpy(p, "\"I32\"", 5); expect("integer dtype", copy, SUPERMAT_ERROR_UNSUPPORTED, NULL); }
+    /* unknown kind / version */
+    memcpy(copy, model_data, model_size);
+    p = header_find(copy, "\"supermat.format_version\"");
+    if (p && (p = strstr(p + 26, "\"1\"")) != NULL) { p[1] = '7'; expect("format version 7", copy, SUPERMAT_ERROR_UNSUPPORTED, NULL); }
+    memcpy(copy, model_data, model_size);
+    p = header_find(copy, "\"unet.block_out_channels\"");
+    if (p && (p = strchr(p + 26, '"')) != NULL) { p[1] = 'x'; expect("bad metadata number", copy, SUPERMAT_ERROR_MALFORMED_FILE, NULL); }
+    /* NaN and Inf in weights */
+    supermat_safetensors_count(model_data, model_size, model_size, &n, &err);
+    for (i = 0; i < n; i++) {
+        supermat_safetensors_tensor(model_data, model_size, model_size, i, &ti, &err);
+        if (!strcmp(ti.name, "down_blocks.1.resnets.0.conv1.weight") || !strcmp(ti.name, "vae.encoder.conv_in.bias")) {
+            float nan = NAN, inf = INFINITY;
+            memcpy(copy, model_data, model_size);
+            memcpy(copy + ti.offset + 4 * 7, ti.name[0] == 'v' ? &inf : &nan, 4);
+            expect(ti.name[0] == 'v' ? "Inf in a bias" : "NaN in a weight", copy, SUPERMAT_ERROR_NONFINITE, ti.name);
+        }
+    }
+    /* not safetensors at all */
+    memcpy(copy, "PK\003\004not a model", 15);
+    expect("a zip file", copy, SUPERMAT_ERROR_MALFORMED_FILE, NULL);
+    free(copy);
+}
+
+static void test_allocator(void) {
+    long n;
+    int done = 0;
+    for (n = 0; n < 100000 && !done; n += (n < 50 ? 1 : 37)) {
+        counting c;
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        supermat_error err;
+        memset(&c, 0, sizeof c);
+        c.fail_at = n;
+        memset(&md, 0, sizeof md);
+        md.data = model_data; md.size = model_size;
+        md.allocator.alloc = c_alloc; md.allocator.free = c_free; md.allocator.user = &c;
+        if (supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS) {
+            /* now the session, failing at each of its allocations */
+            long k;
+            for (k = 0; k < 64; k++) {
+                counting cs;
+                supermat_session_desc sd;
+                supermat_session *s = NULL;
+                supermat_result r;
+                memset(&cs, 0, sizeof cs);
+                cs.fail_at = k;
+                memset(&sd, 0, sizeof sd);
+                sd.model = m; sd.width = 16; sd.height = 16; sd.threads = 2;
+                sd.allocator.alloc = c_alloc; sd.allocator.free = c_free; sd.allocator.user = &cs;
+                r = supermat_session_create(&sd, &s, &err);
+                if (r == SUPERMAT_SUCCESS) { supermat_session_destroy(s); TU_CHECK(cs.live == 0, "session leak: %ld blocks", cs.live); break; }
+                TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY, "session alloc failure %ld: %s", k, supermat_result_string(r));
+                TU_CHECK(cs.live == 0, "session alloc failure %ld leaks %ld blocks", k, cs.live);
+            }
+            supermat_model_destroy(m);
+            TU_CHECK(c.live == 0, "model leak after success: %ld blocks", c.live);
+            printf("allocator: model creation succeeds after %ld allocations; every earlier failure reported OUT_OF_MEMORY without a leak\n", c.calls);
+            done = 1;
+        } else {
+            TU_CHECK(err.result == SUPERMAT_ERROR_OUT_OF_MEMORY, "alloc failure %ld: %s (%s)", n, supermat_result_string(err.result), err.message);
+            TU_CHECK(c.live == 0, "alloc failure %ld leaks %ld blocks", n, c.live);
+        }
+    }
+    TU_CHECK(done, "model creation never succeeded");
+}
+
+static int cancel_at, progress_calls;
+static int progress_cancel(void *user, float f, const char *what) { (void)user; (void)f; (void)what; return ++progress_calls >= cancel_at; }
+
+/* a caller's parallel-for that runs tasks in reverse order, claiming 5 threads */
+static void reverse_for(void *user, int count, supermat_task_fn task, void *task_user) {
+    int i;
+    (void)user;
+    for (i = count - 1; i >= 0; i--) task(task_user, i, i % 5);
+}
+
+static void test_run(void) {
+    supermat_model *m = NULL;
+    supermat_error err;
+    int W = 24, H = 16, i, t;
+    unsigned char rgba[24 * 16 * 4], out[5][24 * 16 * 3];
+    float frgb[24 * 16 * 3];
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_result r;
+    size_t mem = 0;
+    if (create(model_data, model_size, &m, &err)) { TU_CHECK(0, "model: %s", err.message); return; }
+    for (i = 0; i < W * H * 4; i++) rgba[i] = (unsigned char)((i * 37 + (i >> 5) * 11) & 255);
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = 0; sd.height = 16;
+    TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_BAD_IMAGE, "zero width: %s", err.message);
+    sd.width = 20;
+    TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_BAD_IMAGE, "width 20 (not a multiple of 8): %s", err.message);
+    sd.width = 8; sd.height = 8;
+    TU_CHECK(supermat_session_memory(&sd, &mem, &err) == SUPERMAT_SUCCESS && mem > 0, "memory query 8x8");
+    sd.width = W; sd.height = H; sd.threads = 2;
+    TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "session: %s", err.message);
+    if (!s) { supermat_model_destroy(m); return; }
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = rgba; rd.input.width = W; rd.input.height = H; rd.input.channels = 4;
+    rd.albedo.pixels = out[0]; rd.albedo.channels = 3;
+    rd.roughness.pixels = out[1]; rd.roughness.channels = 1;
+    rd.metallic.pixels = out[2]; rd.metallic.channels = 1;
+    /* wrong input size */
+    rd.input.width = 16;
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "input size mismatch: %s", err.message);
+    rd.input.width = W;
+    rd.input.channels = 2;
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "2-channel input: %s", err.message);
+    rd.input.channels = 4;
+    /* NaN / Inf pixels */
+    for (i = 0; i < W * H * 3; i++) frgb[i] = 0.5f;
+    frgb[W * 3 * 5 + 7] = NAN;
+    rd.input.pixels = frgb; rd.input.channels = 3; rd.input.format = SUPERMAT_FORMAT_F32;
+    memset(out, 0xAB, sizeof out);
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_NONFINITE, "NaN pixel: %s", err.message);
+    frgb[W * 3 * 5 + 7] = -INFINITY;
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_NONFINITE, "Inf pixel: %s", err.message);
+    TU_CHECK(out[0][0] == 0xAB && out[1][10] == 0xAB, "outputs untouched after a rejected input");
+    rd.input.pixels = rgba; rd.input.channels = 4; rd.input.format = SUPERMAT_FORMAT_U8;
+    /* cancellation at every progress call: outputs untouched */
+    progress_calls = 0; cancel_at = 1 << 30;
+    rd.progress = progress_cancel;
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "run: %s", err.message);
+    memcpy(out[3], out[0], sizeof out[0]);
+    {
+        int total = progress_calls, k, cancelled = 0;
+        for (k = 1; k <= total; k += (k < 5 ? 1 : 7)) {
+            memset(out[0], 0xCD, sizeof out[0]);
+            progress_calls = 0; cancel_at = k;
+            r = supermat_run(s, &rd, &err);
+            cancelled += r == SUPERMAT_ERROR_CANCELLED;
+            TU_CHECK(r == SUPERMAT_ERROR_CANCELLED, "cancel at call %d: %s", k, supermat_result_string(r));
+            TU_CHECK(out[0][0] == 0xCD && out[0][sizeof out[0] - 1] == 0xCD, "cancel at %d wrote an output", k);
+        }
+        printf("cancellation: %d progress calls per run, cancelled cleanly at %d points\n", total, cancelled);
+    }
+    rd.progress = NULL;
+    /* the same result after cancellations, and for 1, 2, 3 threads and a reverse-order caller hook */
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS && !memcmp(out[0], out[3], sizeof out[0]), "a run after cancellations gives the same albedo");
+    supermat_session_destroy(s);
+    for (t = 0; t < 4; t++) {
+        float f1[24 * 16 * 3], f2[24 * 16];
+        static float ref1[24 * 16 * 3], ref2[24 * 16];
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = W; sd.height = H; sd.threads = t + 1;
+        if (t == 3) { sd.threading.parallel_for = reverse_for; sd.threading.max_threads = 5; }
+        s = NULL;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "session %d: %s", t, err.message);
+        if (!s) continue;
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = rgba; rd.input.width = W; rd.input.height = H; rd.input.channels = 4;
+        rd.albedo.pixels = f1; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
+        rd.metallic.pixels = f2; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "run %d: %s", t, err.message);
+        if (t == 0) { memcpy(ref1, f1, sizeof f1); memcpy(ref2, f2, sizeof f2); }
+        else TU_CHECK(!memcmp(ref1, f1, sizeof f1) && !memcmp(ref2, f2, sizeof f2), "results differ between 1 thread and config %d", t);
+        supermat_session_destroy(s);
+    }
+    /* an output that was not requested */
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = W; sd.height = H; sd.threads = 1; sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
+    if (supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS) {
+        size_t m_all = 0, m_alb = 0;
+        supermat_session_desc sd2 = sd;
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = rgba; rd.input.width = W; rd.input.height = H; rd.input.channels = 4;
+        rd.albedo.pixels = out[0]; rd.albedo.channels = 3;
+        rd.metallic.pixels = out[2]; rd.metallic.channels = 1;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "metallic from an albedo-only session: %s", err.message);
+        rd.metallic.pixels = NULL;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS && !memcmp(out[0], out[3], sizeof out[0]), "albedo-only session gives the same albedo");
+        supermat_session_memory(&sd2, &m_alb, &err);
+        sd2.outputs = 0;
+        supermat_session_memory(&sd2, &m_all, &err);
+        printf("session memory %dx%d: all outputs %zu bytes, albedo only %zu bytes\n", W, H, m_all, m_alb);
+        supermat_session_destroy(s);
+    }
+    supermat_model_destroy(m);
+}
+
+int main(int argc, char **argv) {
+    if (argc < 2) { fprintf(stderr, "usage: %s MODEL\n", argv[0]); return 2; }
+    model_data = tu_load(argv[1], &model_size);
+    if (!model_data) { printf("cannot read %s\n", argv[1]); return 1; }
+    test_semantic();
+    test_truncated();
+    test_corrupted();
+    test_allocator();
+    test_run();
+    free(model_data);
+    return tu_finish("errors");
+}

@@ -1,0 +1,1359 @@
+/* supermat_cli.c - the `supermat` command-line tool (built as build/supermat)
+ *
+ *     supermat convert --kind supermat --unet supermat.pth --base stable-diffusion-2-1 --out supermat.safetensors
+ *     supermat image --model supermat.safetensors --out maps/ photo.png
+ *     supermat info supermat.safetensors
+ *     supermat bench --model supermat.safetensors --size 512
+ *
+ * One translation unit: it defines SUPERMAT_IMPLEMENTATION (and so may use the header's private
+ * `supermat__*` GEMM for the benchmark) and links with tools/sm_convert.c. Images are read and written
+ * with stb_image / stb_image_write (Debian: libstb-dev).
+ *
+ * Build:  gcc -std=c99 -O2 -I. -Itools tools/supermat_cli.c tools/sm_convert.c -o supermat -lm -lpthread
+ *
+ * Sections (search for the marker):
+ *   >>platform   includes, stb, timing, small helpers
+ *   >>args       option parsing, usage texts
+ *   >>files      reading a whole file, creating directories, PNG / PFM writers
+ *   >>convert    `supermat convert`
+ *   >>image      `supermat image`
+ *   >>info       `supermat info`
+ *   >>bench      `supermat bench`: FMA peak, the pipeline per stage, AVX2 vs scalar GEMM
+ *   >>main
+ *
+ * Exit status: 0 ok, 1 runtime error, 2 usage error.
+ */
+
+/* >>platform */
+#if !defined(_WIN32)
+#ifndef _FILE_OFFSET_BITS
+#define _FILE_OFFSET_BITS 64
+#endif
+#if !defined(_POSIX_C_SOURCE) && !defined(__APPLE__)
+#define _POSIX_C_SOURCE 200809L
+#endif
+#endif
+
+#define SUPERMAT_IMPLEMENTATION
+#include "supermat.h"
+#include "sm_convert.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+/* stb: their warnings are not ours */
+#if defined(__GNUC__) || defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpragmas"
+#pragma GCC diagnostic ignored "-Wunknown-warning-option"
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wcast-qual"
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#pragma GCC diagnostic ignored "-Wuseless-cast"
+#pragma GCC diagnostic ignored "-Wzero-as-null-pointer-constant"
+#pragma GCC diagnostic ignored "-Wcomma"
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#endif
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_FAILURE_USERMSG
+#include <stb/stb_image.h>
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb/stb_image_write.h>
+#if defined(__GNUC__) || defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+
+#if defined(__GNUC__) || defined(__clang__)
+#define CLI_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define CLI_PRINTF(f, a)
+#endif
+
+#define CLI_OK 0
+#define CLI_FAIL 1
+#define CLI_USAGE 2
+
+static double cli_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static double cli_mib(double bytes) { return bytes / (1024.0 * 1024.0); }
+
+static void cli_error(const char *fmt, ...) CLI_PRINTF(1, 2);
+static void cli_error(const char *fmt, ...) {
+    va_list ap;
+    fputs("supermat: error: ", stderr);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+}
+
+/* the library's message, the tensor concerned and the result name */
+static void cli_lib_error(const char *what, supermat_result r, const supermat_error *e) {
+    const char *msg = e && e->message[0] ? e->message : supermat_result_string(r);
+    if (e && e->tensor[0]) cli_error("%s: %s (tensor '%s') [%s]", what, msg, e->tensor, supermat_result_string(r));
+    else cli_error("%s: %s [%s]", what, msg, supermat_result_string(r));
+}
+
+static const char *cli_kind_name(supermat_model_kind k) {
+    switch (k) {
+    case SUPERMAT_KIND_SUPERMAT: return "supermat";
+    case SUPERMAT_KIND_SUPERMAT_MV: return "supermat-mv";
+    case SUPERMAT_KIND_UV_REFINE: return "uv-refine";
+    default: return "unknown";
+    }
+}
+static const char *cli_kernel_name(supermat_kernel k) {
+    switch (k) {
+    case SUPERMAT_KERNEL_SCALAR: return "scalar";
+    case SUPERMAT_KERNEL_AVX2: return "avx2";
+    default: return "auto";
+    }
+}
+static const char *cli_dtype_name(supermat_dtype d) {
+    switch (d) {
+    case SUPERMAT_DTYPE_F32: return "F32";
+    case SUPERMAT_DTYPE_F16: return "F16";
+    case SUPERMAT_DTYPE_BF16: return "BF16";
+    default: return "?";
+    }
+}
+static void cli_outputs_string(unsigned outputs, char *buf, size_t cap) {
+    buf[0] = 0;
+    if (outputs & SUPERMAT_OUTPUT_ALBEDO) snprintf(buf + strlen(buf), cap - strlen(buf), "albedo");
+    if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) snprintf(buf + strlen(buf), cap - strlen(buf), "%sroughness", buf[0] ? "," : "");
+    if (outputs & SUPERMAT_OUTPUT_METALLIC) snprintf(buf + strlen(buf), cap - strlen(buf), "%smetallic", buf[0] ? "," : "");
+}
+
+/* >>args */
+static const char cli_usage_main[] =
+    "supermat - SuperMat PBR material estimation on the CPU (albedo, roughness, metallic)\n"
+    "\n"
+    "usage: supermat COMMAND [OPTIONS] [ARGS]\n"
+    "\n"
+    "commands:\n"
+    "  convert   official checkpoint (.pth) + Stable Diffusion 2.1 folder -> one model file\n"
+    "  image     albedo / roughness / metallic maps for images\n"
+    "  info      describe a model file: architecture, parameters, dtypes, memory\n"
+    "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM\n"
+    "\n"
+    "  supermat COMMAND --help   the options of a command\n"
+    "  supermat --version        the version\n"
+    "\n"
+    "exit status: 0 ok, 1 runtime error, 2 usage error\n";
+
+static const char cli_usage_convert[] =
+    "usage: supermat convert --unet FILE.pth --base DIR --out FILE.safetensors [options]\n"
+    "\n"
+    "Turns an official SuperMat checkpoint (torch.save format) plus a Stable Diffusion 2.1 folder in\n"
+    "diffusers layout (unet/config.json, vae/, text_encoder/, scheduler/) into the one model file that\n"
+    "`supermat image` loads. No Python is needed. The output is written to FILE.tmp, then renamed.\n"
+    "\n"
+    "options:\n"
+    "  --kind K          supermat | supermat-mv | uv-refine (default: detected from the checkpoint)\n"
+    "  --unet FILE       the official checkpoint, e.g. supermat.pth (required)\n"
+    "  --base DIR        the Stable Diffusion 2.1 folder (required)\n"
+    "  --out FILE        the model file to write (required)\n"
+    "  --dtype D         f32 | f16 | bf16: convert the weights (round to nearest even);\n"
+    "                    default: keep every tensor's stored dtype\n"
+    "  --threads N       text encoder threads (default 0 = 2, 1 = none)\n"
+    "\n"
+    "Progress is printed on stderr when it is a terminal.\n";
+
+static const char cli_usage_image[] =
+    "usage: supermat image --model FILE --out DIR [options] IMAGE...\n"
+    "\n"
+    "Runs the single-view SuperMat pipeline on each image, at the image's own size, and writes\n"
+    "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
+    "  DIR/<stem>_roughness.png    gray, 8-bit\n"
+    "  DIR/<stem>_metallic.png     gray, 8-bit\n"
+    "where <stem> is the image's file name without its folder and extension.\n"
+    "\n"
+    "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha;\n"
+    "transparent pixels are composited over gray 0.5. Width and height must both be multiples of 8.\n"
+    "Images are NOT resized: resize them first if needed (the official scripts use 512x512).\n"
+    "\n"
+    "options:\n"
+    "  --model FILE      a model file made by `supermat convert` (required)\n"
+    "  --out DIR         the output folder, created if missing (required)\n"
+    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three);\n"
+    "                    only what is asked for is computed\n"
+    "  --float           also write the maps before 8-bit quantisation as PFM files (float32,\n"
+    "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
+    "                    <stem>_metallic.pfm (Pf, gray)\n"
+    "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
+    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "\n"
+    "Progress is printed on stderr when it is a terminal.\n";
+
+static const char cli_usage_info[] =
+    "usage: supermat info [options] FILE\n"
+    "\n"
+    "Prints a model file's kind and architecture, its parameter counts (UNet trunk, per branch, VAE),\n"
+    "the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
+    "512x512 session plans (all outputs, and albedo only).\n"
+    "\n"
+    "options:\n"
+    "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
+    "  --kernel K        auto | scalar | avx2 (default auto)\n";
+
+static const char cli_usage_bench[] =
+    "usage: supermat bench --model FILE [options]\n"
+    "\n"
+    "Measures, in one run: (a) this machine's AVX2 FMA peak on every thread; (b) the full pipeline on\n"
+    "a synthetic RGBA image, seconds / GFLOP / GFLOP/s / % of the peak per stage, model creation\n"
+    "time and peak memory; (c) one 3x3 convolution GEMM (M=4096, K=9*320, N=320, the first UNet\n"
+    "level at 512x512) with the AVX2 and the scalar micro-kernel, and their ratio.\n"
+    "\n"
+    "options:\n"
+    "  --model FILE      a model file made by `supermat convert` (required)\n"
+    "  --size S          image size: S (square) or WxH, multiples of 8 (default 512)\n"
+    "  --threads N       threads (default 0 = all cores)\n"
+    "  --repeats R       pipeline runs; the fastest is reported (default 1)\n"
+    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three)\n"
+    "  --kernel K        auto | scalar | avx2: the pipeline's kernels (default auto)\n"
+    "  --json FILE       also write the numbers as JSON\n";
+
+static int cli_usage_error(const char *cmd, const char *fmt, ...) CLI_PRINTF(2, 3);
+static int cli_usage_error(const char *cmd, const char *fmt, ...) {
+    va_list ap;
+    fprintf(stderr, "supermat%s%s: ", cmd ? " " : "", cmd ? cmd : "");
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "\nTry 'supermat%s%s --help'.\n", cmd ? " " : "", cmd ? cmd : "");
+    return CLI_USAGE;
+}
+
+/* Matches argv[*i] against `--name value` or `--name=value`. Returns 1 and *val on a match, 0 if
+   argv[*i] is another argument, -1 (after a usage message) if the value is missing. */
+static int cli_opt(const char *cmd, int argc, char **argv, int *i, const char *name, const char **val) {
+    const char *a = argv[*i];
+    size_t n = strlen(name);
+    if (strncmp(a, name, n) != 0) return 0;
+    if (a[n] == '=') { *val = a + n + 1; return 1; }
+    if (a[n] != 0) return 0;
+    if (*i + 1 >= argc) { cli_usage_error(cmd, "option '%s' needs a value", name); return -1; }
+    *val = argv[++*i];
+    return 1;
+}
+
+static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out) {
+    char *end;
+    long v;
+    errno = 0;
+    v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) {
+        cli_usage_error(cmd, "%s: '%s' is not an integer in [%d, %d]", opt, s, lo, hi);
+        return -1;
+    }
+    *out = (int)v;
+    return 0;
+}
+
+static int cli_parse_kernel(const char *cmd, const char *s, supermat_kernel *out) {
+    if (!strcmp(s, "auto")) *out = SUPERMAT_KERNEL_AUTO;
+    else if (!strcmp(s, "scalar")) *out = SUPERMAT_KERNEL_SCALAR;
+    else if (!strcmp(s, "avx2")) *out = SUPERMAT_KERNEL_AVX2;
+    else { cli_usage_error(cmd, "--kernel: '%s' is not auto, scalar or avx2", s); return -1; }
+    return 0;
+}
+
+static int cli_parse_outputs(const char *cmd, const char *s, unsigned *out) {
+    unsigned bits = 0;
+    const char *p = s;
+    while (*p) {
+        const char *e = strchr(p, ',');
+        size_t n = e ? (size_t)(e - p) : strlen(p);
+        if (n == 6 && !strncmp(p, "albedo", 6)) bits |= SUPERMAT_OUTPUT_ALBEDO;
+        else if (n == 9 && !strncmp(p, "roughness", 9)) bits |= SUPERMAT_OUTPUT_ROUGHNESS;
+        else if (n == 8 && !strncmp(p, "metallic", 8)) bits |= SUPERMAT_OUTPUT_METALLIC;
+        else if (n == 3 && !strncmp(p, "all", 3)) bits |= SUPERMAT_OUTPUT_ALL;
+        else if (n != 0) {
+            cli_usage_error(cmd, "--outputs: unknown output '%.*s' (albedo, roughness, metallic)", (int)n, p);
+            return -1;
+        }
+        p += n;
+        if (*p == ',') p++;
+    }
+    if (!bits) { cli_usage_error(cmd, "--outputs: empty list"); return -1; }
+    *out = bits;
+    return 0;
+}
+
+/* "512" or "640x480" */
+static int cli_parse_size(const char *cmd, const char *s, int *w, int *h) {
+    char *end;
+    long a, b;
+    int bad;
+    errno = 0;
+    a = strtol(s, &end, 10);
+    b = a;
+    bad = end == s;
+    if (!bad && (*end == 'x' || *end == 'X')) {
+        const char *t = end + 1;
+        b = strtol(t, &end, 10);
+        bad = end == t;
+    }
+    if (bad || errno || *end || a < 8 || b < 8 || a > 16384 || b > 16384 || a % 8 || b % 8) {
+        cli_usage_error(cmd, "--size: '%s' is not S or WxH with multiples of 8 in [8, 16384]", s);
+        return -1;
+    }
+    *w = (int)a; *h = (int)b;
+    return 0;
+}
+
+/* >>files */
+/* Reads a whole file (64-bit sizes). 0 on success, else prints an error and returns CLI_FAIL. */
+static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
+    FILE *f = fopen(path, "rb");
+    struct stat st;
+    unsigned char *buf;
+    size_t n, got = 0;
+    *data = NULL; *size = 0;
+    if (!f) { cli_error("cannot open '%s': %s", path, strerror(errno)); return CLI_FAIL; }
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        cli_error("'%s' is not a regular file", path);
+        fclose(f);
+        return CLI_FAIL;
+    }
+    if (st.st_size < 0 || (uint64_t)st.st_size > (uint64_t)(SIZE_MAX - 64)) {
+        cli_error("'%s' is too large for this machine's address space", path);
+        fclose(f);
+        return CLI_FAIL;
+    }
+    n = (size_t)st.st_size;
+    buf = (unsigned char *)malloc(n ? n : 1);
+    if (!buf) { cli_error("out of memory reading '%s' (%.1f MiB)", path, cli_mib((double)n)); fclose(f); return CLI_FAIL; }
+    while (got < n) {
+        size_t chunk = n - got > ((size_t)1 << 30) ? ((size_t)1 << 30) : n - got, r = fread(buf + got, 1, chunk, f);
+        if (r == 0) break;
+        got += r;
+    }
+    if (got != n || ferror(f)) {
+        cli_error("cannot read '%s': %s", path, ferror(f) ? strerror(errno) : "the file got shorter while reading");
+        free(buf);
+        fclose(f);
+        return CLI_FAIL;
+    }
+    fclose(f);
+    *data = buf; *size = n;
+    return CLI_OK;
+}
+
+/* mkdir -p */
+static int cli_mkdirs(const char *dir) {
+    size_t n = strlen(dir), i;
+    char *p = (char *)malloc(n + 1);
+    struct stat st;
+    if (!p) { cli_error("out of memory"); return CLI_FAIL; }
+    memcpy(p, dir, n + 1);
+    for (i = 1; i <= n; i++) {
+        if (p[i] == '/' || p[i] == 0) {
+            char c = p[i];
+            p[i] = 0;
+            if (mkdir(p, 0777) != 0 && errno != EEXIST) {
+                cli_error("cannot create folder '%s': %s", p, strerror(errno));
+                free(p);
+                return CLI_FAIL;
+            }
+            p[i] = c;
+        }
+    }
+    free(p);
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)) { cli_error("'%s' is not a folder", dir); return CLI_FAIL; }
+    return CLI_OK;
+}
+
+/* malloc'ed "dir/stem suffix" */
+static char *cli_join(const char *dir, const char *stem, const char *suffix) {
+    size_t a = strlen(dir), b = strlen(stem), c = strlen(suffix);
+    char *p = (char *)malloc(a + b + c + 2);
+    if (!p) return NULL;
+    memcpy(p, dir, a);
+    if (a && dir[a - 1] != '/') p[a++] = '/';
+    memcpy(p + a, stem, b);
+    memcpy(p + a + b, suffix, c + 1);
+    return p;
+}
+
+/* malloc'ed file name without folder and last extension */
+static char *cli_stem(const char *path) {
+    const char *b = strrchr(path, '/'), *dot;
+    size_t n;
+    char *s;
+    b = b ? b + 1 : path;
+    dot = strrchr(b, '.');
+    n = dot && dot != b ? (size_t)(dot - b) : strlen(b);
+    s = (char *)malloc(n + 1);
+    if (!s) return NULL;
+    memcpy(s, b, n);
+    s[n] = 0;
+    return s;
+}
+
+/* PFM: "PF" (RGB) or "Pf" (gray), scale -1.0 = little endian, rows bottom to top */
+static int cli_write_pfm(const char *path, const float *px, int w, int h, int channels) {
+    FILE *f = fopen(path, "wb");
+    unsigned char *row;
+    size_t rn = (size_t)w * (size_t)channels, i;
+    int y, ok;
+    if (!f) { cli_error("cannot write '%s': %s", path, strerror(errno)); return CLI_FAIL; }
+    row = (unsigned char *)malloc(rn * 4);
+    if (!row) { fclose(f); cli_error("out of memory"); return CLI_FAIL; }
+    ok = fprintf(f, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", w, h) > 0;
+    for (y = h - 1; ok && y >= 0; y--) {
+        const float *src = px + (size_t)y * rn;
+        for (i = 0; i < rn; i++) {
+            uint32_t u;
+            memcpy(&u, &src[i], 4);
+            row[4 * i] = (unsigned char)(u & 255u);
+            row[4 * i + 1] = (unsigned char)((u >> 8) & 255u);
+            row[4 * i + 2] = (unsigned char)((u >> 16) & 255u);
+            row[4 * i + 3] = (unsigned char)(u >> 24);
+        }
+        ok = fwrite(row, 1, rn * 4, f) == rn * 4;
+    }
+    free(row);
+    if (fclose(f) != 0) ok = 0;
+    if (!ok) { cli_error("cannot write '%s': %s", path, strerror(errno)); return CLI_FAIL; }
+    return CLI_OK;
+}
+
+/* 8-bit PNG from floats in [0, 1], quantised exactly as the library's 8-bit path (rintf(v * 255)) */
+static int cli_write_png(const char *path, const float *px, int w, int h, int channels, unsigned char *tmp) {
+    size_t n = (size_t)w * (size_t)h * (size_t)channels, i;
+    for (i = 0; i < n; i++) {
+        float v = px[i];
+        v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; /* the library already clamps: a no-op */
+        tmp[i] = (unsigned char)rintf(v * 255.0f);
+    }
+    if (!stbi_write_png(path, w, h, channels, tmp, w * channels)) {
+        cli_error("cannot write '%s'", path);
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+/* loads the model file and creates the model; the buffer is borrowed by the model (free it after) */
+static int cli_load_model(const char *path, supermat_kernel kernel, unsigned char **buf, size_t *size,
+                          supermat_model **model, double *create_seconds) {
+    supermat_model_desc md;
+    supermat_error err;
+    supermat_result r;
+    double t0;
+    char what[600];
+    *model = NULL;
+    if (cli_read_file(path, buf, size)) return CLI_FAIL;
+    memset(&md, 0, sizeof md);
+    md.data = *buf; md.size = *size; md.kernel = kernel;
+    t0 = cli_now();
+    r = supermat_model_create(&md, model, &err);
+    if (create_seconds) *create_seconds = cli_now() - t0;
+    if (r != SUPERMAT_SUCCESS) {
+        snprintf(what, sizeof what, "model '%s'", path);
+        cli_lib_error(what, r, &err);
+        free(*buf); *buf = NULL;
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+/* >>convert */
+static int cli_convert(int argc, char **argv) {
+    const char *cmd = "convert", *v;
+    sm_convert_desc d;
+    char err[1024];
+    int i, m, r;
+    struct stat st;
+    memset(&d, 0, sizeof d);
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_convert, stdout); return CLI_OK; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--kind", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (strcmp(v, "supermat") && strcmp(v, "supermat-mv") && strcmp(v, "uv-refine"))
+                return cli_usage_error(cmd, "--kind: '%s' is not supermat, supermat-mv or uv-refine", v);
+            d.kind = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--unet", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.checkpoint = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--base", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.base_dir = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.output = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
+            else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
+            else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
+            else return cli_usage_error(cmd, "--dtype: '%s' is not f32, f16 or bf16", v);
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
+        } else if (a[0] == '-') {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            return cli_usage_error(cmd, "unexpected argument '%s'", a);
+        }
+    }
+    if (!d.checkpoint) return cli_usage_error(cmd, "--unet FILE.pth is required");
+    if (!d.base_dir) return cli_usage_error(cmd, "--base DIR is required");
+    if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
+    d.progress = isatty(2);
+    r = sm_convert(&d, err, sizeof err);
+    if (r != 0) {
+        cli_error("convert: %s [%s]", err[0] ? err : "failed", supermat_result_string((supermat_result)r));
+        return CLI_FAIL;
+    }
+    if (stat(d.output, &st) == 0) printf("wrote %s (%.1f MiB)\n", d.output, cli_mib((double)st.st_size));
+    return CLI_OK;
+}
+
+/* >>image */
+typedef struct cli_progress {
+    const char *name;
+    int pct;
+    char what[32];
+    int shown;
+} cli_progress;
+
+static int cli_progress_cb(void *user, float fraction, const char *what) {
+    cli_progress *p = (cli_progress *)user;
+    int pct = (int)(fraction * 100.0f);
+    if (pct < 0) pct = 0;
+    if (pct > 100) pct = 100;
+    if (!what) what = "";
+    if (p->shown && pct == p->pct && !strncmp(what, p->what, sizeof p->what - 1)) return 0;
+    p->pct = pct;
+    snprintf(p->what, sizeof p->what, "%s", what);
+    fprintf(stderr, "\r%s %3d%% %-16s", p->name, pct, p->what);
+    fflush(stderr);
+    p->shown = 1;
+    return 0;
+}
+
+typedef struct cli_session_slot { int w, h; supermat_session *s; } cli_session_slot;
+
+static int cli_image(int argc, char **argv) {
+    const char *cmd = "image", *v, *model_path = NULL, *out_dir = NULL;
+    unsigned outputs = SUPERMAT_OUTPUT_ALL;
+    int want_float = 0, threads = 0, i, j, m, nimg = 0, rc = CLI_OK, tty = isatty(2);
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    const char **imgs;
+    char **stems = NULL;
+    unsigned char *file = NULL;
+    size_t file_size = 0;
+    supermat_model *model = NULL;
+    cli_session_slot *slots = NULL;
+    int nslots = 0;
+
+    imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
+    if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_image, stdout); free(imgs); return CLI_OK; }
+        if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
+            model_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
+            out_dir = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
+            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
+        } else if (!strcmp(a, "--float")) {
+            want_float = 1;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
+            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) { free(imgs); return CLI_USAGE; }
+        } else if (a[0] == '-' && a[1]) {
+            free(imgs);
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            imgs[nimg++] = a;
+        }
+    }
+    if (!model_path) { free(imgs); return cli_usage_error(cmd, "--model FILE is required"); }
+    if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
+    if (!nimg) { free(imgs); return cli_usage_error(cmd, "no input image"); }
+
+    /* two inputs with one stem would overwrite each other's maps */
+    stems = (char **)calloc((size_t)nimg, sizeof(char *));
+    if (!stems) { free(imgs); cli_error("out of memory"); return CLI_FAIL; }
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        stems[i] = cli_stem(imgs[i]);
+        if (!stems[i]) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+        if (!stems[i][0]) { rc = cli_usage_error(cmd, "'%s' has no file name", imgs[i]); break; }
+        for (j = 0; j < i; j++)
+            if (!strcmp(stems[i], stems[j])) { rc = cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", imgs[j], imgs[i], stems[i]); break; }
+    }
+    /* check every image before the (slow) model load */
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        int w, h, c;
+        if (!stbi_info(imgs[i], &w, &h, &c)) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (w % 8 || h % 8) {
+            cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
+                      "resize it first, e.g. to 512x512)", imgs[i], w, h);
+            rc = CLI_FAIL;
+            break;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
+    if (rc == CLI_OK) {
+        slots = (cli_session_slot *)calloc((size_t)nimg, sizeof *slots);
+        if (!slots) { cli_error("out of memory"); rc = CLI_FAIL; }
+    }
+
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        int w = 0, h = 0, c = 0, s;
+        unsigned char *px = stbi_load(imgs[i], &w, &h, &c, 4);
+        float *fa = NULL, *fr = NULL, *fm = NULL;
+        unsigned char *tmp = NULL;
+        supermat_session *sess = NULL;
+        supermat_run_desc rd;
+        supermat_error err;
+        supermat_result r;
+        cli_progress prog;
+        double t0 = cli_now();
+        size_t np;
+        if (!px) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (w % 8 || h % 8) {
+            cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize)", imgs[i], w, h);
+            stbi_image_free(px);
+            rc = CLI_FAIL;
+            break;
+        }
+        for (s = 0; s < nslots; s++) if (slots[s].w == w && slots[s].h == h) sess = slots[s].s;
+        if (!sess) {
+            supermat_session_desc sd;
+            memset(&sd, 0, sizeof sd);
+            sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threads = threads;
+            r = supermat_session_create(&sd, &sess, &err);
+            if (r != SUPERMAT_SUCCESS) {
+                char what[600];
+                snprintf(what, sizeof what, "session for '%s' (%dx%d)", imgs[i], w, h);
+                cli_lib_error(what, r, &err);
+                stbi_image_free(px);
+                rc = CLI_FAIL;
+                break;
+            }
+            slots[nslots].w = w; slots[nslots].h = h; slots[nslots].s = sess; nslots++;
+        }
+        np = (size_t)w * (size_t)h;
+        if (outputs & SUPERMAT_OUTPUT_ALBEDO) fa = (float *)malloc(np * 3 * sizeof(float));
+        if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) fr = (float *)malloc(np * sizeof(float));
+        if (outputs & SUPERMAT_OUTPUT_METALLIC) fm = (float *)malloc(np * sizeof(float));
+        tmp = (unsigned char *)malloc(np * 3);
+        if (!tmp || ((outputs & SUPERMAT_OUTPUT_ALBEDO) && !fa) || ((outputs & SUPERMAT_OUTPUT_ROUGHNESS) && !fr) ||
+            ((outputs & SUPERMAT_OUTPUT_METALLIC) && !fm)) {
+            cli_error("out of memory for the maps of '%s'", imgs[i]);
+            rc = CLI_FAIL;
+        }
+        if (rc == CLI_OK) {
+            memset(&rd, 0, sizeof rd);
+            rd.input.pixels = px; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
+            rd.input.format = SUPERMAT_FORMAT_U8;
+            rd.albedo.pixels = fa; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
+            rd.roughness.pixels = fr; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32;
+            rd.metallic.pixels = fm; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
+            memset(&prog, 0, sizeof prog);
+            prog.name = imgs[i];
+            if (tty) { rd.progress = cli_progress_cb; rd.progress_user = &prog; }
+            r = supermat_run(sess, &rd, &err);
+            if (tty && prog.shown) {
+                if (r == SUPERMAT_SUCCESS) fprintf(stderr, "\r%s 100%% done (%.2f s)%*s\n", imgs[i], cli_now() - t0, 8, "");
+                else fputc('\n', stderr);
+            }
+            if (r != SUPERMAT_SUCCESS) {
+                char what[600];
+                snprintf(what, sizeof what, "'%s'", imgs[i]);
+                cli_lib_error(what, r, &err);
+                rc = CLI_FAIL;
+            }
+        }
+        if (rc == CLI_OK) {
+            const char *names[3] = {"_albedo", "_roughness", "_metallic"};
+            float *maps[3];
+            int k, ch;
+            maps[0] = fa; maps[1] = fr; maps[2] = fm;
+            for (k = 0; k < 3 && rc == CLI_OK; k++) {
+                char suffix[32], *path;
+                if (!maps[k]) continue;
+                ch = k == 0 ? 3 : 1;
+                snprintf(suffix, sizeof suffix, "%s.png", names[k]);
+                path = cli_join(out_dir, stems[i], suffix);
+                if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+                rc = cli_write_png(path, maps[k], w, h, ch, tmp);
+                free(path);
+                if (rc == CLI_OK && want_float) {
+                    snprintf(suffix, sizeof suffix, "%s.pfm", names[k]);
+                    path = cli_join(out_dir, stems[i], suffix);
+                    if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+                    rc = cli_write_pfm(path, maps[k], w, h, ch);
+                    free(path);
+                }
+            }
+        }
+        free(fa); free(fr); free(fm); free(tmp);
+        stbi_image_free(px);
+    }
+
+    for (i = 0; i < nslots; i++) supermat_session_destroy(slots[i].s);
+    free(slots);
+    supermat_model_destroy(model);
+    free(file);
+    if (stems) for (i = 0; i < nimg; i++) free(stems[i]);
+    free(stems);
+    free(imgs);
+    return rc;
+}
+
+/* >>info */
+static void cli_print_list(const int *v, int n) {
+    int i;
+    for (i = 0; i < n; i++) printf("%s%d", i ? "," : "", v[i]);
+}
+
+static void cli_print_count(const char *label, uint64_t n) {
+    printf("%s%llu (%.2f M)", label, (unsigned long long)n, (double)n / 1e6);
+}
+
+static int cli_info(int argc, char **argv) {
+    const char *cmd = "info", *v, *path = NULL;
+    int i, m, threads = 0, ntens = 0, counts[SUPERMAT_DTYPE_COUNT];
+    uint64_t bytes_by[SUPERMAT_DTYPE_COUNT], tensor_bytes = 0;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    unsigned char *file = NULL;
+    size_t size = 0;
+    supermat_error err;
+    supermat_result r;
+    supermat_model_desc md;
+    supermat_model *model = NULL;
+    supermat_model_info mi;
+    char meta[128];
+    double create_s;
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); return CLI_OK; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
+            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else if (path) {
+            return cli_usage_error(cmd, "one model file at a time ('%s' and '%s')", path, a);
+        } else {
+            path = a;
+        }
+    }
+    if (!path) return cli_usage_error(cmd, "no model file");
+    if (cli_read_file(path, &file, &size)) return CLI_FAIL;
+
+    /* the file as it is: header, metadata, dtypes */
+    r = supermat_safetensors_count(file, size, size, &ntens, &err);
+    if (r != SUPERMAT_SUCCESS) {
+        char what[600];
+        snprintf(what, sizeof what, "'%s'", path);
+        cli_lib_error(what, r, &err);
+        free(file);
+        return CLI_FAIL;
+    }
+    memset(counts, 0, sizeof counts);
+    memset(bytes_by, 0, sizeof bytes_by);
+    for (i = 0; i < ntens; i++) {
+        supermat_tensor_info ti;
+        r = supermat_safetensors_tensor(file, size, size, i, &ti, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char what[600];
+            snprintf(what, sizeof what, "'%s' tensor %d", path, i);
+            cli_lib_error(what, r, &err);
+            free(file);
+            return CLI_FAIL;
+        }
+        if ((unsigned)ti.dtype < SUPERMAT_DTYPE_COUNT) { counts[ti.dtype]++; bytes_by[ti.dtype] += ti.nbytes; }
+        tensor_bytes += ti.nbytes;
+    }
+    printf("file          %s\n", path);
+    printf("size          %llu bytes (%.1f MiB), %d tensors, %.1f MiB of tensor data\n", (unsigned long long)size,
+           cli_mib((double)size), ntens, cli_mib((double)tensor_bytes));
+    printf("dtypes       ");
+    for (i = 1; i < SUPERMAT_DTYPE_COUNT; i++)
+        if (counts[i]) printf(" %s: %d tensor%s (%.1f MiB)", cli_dtype_name((supermat_dtype)i), counts[i], counts[i] == 1 ? "" : "s",
+                   cli_mib((double)bytes_by[i]));
+    printf("\n");
+    if (supermat_safetensors_metadata(file, size, "supermat.format_version", meta, sizeof meta) == 0)
+        printf("format        version %s\n", meta);
+    if (supermat_safetensors_metadata(file, size, "supermat.kind", meta, sizeof meta) == 0)
+        printf("kind          %s\n", meta);
+
+    /* the loaded model */
+    memset(&md, 0, sizeof md);
+    md.data = file; md.size = size; md.kernel = kernel;
+    create_s = cli_now();
+    r = supermat_model_create(&md, &model, &err);
+    create_s = cli_now() - create_s;
+    if (r != SUPERMAT_SUCCESS) {
+        char what[600];
+        snprintf(what, sizeof what, "model '%s'", path);
+        cli_lib_error(what, r, &err);
+        free(file);
+        return CLI_FAIL;
+    }
+    supermat_model_get_info(model, &mi);
+    printf("kernel        %s\n", cli_kernel_name(mi.kernel));
+    printf("unet          in %d, out %d channels; %d levels: channels ", mi.unet_in_channels, mi.unet_out_channels, mi.unet_levels);
+    cli_print_list(mi.block_channels, mi.unet_levels);
+    printf(", heads ");
+    cli_print_list(mi.num_heads, mi.unet_levels);
+    printf("; %d layers per block, %d norm groups\n", mi.layers_per_block, mi.norm_groups);
+    printf("              cross-attention dim %d, context %d tokens, %d branches, class embedding in %d\n",
+           mi.cross_attention_dim, mi.context_tokens, mi.branches, mi.class_embed_in);
+    printf("vae           %d levels: channels ", mi.vae_levels);
+    cli_print_list(mi.vae_block_channels, mi.vae_levels);
+    printf("; latent %d channels, scaling factor %g\n", mi.latent_channels, (double)mi.scaling_factor);
+    printf("scheduler     one step at timestep %d, alphas_cumprod %.9g, %s\n", mi.timestep, (double)mi.alphas_cumprod,
+           mi.v_prediction ? "v-prediction" : "epsilon-prediction");
+    {
+        uint64_t branches = (uint64_t)(mi.branches > 0 ? mi.branches : 0), per = mi.branch_params;
+        uint64_t trunk = mi.unet_params >= branches * per ? mi.unet_params - branches * per : 0;
+        cli_print_count("parameters    UNet trunk ", trunk);
+        cli_print_count(", per branch ", per);
+        printf(" x %d", mi.branches);
+        cli_print_count(", VAE ", mi.vae_params);
+        cli_print_count(", total ", mi.unet_params + mi.vae_params);
+        printf("\n");
+    }
+    printf("model memory  %llu bytes (%.1f MiB) held by the model, created in %.3f s; it also borrows the file buffer\n",
+           (unsigned long long)mi.model_bytes, cli_mib((double)mi.model_bytes), create_s);
+    {
+        supermat_session_desc sd;
+        size_t all = 0, alb = 0;
+        int nthreads;
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = 512; sd.height = 512; sd.threads = threads;
+        nthreads = supermat__threads_for(&sd);
+        sd.outputs = SUPERMAT_OUTPUT_ALL;
+        r = supermat_session_memory(&sd, &all, &err);
+        if (r == SUPERMAT_SUCCESS) {
+            sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
+            r = supermat_session_memory(&sd, &alb, &err);
+        }
+        if (r != SUPERMAT_SUCCESS) {
+            cli_lib_error("session memory", r, &err);
+            supermat_model_destroy(model);
+            free(file);
+            return CLI_FAIL;
+        }
+        printf("session 512   %llu bytes (%.1f MiB) all outputs, %llu bytes (%.1f MiB) albedo only (%d thread%s)\n",
+               (unsigned long long)all, cli_mib((double)all), (unsigned long long)alb, cli_mib((double)alb), nthreads,
+               nthreads == 1 ? "" : "s");
+    }
+    supermat_model_destroy(model);
+    free(file);
+    return CLI_OK;
+}
+
+/* >>bench */
+/* (a) the FMA peak: independent chains of _mm256_fmadd_ps, 12 per iteration (2 FMA ports x 4 cycles of
+   latency need 8 in flight), on every thread of the pool */
+#define CLI_FMA_CHAINS 12
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static float cli_fma_loop(long iters, float seed) {
+    const __m256 mul = _mm256_set1_ps(0.99999f), add = _mm256_set1_ps(1e-6f);
+    __m256 a0 = _mm256_set1_ps(seed + 0.10f), a1 = _mm256_set1_ps(seed + 0.11f), a2 = _mm256_set1_ps(seed + 0.12f);
+    __m256 a3 = _mm256_set1_ps(seed + 0.13f), a4 = _mm256_set1_ps(seed + 0.14f), a5 = _mm256_set1_ps(seed + 0.15f);
+    __m256 a6 = _mm256_set1_ps(seed + 0.16f), a7 = _mm256_set1_ps(seed + 0.17f), a8 = _mm256_set1_ps(seed + 0.18f);
+    __m256 a9 = _mm256_set1_ps(seed + 0.19f), a10 = _mm256_set1_ps(seed + 0.20f), a11 = _mm256_set1_ps(seed + 0.21f);
+    float out[8];
+    long i;
+    for (i = 0; i < iters; i++) {
+        a0 = _mm256_fmadd_ps(a0, mul, add); a1 = _mm256_fmadd_ps(a1, mul, add); a2 = _mm256_fmadd_ps(a2, mul, add);
+        a3 = _mm256_fmadd_ps(a3, mul, add); a4 = _mm256_fmadd_ps(a4, mul, add); a5 = _mm256_fmadd_ps(a5, mul, add);
+        a6 = _mm256_fmadd_ps(a6, mul, add); a7 = _mm256_fmadd_ps(a7, mul, add); a8 = _mm256_fmadd_ps(a8, mul, add);
+        a9 = _mm256_fmadd_ps(a9, mul, add); a10 = _mm256_fmadd_ps(a10, mul, add); a11 = _mm256_fmadd_ps(a11, mul, add);
+    }
+    a0 = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(a0, a1), _mm256_add_ps(a2, a3)), _mm256_add_ps(_mm256_add_ps(a4, a5), _mm256_add_ps(a6, a7)));
+    a0 = _mm256_add_ps(a0, _mm256_add_ps(_mm256_add_ps(a8, a9), _mm256_add_ps(a10, a11)));
+    _mm256_storeu_ps(out, a0);
+    return out[0] + out[1] + out[2] + out[3] + out[4] + out[5] + out[6] + out[7];
+}
+#endif
+
+typedef struct cli_fma_job { long iters; float *sink; } cli_fma_job;
+
+static void cli_fma_task(void *user, int index, int thread) {
+    cli_fma_job *j = (cli_fma_job *)user;
+    (void)thread;
+#if SUPERMAT__HAS_AVX2
+    j->sink[index] = cli_fma_loop(j->iters, (float)index * 1e-3f);
+#else
+    j->sink[index] = 0.0f;
+#endif
+}
+
+static void cli_serial_for(void *user, int count, supermat_task_fn task, void *task_user) {
+    int i;
+    (void)user;
+    for (i = 0; i < count; i++) task(task_user, i, 0);
+}
+
+/* GFLOP/s, best of `reps` runs of about 0.2 s each (0 without AVX2): with hook NULL on the calling
+   thread alone, else on every thread of the pool. *iters_per_task calibrates on the first call. */
+static double cli_fma_peak(const supermat_threading *hook, int reps, long *iters_per_task) {
+    cli_fma_job job;
+    int tasks = hook ? 8 * hook->max_threads : 8, rep;
+    double best = 0.0, t;
+    float sink[8 * 64];
+    if (!supermat_cpu_has_avx2()) return 0.0;
+    job.sink = sink;
+    if (*iters_per_task <= 0) { /* about 0.2 s per run for one thread doing all 8 x max_threads tasks / max_threads */
+        job.iters = 1000000;
+        t = cli_now();
+        cli_fma_task(&job, 0, 0);
+        t = cli_now() - t;
+        *iters_per_task = (long)((t > 0 ? (double)job.iters / t : 1e9) * 0.2 / 8.0);
+        if (*iters_per_task < 10000) *iters_per_task = 10000;
+    }
+    job.iters = *iters_per_task;
+    for (rep = 0; rep < reps; rep++) {
+        double gf;
+        int i;
+        t = cli_now();
+        if (hook) hook->parallel_for(hook->user, tasks, cli_fma_task, &job);
+        else for (i = 0; i < tasks; i++) cli_fma_task(&job, i, 0);
+        t = cli_now() - t;
+        gf = (double)tasks * (double)job.iters * CLI_FMA_CHAINS * 16.0 / t / 1e9;
+        if (gf > best) best = gf;
+    }
+    return best;
+}
+
+/* (b) the pipeline, timed between the run's inspection points */
+#define CLI_MAX_EVENTS 64
+typedef struct cli_event { double t; supermat_stage stage; int branch; } cli_event;
+typedef struct cli_events { cli_event ev[CLI_MAX_EVENTS]; int n; } cli_events;
+
+static void cli_inspect_cb(void *user, supermat_stage stage, int branch, float *data, int n, int h, int w, int c) {
+    cli_events *e = (cli_events *)user;
+    (void)data; (void)n; (void)h; (void)w; (void)c;
+    if (e->n < CLI_MAX_EVENTS) {
+        e->ev[e->n].t = cli_now();
+        e->ev[e->n].stage = stage;
+        e->ev[e->n].branch = branch;
+        e->n++;
+    }
+}
+
+#define CLI_MAX_ROWS 12
+typedef struct cli_row { char name[48]; double seconds, flops; } cli_row;
+
+/* stage rows from one run's events: t0 = before supermat_run, t1 = after */
+static int cli_rows(const cli_events *e, double t0, double t1, const supermat_flops *fl, const supermat_model_info *mi, cli_row *rows) {
+    int n = 0, i, ndec = 0, nunet = 0, first_unet = -1, last_x0 = -1;
+    double prev = t0;
+    for (i = 0; i < e->n; i++) {
+        if (e->ev[i].stage == SUPERMAT_STAGE_DECODED) ndec++;
+        if (e->ev[i].stage == SUPERMAT_STAGE_UNET_OUT) { nunet++; if (first_unet < 0) first_unet = i; }
+        if (e->ev[i].stage == SUPERMAT_STAGE_X0) last_x0 = i;
+    }
+    for (i = 0; i < e->n; i++) {
+        const cli_event *v = &e->ev[i];
+        if (v->stage == SUPERMAT_STAGE_INPUT) {
+            snprintf(rows[n].name, sizeof rows[n].name, "input (plan walk, to [-1,1])");
+            rows[n].seconds = v->t - prev; rows[n].flops = 0.0; n++;
+            prev = v->t;
+        } else if (v->stage == SUPERMAT_STAGE_LATENT) {
+            snprintf(rows[n].name, sizeof rows[n].name, "vae encode");
+            rows[n].seconds = v->t - prev; rows[n].flops = fl->encode; n++;
+            prev = v->t;
+        } else if (i == first_unet) {
+            snprintf(rows[n].name, sizeof rows[n].name, "unet trunk + %d branch%s", nunet, nunet == 1 ? "" : "es");
+            rows[n].seconds = v->t - prev; rows[n].flops = fl->trunk + fl->branch; n++;
+            prev = v->t;
+        } else if (i == last_x0) {
+            snprintf(rows[n].name, sizeof rows[n].name, "x0 (ddim step)");
+            rows[n].seconds = v->t - prev; rows[n].flops = 0.0; n++;
+            prev = v->t;
+        } else if (v->stage == SUPERMAT_STAGE_DECODED && n < CLI_MAX_ROWS - 1) {
+            const char *bn = mi->branches >= 2 ? (v->branch == 0 ? "albedo" : v->branch == 1 ? "roughness/metallic" : "branch") : "output";
+            snprintf(rows[n].name, sizeof rows[n].name, "vae decode %s", bn);
+            rows[n].seconds = v->t - prev; rows[n].flops = ndec ? fl->decode / ndec : 0.0; n++;
+            prev = v->t;
+        }
+    }
+    snprintf(rows[n].name, sizeof rows[n].name, "write outputs");
+    rows[n].seconds = t1 - prev; rows[n].flops = 0.0; n++;
+    return n;
+}
+
+/* (c) one 3x3 convolution GEMM through the header's private supermat__conv2d on packed weights */
+#define CLI_GEMM_HW 64
+#define CLI_GEMM_C 320
+typedef struct cli_gemm {
+    supermat__conv cv;
+    supermat__t in, out;
+    float **scratch;
+    float *scratch_mem;
+    int threads;
+} cli_gemm;
+
+static uint32_t cli_rand(uint32_t *s) { *s = *s * 1664525u + 1013904223u; return *s >> 8; }
+
+static int cli_gemm_init(cli_gemm *g, int threads) {
+    int K = 9 * CLI_GEMM_C, N = CLI_GEMM_C, np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR, n, k, i;
+    size_t nin = (size_t)CLI_GEMM_HW * CLI_GEMM_HW * CLI_GEMM_C, sf = (size_t)SUPERMAT__MC * SUPERMAT__KC;
+    uint32_t seed = 12345u;
+    memset(g, 0, sizeof *g);
+    g->threads = threads;
+    g->cv.k = 3; g->cv.stride = 1; g->cv.cin = CLI_GEMM_C; g->cv.cout = CLI_GEMM_C;
+    g->cv.w.K = K; g->cv.w.N = N;
+    g->cv.w.p = (float *)calloc((size_t)np * SUPERMAT__NR * (size_t)K, sizeof(float));
+    g->cv.w.bias = (float *)calloc((size_t)np * SUPERMAT__NR, sizeof(float));
+    g->in.d = (float *)malloc(nin * sizeof(float));
+    g->out.d = (float *)malloc(nin * sizeof(float));
+    g->scratch = (float **)malloc(sizeof(float *) * (size_t)threads);
+    g->scratch_mem = (float *)malloc(sizeof(float) * sf * (size_t)threads);
+    if (!g->cv.w.p || !g->cv.w.bias || !g->in.d || !g->out.d || !g->scratch || !g->scratch_mem) return CLI_FAIL;
+    for (i = 0; i < threads; i++) g->scratch[i] = g->scratch_mem + sf * (size_t)i;
+    /* W[n][k] packed as panel n/16, row k, column n%16 (K = (ky*3 + kx)*Cin + ci, the model's order) */
+    for (n = 0; n < N; n++) {
+        g->cv.w.bias[n] = (float)(cli_rand(&seed) % 2001u) * 1e-4f - 0.1f;
+        for (k = 0; k < K; k++)
+            g->cv.w.p[((size_t)(n / SUPERMAT__NR) * K + k) * SUPERMAT__NR + n % SUPERMAT__NR] = (float)(cli_rand(&seed) % 2001u) * 1e-5f - 0.01f;
+    }
+    for (i = 0; i < (int)nin; i++) g->in.d[i] = (float)(cli_rand(&seed) % 2001u) * 1e-3f - 1.0f;
+    g->in.n = g->out.n = 1;
+    g->in.h = g->out.h = CLI_GEMM_HW;
+    g->in.w = g->out.w = CLI_GEMM_HW;
+    g->in.c = g->out.c = CLI_GEMM_C;
+    return CLI_OK;
+}
+
+static void cli_gemm_free(cli_gemm *g) {
+    free(g->cv.w.p); free(g->cv.w.bias); free(g->in.d); free(g->out.d); free(g->scratch); free(g->scratch_mem);
+}
+
+/* best seconds of a few runs (at least one, more while under `budget` seconds) */
+static double cli_gemm_time(cli_gemm *g, supermat__ukr_fn ukr, const supermat_threading *hook, double budget, float *copy) {
+    supermat__ctx X;
+    double best = 1e30, spent = 0.0;
+    int runs = 0;
+    memset(&X, 0, sizeof X);
+    X.ukr = ukr;
+    X.thr = *hook;
+    X.scratch = g->scratch;
+    X.scratch_floats = (size_t)SUPERMAT__MC * SUPERMAT__KC;
+    while (runs < 1 || (spent < budget && runs < 10)) {
+        double t = cli_now();
+        X.status = SUPERMAT_SUCCESS;
+        supermat__conv2d(&X, &g->in, g->in.h, g->in.w, &g->cv, 0, &g->out, NULL, NULL);
+        t = cli_now() - t;
+        if (X.status != SUPERMAT_SUCCESS) return -1.0;
+        if (t < best) best = t;
+        spent += t;
+        runs++;
+    }
+    if (copy) memcpy(copy, g->out.d, sizeof(float) * (size_t)g->out.h * g->out.w * g->out.c);
+    return best;
+}
+
+static void cli_json_string(FILE *f, const char *s) {
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+        else if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+static size_t cli_peak_rss(void) {
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
+#ifdef __APPLE__
+    return (size_t)ru.ru_maxrss;
+#else
+    return (size_t)ru.ru_maxrss * 1024u;
+#endif
+}
+
+static int cli_bench(int argc, char **argv) {
+    const char *cmd = "bench", *v, *model_path = NULL, *json_path = NULL;
+    int w = 512, h = 512, threads = 0, repeats = 1, i, m, rc = CLI_OK, nrows = 0, rep, x, y;
+    unsigned outputs = SUPERMAT_OUTPUT_ALL;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    unsigned char *file = NULL, *rgba = NULL, *alb = NULL, *rough = NULL, *metal = NULL;
+    size_t file_size = 0, session_bytes = 0, np, rss = 0;
+    long fma_iters = 0;
+    supermat_model *model = NULL;
+    supermat_model_info mi;
+    supermat_session *sess = NULL;
+    supermat_session_desc sd;
+    supermat_threading hook;
+    supermat_flops fl;
+    supermat_error err;
+    supermat_result r;
+    supermat_pool *pool = NULL;
+    double peak = 0.0, peak1 = 0.0, create_s = 0.0, best_total = 1e30, sum_total = 0.0;
+    double gemm_flops = 2.0 * CLI_GEMM_HW * CLI_GEMM_HW * (double)CLI_GEMM_C * 9.0 * CLI_GEMM_C;
+    double t_avx2 = -1.0, t_scalar = -1.0, gemm_diff = 0.0;
+    cli_row rows[CLI_MAX_ROWS];
+    cli_events ev;
+    char outs_s[64];
+
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); return CLI_OK; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            model_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--size", &v)) != 0) {
+            if (m < 0 || cli_parse_size(cmd, v, &w, &h)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 64, &threads)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--repeats", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--repeats", v, 1, 1000, &repeats)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
+            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
+            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            json_path = v;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            return cli_usage_error(cmd, "unexpected argument '%s'", a);
+        }
+    }
+    if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
+    cli_outputs_string(outputs, outs_s, sizeof outs_s);
+    memset(&mi, 0, sizeof mi);
+    memset(&fl, 0, sizeof fl);
+
+    /* one pool for everything: the FMA peak, the session and the GEMM */
+#if SUPERMAT__HAS_PTHREADS
+    if (supermat_pool_create(threads, NULL, &pool, &hook) != SUPERMAT_SUCCESS) { cli_error("cannot create the thread pool"); return CLI_FAIL; }
+#else
+    hook.parallel_for = cli_serial_for; hook.user = NULL; hook.max_threads = 1;
+#endif
+    (void)cli_serial_for;
+
+    /* (a) here and again at the end (the best counts: a busy neighbour only lowers it) */
+    peak1 = cli_fma_peak(NULL, 3, &fma_iters);
+    peak = cli_fma_peak(&hook, 3, &fma_iters);
+
+    /* (b) */
+    rc = cli_load_model(model_path, kernel, &file, &file_size, &model, &create_s);
+    if (rc == CLI_OK) {
+        supermat_model_get_info(model, &mi);
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threading = hook;
+        r = supermat_session_memory(&sd, &session_bytes, &err);
+        if (r == SUPERMAT_SUCCESS) r = supermat_session_create(&sd, &sess, &err);
+        if (r != SUPERMAT_SUCCESS) { cli_lib_error("session", r, &err); rc = CLI_FAIL; }
+    }
+    if (rc == CLI_OK) {
+        np = (size_t)w * (size_t)h;
+        rgba = (unsigned char *)malloc(np * 4);
+        alb = (unsigned char *)malloc(np * 3);
+        rough = (unsigned char *)malloc(np);
+        metal = (unsigned char *)malloc(np);
+        if (!rgba || !alb || !rough || !metal) { cli_error("out of memory"); rc = CLI_FAIL; }
+    }
+    if (rc == CLI_OK) {
+        /* a deterministic pattern: gradients, a checker, an opaque disk on transparent noise */
+        uint32_t seed = 7u;
+        for (y = 0; y < h; y++)
+            for (x = 0; x < w; x++) {
+                unsigned char *p = rgba + ((size_t)y * w + x) * 4;
+                double dx = (x + 0.5) / w - 0.5, dy = (y + 0.5) / h - 0.5, d = sqrt(dx * dx + dy * dy);
+                int inside = d < 0.4, check = ((x / 8) + (y / 8)) & 1;
+                p[0] = (unsigned char)(inside ? 40 + 180 * x / w : (int)(cli_rand(&seed) & 255u));
+                p[1] = (unsigned char)(inside ? 40 + 180 * y / h : (int)(cli_rand(&seed) & 255u));
+                p[2] = (unsigned char)(inside ? (check ? 200 : 60) : (int)(cli_rand(&seed) & 255u));
+                p[3] = (unsigned char)(inside ? 255 : d < 0.41 ? 128 : 0);
+            }
+    }
+    for (rep = 0; rep < repeats && rc == CLI_OK; rep++) {
+        supermat_run_desc rd;
+        double t0, t1;
+        cli_row tmp[CLI_MAX_ROWS];
+        int n;
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = rgba; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
+        if (outputs & SUPERMAT_OUTPUT_ALBEDO) { rd.albedo.pixels = alb; rd.albedo.channels = 3; }
+        if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) { rd.roughness.pixels = rough; rd.roughness.channels = 1; }
+        if (outputs & SUPERMAT_OUTPUT_METALLIC) { rd.metallic.pixels = metal; rd.metallic.channels = 1; }
+        memset(&ev, 0, sizeof ev);
+        rd.inspect = cli_inspect_cb; rd.inspect_user = &ev;
+        t0 = cli_now();
+        r = supermat_run(sess, &rd, &err);
+        t1 = cli_now();
+        if (r != SUPERMAT_SUCCESS) { cli_lib_error("run", r, &err); rc = CLI_FAIL; break; }
+        supermat_session_flops(sess, &fl);
+        n = cli_rows(&ev, t0, t1, &fl, &mi, tmp);
+        sum_total += t1 - t0;
+        if (t1 - t0 < best_total) { best_total = t1 - t0; nrows = n; memcpy(rows, tmp, sizeof(cli_row) * (size_t)n); }
+    }
+
+    rss = cli_peak_rss(); /* the pipeline's peak, before the GEMM's buffers */
+
+    /* (c) */
+    if (rc == CLI_OK) {
+        cli_gemm g;
+        float *ref = NULL;
+        size_t nout = (size_t)CLI_GEMM_HW * CLI_GEMM_HW * CLI_GEMM_C, k;
+        if (cli_gemm_init(&g, hook.max_threads) != CLI_OK || !(ref = (float *)malloc(nout * sizeof(float)))) {
+            cli_error("out of memory for the GEMM benchmark");
+            rc = CLI_FAIL;
+        } else {
+#if SUPERMAT__HAS_AVX2
+            if (supermat_cpu_has_avx2()) t_avx2 = cli_gemm_time(&g, supermat__ukr_avx2, &hook, 0.5, ref);
+#endif
+            t_scalar = cli_gemm_time(&g, supermat__ukr_scalar, &hook, 1.0, NULL);
+            if (t_avx2 > 0) {
+                double mx = 0.0, md = 0.0;
+                for (k = 0; k < nout; k++) {
+                    double a = fabs((double)ref[k]), d = fabs((double)ref[k] - (double)g.out.d[k]);
+                    if (a > mx) mx = a;
+                    if (d > md) md = d;
+                }
+                gemm_diff = mx > 0 ? md / mx : md;
+            }
+        }
+        free(ref);
+        cli_gemm_free(&g);
+    }
+
+    if (rc == CLI_OK) {
+        double p1 = cli_fma_peak(NULL, 3, &fma_iters), pa = cli_fma_peak(&hook, 3, &fma_iters);
+        if (p1 > peak1) peak1 = p1;
+        if (pa > peak) peak = pa;
+    }
+    if (rc == CLI_OK) {
+        size_t planned = mi.model_bytes + session_bytes;
+        double total_flops = fl.total;
+        FILE *jf = NULL;
+        printf("supermat bench: %s (%s, kernel %s), %dx%d, outputs %s, %d thread%s\n", model_path, cli_kind_name(mi.kind),
+               cli_kernel_name(mi.kernel), w, h, outs_s, hook.max_threads, hook.max_threads == 1 ? "" : "s");
+        if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (AVX2, %d independent _mm256_fmadd_ps chains; best of 6)\n",
+                             peak, hook.max_threads, hook.max_threads == 1 ? "" : "s", peak1, CLI_FMA_CHAINS);
+        else printf("FMA peak      n/a (no AVX2/FMA on this CPU or in this build)\n");
+        printf("model create  %.3f s (validation and weight packing)\n", create_s);
+        printf("\n%-32s %9s %9s %9s %7s\n", repeats > 1 ? "stage (fastest run)" : "stage", "seconds", "GFLOP", "GFLOP/s", "% peak");
+        for (i = 0; i < nrows; i++) {
+            printf("%-32s %9.4f %9.3f", rows[i].name, rows[i].seconds, rows[i].flops / 1e9);
+            if (rows[i].flops > 0 && rows[i].seconds > 0) {
+                double gfs = rows[i].flops / rows[i].seconds / 1e9;
+                printf(" %9.2f", gfs);
+                if (peak > 0) printf(" %6.1f%%", 100.0 * gfs / peak);
+            } else printf(" %9s %7s", "-", "-");
+            printf("\n");
+        }
+        printf("%-32s %9.4f %9.3f %9.2f", "total", best_total, total_flops / 1e9, total_flops / best_total / 1e9);
+        if (peak > 0) printf(" %6.1f%%", 100.0 * total_flops / best_total / 1e9 / peak);
+        printf("\n");
+        if (repeats > 1) printf("(%d runs, mean total %.4f s)\n", repeats, sum_total / repeats);
+        printf("\nmemory        model %.1f MiB + session %.1f MiB = %.1f MiB planned; process peak RSS %.1f MiB (getrusage, after the runs; includes the %.1f MiB file buffer)\n",
+               cli_mib((double)mi.model_bytes), cli_mib((double)session_bytes), cli_mib((double)planned), cli_mib((double)rss),
+               cli_mib((double)file_size));
+        printf("conv GEMM     3x3, %dx%dx%d -> %d (M=%d, K=%d, N=%d, %.2f GFLOP), packed weights, %d thread%s:\n", CLI_GEMM_HW,
+               CLI_GEMM_HW, CLI_GEMM_C, CLI_GEMM_C, CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9,
+               hook.max_threads, hook.max_threads == 1 ? "" : "s");
+        if (t_avx2 > 0) printf("              avx2   %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_avx2 / 1e9, t_avx2);
+        else printf("              avx2   n/a\n");
+        printf("              scalar %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_scalar / 1e9, t_scalar);
+        if (t_avx2 > 0) printf("              ratio  %.1fx (avx2 / scalar); max difference %.2g of max |C|; avx2 at %.1f%% of the FMA peak\n",
+                               t_scalar / t_avx2, gemm_diff, peak > 0 ? 100.0 * gemm_flops / t_avx2 / 1e9 / peak : 0.0);
+
+        if (json_path) {
+            jf = fopen(json_path, "w");
+            if (!jf) { cli_error("cannot write '%s': %s", json_path, strerror(errno)); rc = CLI_FAIL; }
+        }
+        if (jf) {
+            fprintf(jf, "{\n  \"version\": \"%d.%d.%d\",\n  \"model\": ", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255,
+                    SUPERMAT_VERSION & 255);
+            cli_json_string(jf, model_path);
+            fprintf(jf, ",\n  \"kind\": \"%s\",\n  \"kernel\": \"%s\",\n  \"width\": %d,\n  \"height\": %d,\n  \"outputs\": \"%s\",\n",
+                    cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), w, h, outs_s);
+            fprintf(jf, "  \"threads\": %d,\n  \"repeats\": %d,\n  \"fma_peak_gflops\": %.6g,\n  \"fma_peak_one_thread_gflops\": %.6g,\n  \"model_create_seconds\": %.6g,\n",
+                    hook.max_threads, repeats, peak, peak1, create_s);
+            fprintf(jf, "  \"stages\": [\n");
+            for (i = 0; i < nrows; i++) {
+                double gfs = rows[i].seconds > 0 ? rows[i].flops / rows[i].seconds / 1e9 : 0.0;
+                fprintf(jf, "    {\"stage\": ");
+                cli_json_string(jf, rows[i].name);
+                fprintf(jf, ", \"seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g}%s\n", rows[i].seconds,
+                        rows[i].flops / 1e9, gfs, peak > 0 ? 100.0 * gfs / peak : 0.0, i + 1 < nrows ? "," : "");
+            }
+            fprintf(jf, "  ],\n  \"total\": {\"seconds\": %.6g, \"mean_seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g},\n",
+                    best_total, sum_total / repeats, total_flops / 1e9, total_flops / best_total / 1e9,
+                    peak > 0 ? 100.0 * total_flops / best_total / 1e9 / peak : 0.0);
+            fprintf(jf, "  \"flops\": {\"encode\": %.6g, \"trunk\": %.6g, \"branch\": %.6g, \"decode\": %.6g, \"total\": %.6g},\n",
+                    fl.encode, fl.trunk, fl.branch, fl.decode, fl.total);
+            fprintf(jf, "  \"memory\": {\"model_bytes\": %llu, \"session_bytes\": %llu, \"planned_bytes\": %llu, \"peak_rss_bytes\": %llu, \"file_bytes\": %llu},\n",
+                    (unsigned long long)mi.model_bytes, (unsigned long long)session_bytes, (unsigned long long)planned,
+                    (unsigned long long)rss, (unsigned long long)file_size);
+            fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g}\n}\n",
+                    CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9, t_avx2 > 0 ? gemm_flops / t_avx2 / 1e9 : 0.0,
+                    gemm_flops / t_scalar / 1e9, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff);
+            if (fclose(jf) != 0) { cli_error("cannot write '%s'", json_path); rc = CLI_FAIL; }
+        }
+    }
+
+    free(rgba); free(alb); free(rough); free(metal);
+    supermat_session_destroy(sess);
+    supermat_model_destroy(model);
+    free(file);
+#if SUPERMAT__HAS_PTHREADS
+    supermat_pool_destroy(pool);
+#endif
+    (void)pool;
+    return rc;
+}
+
+/* >>main */
+int main(int argc, char **argv) {
+    const char *c;
+    if (argc < 2) { fputs(cli_usage_main, stderr); return CLI_USAGE; }
+    c = argv[1];
+    if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) { fputs(cli_usage_main, stdout); return CLI_OK; }
+    if (!strcmp(c, "--version") || !strcmp(c, "-V")) {
+        printf("supermat %d.%d.%d\n", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255, SUPERMAT_VERSION & 255);
+        return CLI_OK;
+    }
+    if (!strcmp(c, "convert")) return cli_convert(argc, argv);
+    if (!strcmp(c, "image")) return cli_image(argc, argv);
+    if (!strcmp(c, "info")) return cli_info(argc, argv);
+    if (!strcmp(c, "bench")) return cli_bench(argc, argv);
+    return cli_usage_error(NULL, "unknown command '%s'", c);
+}
