@@ -1345,28 +1345,33 @@ static float supermat__gelu(float x) { return 0.5f * x * (1.0f + erff(x * 0.7071
 /* >>norm : GroupNorm (+SiLU) and LayerNorm, statistics in float64 */
 typedef struct supermat__norm { const float *g, *b; int c; float eps; } supermat__norm;
 
+/* GroupNorm statistics in two passes (mean, then squared deviations), each over fixed chunks of pixels
+   read contiguously with per-channel float64 sums; the chunks are reduced in a fixed order, so the
+   result does not depend on the thread count. */
+#define SUPERMAT__GN_CHUNK 256
 typedef struct supermat__gn_args {
     const supermat__ctx *X;
     const supermat__t *in; supermat__t *out;
-    const supermat__norm *nm; int groups, silu;
+    const supermat__norm *nm; int groups, silu, pass, cpi; /* chunks per image */
+    double *part;             /* n x cpi x C partial sums */
     double *mean, *rstd;      /* n x groups */
     int rows_per_task;        /* pixel rows per apply task */
 } supermat__gn_args;
 
 static void supermat__gn_stats_task(void *user, int index, int thread) {
     const supermat__gn_args *a = (const supermat__gn_args *)user;
-    int img = index / a->groups, g = index % a->groups, cg = a->in->c / a->groups, j;
-    size_t hw = (size_t)a->in->h * a->in->w, p;
-    const float *x = a->in->d + (size_t)img * hw * a->in->c + (size_t)g * cg;
-    double s = 0.0, ss = 0.0, mean, cnt = (double)hw * cg;
+    int img = index / a->cpi, ch = index % a->cpi, C = a->in->c, cg = C / a->groups, c;
+    size_t hw = (size_t)a->in->h * a->in->w, p0 = (size_t)ch * SUPERMAT__GN_CHUNK, p1 = SUPERMAT__MIN(hw, p0 + SUPERMAT__GN_CHUNK), p;
+    const float *x = a->in->d + (size_t)img * hw * C;
+    double *acc = a->part + (size_t)index * C;
     (void)thread;
-    for (p = 0; p < hw; p++)
-        for (j = 0; j < cg; j++) s += x[p * a->in->c + j];
-    mean = s / cnt;
-    for (p = 0; p < hw; p++)
-        for (j = 0; j < cg; j++) { double d = x[p * a->in->c + j] - mean; ss += d * d; }
-    a->mean[index] = mean;
-    a->rstd[index] = 1.0 / sqrt(ss / cnt + (double)a->nm->eps);
+    for (c = 0; c < C; c++) acc[c] = 0.0;
+    if (a->pass == 0) {
+        for (p = p0; p < p1; p++) { const float *r = x + p * C; for (c = 0; c < C; c++) acc[c] += r[c]; }
+    } else {
+        const double *mean = a->mean + (size_t)img * a->groups;
+        for (p = p0; p < p1; p++) { const float *r = x + p * C; for (c = 0; c < C; c++) { double d = r[c] - mean[c / cg]; acc[c] += d * d; } }
+    }
 }
 
 static void supermat__gn_apply_task(void *user, int index, int thread) {
@@ -1392,18 +1397,41 @@ static void supermat__gn_apply_task(void *user, int index, int thread) {
     }
 }
 
+static void supermat__gn_reduce(supermat__gn_args *a, double *dst) {
+    int img, g, k, c, C = a->in->c, cg = C / a->groups;
+    double cnt = (double)a->in->h * a->in->w * cg;
+    for (img = 0; img < a->in->n; img++)
+        for (g = 0; g < a->groups; g++) {
+            double s = 0.0;
+            for (k = 0; k < a->cpi; k++) {
+                const double *acc = a->part + ((size_t)img * a->cpi + k) * C + (size_t)g * cg;
+                for (c = 0; c < cg; c++) s += acc[c];
+            }
+            dst[img * a->groups + g] = a->pass == 0 ? s / cnt : 1.0 / sqrt(s / cnt + (double)a->nm->eps);
+        }
+}
+
 static void supermat__groupnorm(supermat__ctx *X, const supermat__t *in, supermat__t *out, const supermat__norm *nm, int groups, int silu) {
     supermat__gn_args a;
-    size_t total;
-    if (!supermat__live(X)) return;
-    if ((size_t)in->n * groups > X->gn_cap || in->c % groups || 2 * (size_t)in->c > X->scratch_floats) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
-    a.X = X; a.in = in; a.out = out; a.nm = nm; a.groups = groups; a.silu = silu;
-    a.mean = X->gn_stats;
-    a.rstd = a.mean + (size_t)in->n * groups;
-    supermat__par(X, in->n * groups, supermat__gn_stats_task, &a);
-    total = (size_t)in->n * in->h * in->w;
-    a.rows_per_task = 64;
-    supermat__par(X, (int)((total + 63) / 64), supermat__gn_apply_task, &a);
+    size_t total, hw = (size_t)in->h * in->w;
+    int cpi = (int)((hw + SUPERMAT__GN_CHUNK - 1) / SUPERMAT__GN_CHUNK);
+    double *part = (double *)(void *)supermat__get(X, 2 * (size_t)in->n * cpi * in->c);
+    if (supermat__live(X)) {
+        if ((size_t)in->n * groups > X->gn_cap || in->c % groups || 2 * (size_t)in->c > X->scratch_floats) X->status = SUPERMAT_ERROR_INTERNAL;
+        else {
+            a.X = X; a.in = in; a.out = out; a.nm = nm; a.groups = groups; a.silu = silu; a.cpi = cpi; a.part = part;
+            a.mean = X->gn_stats;
+            a.rstd = a.mean + (size_t)in->n * groups;
+            for (a.pass = 0; a.pass < 2; a.pass++) {
+                supermat__par(X, in->n * cpi, supermat__gn_stats_task, &a);
+                supermat__gn_reduce(&a, a.pass == 0 ? a.mean : a.rstd);
+            }
+            total = (size_t)in->n * hw;
+            a.rows_per_task = 64;
+            supermat__par(X, (int)((total + 63) / 64), supermat__gn_apply_task, &a);
+        }
+    }
+    supermat__put(X, part);
 }
 
 typedef struct supermat__ln_args { const float *x; float *y; int C; float eps; const float *g, *b; int rows, M; } supermat__ln_args;

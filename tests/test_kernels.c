@@ -31,10 +31,13 @@ static void kctx_init(kctx *k, int avx2, int threads) {
     for (i = 0; i < nt; i++) k->X.scratch[i] = k->mem + (size_t)i * k->X.scratch_floats;
     k->X.gn_cap = 4096;
     k->X.gn_stats = (double *)malloc(sizeof(double) * 2 * k->X.gn_cap);
+    k->X.cap = (size_t)32 << 20; /* an arena for the temporaries the kernels take */
+    k->X.base = (char *)malloc(k->X.cap);
 }
 static void kctx_free(kctx *k) {
     if (k->pool) supermat_pool_destroy(k->pool);
-    free(k->mem); free(k->X.scratch); free(k->X.gn_stats);
+    TU_CHECK(k->X.nblk == 0, "%d arena blocks left", k->X.nblk);
+    free(k->mem); free(k->X.scratch); free(k->X.gn_stats); free(k->X.base);
 }
 /* pack W [N][Cin][k][k] into panels the way the loader does */
 static void pack_w(supermat__pw *pw, const float *w, const float *b, int N, int cin, int k) {
