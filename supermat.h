@@ -254,6 +254,8 @@ typedef struct supermat_session_desc {
     const supermat_model *model;
     int width, height;           /* the image size processed: multiples of 8, >= 8 */
     unsigned outputs;            /* SUPERMAT_OUTPUT_* bits; 0 = all */
+    int views;                   /* images processed together: SuperMatMV views (0 = 6 for MV models,
+                                    1 otherwise); other kinds take 1 */
     int threads;                 /* built-in pool: 0 = all cores, 1 = run on the calling thread */
     supermat_threading threading;/* a caller's parallel-for; overrides `threads` when set */
     supermat_allocator allocator;
@@ -288,6 +290,7 @@ typedef enum supermat_stage {
     SUPERMAT_STAGE_X0,        /* per branch: the one-step x0 latent */
     SUPERMAT_STAGE_DECODED,   /* per branch: raw VAE decode, before x/2+0.5 */
     SUPERMAT_STAGE_TRUNK,     /* the shared UNet trunk's output (input of every branch tail) */
+    SUPERMAT_STAGE_UNET_IN,   /* UV refine: [latent, mask, position] at the latent size */
     SUPERMAT_STAGE_COUNT
 } supermat_stage;
 
@@ -297,6 +300,16 @@ typedef struct supermat_run_desc {
        (alpha copied from the input, 1 without); roughness and metallic: 1 channel, or 3/4 to fill
        gray RGB(A). The glTF-style ORM image (R 1, G roughness, B metallic) is `orm`. */
     supermat_image albedo, roughness, metallic, orm;
+    /* SuperMatMV: the session's `views` images in input_views[] (then `input` is ignored), their
+       camera-to-world matrices (views x 16 floats, row-major, as meta.json's transform_matrix), and
+       per-view outputs in the *_views arrays (an array, or a pixels pointer in it, NULL = not wanted). */
+    const supermat_image *input_views;
+    const float *cameras;
+    supermat_image *albedo_views, *roughness_views, *metallic_views, *orm_views;
+    /* UV refine: `input` is the partial UV map (RGB in [0,1]; a 4th channel is ignored), `mask`
+       (1 channel; of more, the first is used) and `position` (RGB) are at the same size; the refined
+       map is written to `refined` (3 or 4 channels, alpha 1, or 1 channel = the first). */
+    supermat_image mask, position, refined;
     /* Progress between layers: return nonzero to cancel (the run then fails with CANCELLED). */
     int (*progress)(void *user, float fraction, const char *what);
     void *progress_user;
@@ -1604,6 +1617,7 @@ static void supermat__attention(supermat__ctx *X, const float *q, size_t ldq, in
 
 typedef struct supermat__resnet { supermat__norm n1, n2; supermat__conv c1, c2, sc; int has_sc; supermat__pw temb; int cin, cout; } supermat__resnet;
 typedef struct supermat__xformer {
+    char name[72];      /* the module path, e.g. "down_blocks.1.attentions.0" */
     supermat__norm gn, ln1, ln2, ln3;
     supermat__pw proj_in, proj_out, qkv1, out1, q2, out2, ff1, ff2;
     float *kp2, *vp2;   /* cross-attention K/V of the constant context, packed */
@@ -1912,6 +1926,7 @@ static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, co
     supermat_model *m = L->m;
     int ctx_t, wk, wv, i, j, t;
     x->c = c; x->heads = heads; x->d = c / heads;
+    supermat__name(x->name, sizeof x->name, "%s", pre);
     if (heads <= 0 || c % heads) { if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "%d channels do not split into %d heads", c, heads); return; }
     supermat__name(n, sizeof n, "%s.norm", pre); supermat__bind_norm(L, &x->gn, n, c, 1e-6f);
     supermat__name(n, sizeof n, "%s.proj_in", pre); supermat__bind_linear(L, &x->proj_in, n, c, c, 1);
@@ -1987,6 +2002,8 @@ static void supermat__bind_unet(supermat__loader *L) {
     supermat_model *m = L->m;
     char n[200];
     int l, j, b, T = m->temb_dim, rb[SUPERMAT__MAXL], rh[SUPERMAT__MAXL], out_ch, prev, in_ch;
+    int uv = m->info.kind == SUPERMAT_KIND_UV_REFINE, mv = m->info.kind == SUPERMAT_KIND_SUPERMAT_MV;
+    char dn[64];
     uint64_t p0;
     supermat__bind_linear(L, &m->time1, "time_embedding.linear_1", T, m->boc[0], 1);
     supermat__bind_linear(L, &m->time2, "time_embedding.linear_2", T, T, 1);
@@ -1994,27 +2011,32 @@ static void supermat__bind_unet(supermat__loader *L) {
         supermat__bind_linear(L, &m->cls1, "class_embedding.linear_1", T, m->class_in, 1);
         supermat__bind_linear(L, &m->cls2, "class_embedding.linear_2", T, T, 1);
     }
-    supermat__bind_conv(L, &m->conv_in, "conv_in", m->in_ch, m->boc[0], 3, 1);
+    /* UV refine renames the head: conv_in -> rep_conv_in.0, down level 0 -> first_down_blocks.0,
+       down level l -> down_blocks.(l-1) */
+    supermat__bind_conv(L, &m->conv_in, uv ? "rep_conv_in.0" : "conv_in", m->in_ch, m->boc[0], 3, 1);
     out_ch = m->boc[0];
     for (l = 0; l < m->L; l++) {
         supermat__level *lv = &m->down[l];
         in_ch = out_ch; out_ch = m->boc[l];
         lv->nres = m->lpb; lv->has_attn = m->down_attn[l]; lv->cout = out_ch;
+        if (uv && l == 0) supermat__name(dn, sizeof dn, "first_down_blocks.0");
+        else supermat__name(dn, sizeof dn, "down_blocks.%d", uv ? l - 1 : l);
         for (j = 0; j < m->lpb; j++) {
-            supermat__name(n, sizeof n, "down_blocks.%d.resnets.%d", l, j);
+            supermat__name(n, sizeof n, "%s.resnets.%d", dn, j);
             supermat__bind_resnet(L, &lv->res[j], n, j == 0 ? in_ch : out_ch, out_ch, T, m->groups, m->eps);
             if (lv->has_attn) {
-                supermat__name(n, sizeof n, "down_blocks.%d.attentions.%d", l, j);
+                supermat__name(n, sizeof n, "%s.attentions.%d", dn, j);
                 supermat__bind_xformer(L, &lv->att[j], n, out_ch, m->heads[l], 1e-5f);
-                lv->att[j].mv = m->class_in > 0 && l > 0;
+                /* the official MV processor skips every module path containing "down_blocks.0" */
+                lv->att[j].mv = mv && !strstr(n, "down_blocks.0");
             }
         }
         lv->has_sampler = l < m->L - 1;
-        if (lv->has_sampler) { supermat__name(n, sizeof n, "down_blocks.%d.downsamplers.0.conv", l); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
+        if (lv->has_sampler) { supermat__name(n, sizeof n, "%s.downsamplers.0.conv", dn); supermat__bind_conv(L, &lv->sampler, n, out_ch, out_ch, 3, 2); }
     }
     supermat__bind_resnet(L, &m->mid_res[0], "mid_block.resnets.0", m->boc[m->L - 1], m->boc[m->L - 1], T, m->groups, m->eps);
     supermat__bind_xformer(L, &m->mid_att, "mid_block.attentions.0", m->boc[m->L - 1], m->heads[m->L - 1], 1e-5f);
-    m->mid_att.mv = m->class_in > 0;
+    m->mid_att.mv = mv;
     supermat__bind_resnet(L, &m->mid_res[1], "mid_block.resnets.1", m->boc[m->L - 1], m->boc[m->L - 1], T, m->groups, m->eps);
     for (l = 0; l < m->L; l++) { rb[l] = m->boc[m->L - 1 - l]; rh[l] = m->heads[m->L - 1 - l]; }
     out_ch = rb[0];
@@ -2035,7 +2057,7 @@ static void supermat__bind_unet(supermat__loader *L) {
                     if (l == m->L - 1) supermat__name(n, sizeof n, "last_up_blocks.%d.attentions.%d", b, j);
                     else supermat__name(n, sizeof n, "up_blocks.%d.attentions.%d", l, j);
                     supermat__bind_xformer(L, &lv->att[j], n, out_ch, rh[l], 1e-5f);
-                    lv->att[j].mv = m->class_in > 0;
+                    lv->att[j].mv = mv && !strstr(n, "down_blocks.0");
                 }
             }
             lv->has_sampler = l < m->L - 1;
@@ -2184,7 +2206,6 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     else if (!strcmp(buf, "supermat-mv")) m->info.kind = SUPERMAT_KIND_SUPERMAT_MV;
     else if (!strcmp(buf, "uv-refine")) m->info.kind = SUPERMAT_KIND_UV_REFINE;
     else { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "unknown model kind '%s'", buf); goto done; }
-    if (m->info.kind != SUPERMAT_KIND_SUPERMAT) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "model kind '%s' is not supported by this version yet", buf); goto done; }
     m->in_ch = (int)supermat__meta_num(&L, "unet.in_channels", 1, 64, 4, 1);
     m->out_ch = (int)supermat__meta_num(&L, "unet.out_channels", 1, 64, 4, 1);
     m->L = supermat__meta_list(&L, "unet.block_out_channels", m->boc, SUPERMAT__MAXL, 1, 65536);
@@ -2239,7 +2260,10 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     for (i = 0; i < m->vL; i++)
         if (m->vboc[i] % m->vgroups) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "VAE: %d channels do not split into %d groups", m->vboc[i], m->vgroups); goto done; }
     if (m->ctx_dim != m->cross_dim) { L.r = supermat__fail(err, SUPERMAT_ERROR_SHAPE_MISMATCH, "context", "context dim %d != cross_attention_dim %d", m->ctx_dim, m->cross_dim); goto done; }
-    if (m->branches < 2 && m->info.kind == SUPERMAT_KIND_SUPERMAT) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a SuperMat model has 2 branches, the file says %d", m->branches); goto done; }
+    if (m->branches < 2 && m->info.kind != SUPERMAT_KIND_UV_REFINE) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a SuperMat model has 2 branches, the file says %d", m->branches); goto done; }
+    if ((m->info.kind == SUPERMAT_KIND_SUPERMAT_MV) != (m->class_in > 0)) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a %s model %s a camera embedding (unet.class_embed_in = %d)", buf, m->class_in ? "has" : "needs", m->class_in); goto done; }
+    if (m->info.kind == SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent + 4) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a UV-refine model takes latent + mask + position = %d input channels, the file says %d", m->latent + 4, m->in_ch); goto done; }
+    if (m->info.kind != SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the UNet takes %d channels, the VAE latent has %d", m->in_ch, m->latent); goto done; }
     m->temb_dim = 4 * m->boc[0];
     /* bind and pack everything */
     supermat__bind_unet(&L);
@@ -2568,7 +2592,7 @@ static supermat__t supermat__vae_decode(supermat__ctx *X, const supermat_model *
 struct supermat_session {
     const supermat_model *m;
     supermat_allocator alloc;
-    int w, h;
+    int w, h, views;
     unsigned outputs;
     supermat_pool *pool;
     supermat_threading thr;
@@ -2580,12 +2604,17 @@ struct supermat_session {
     double *gn_stats;
     size_t gn_cap;
     supermat_flops flops;
+    double work_total;          /* progress steps of one run */
     size_t total_bytes;
 };
 
+static int supermat__views(const supermat_session_desc *d) {
+    return d->views ? d->views : d->model->info.kind == SUPERMAT_KIND_SUPERMAT_MV ? 6 : 1;
+}
+
 static int supermat__branch_mask(const supermat_model *m, unsigned outputs) {
     int want = 0;
-    (void)m;
+    if (m->info.kind == SUPERMAT_KIND_UV_REFINE) return 1; /* one branch: the refined map */
     if (outputs & SUPERMAT_OUTPUT_ALBEDO) want |= 1;
     if (outputs & (SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC)) want |= 2;
     return want;
@@ -2609,42 +2638,92 @@ static size_t supermat__scratch_floats(const supermat_model *m) {
     return (s + 15) / 16 * 16;
 }
 
+/* pixel (x, y), channel c of a caller's image, as a float (8-bit / 255) */
+static float supermat__px(const supermat_image *im, int x, int y, int c) {
+    size_t es = im->format == SUPERMAT_FORMAT_F32 ? 4 : 1, stride = im->stride ? im->stride : (size_t)im->width * im->channels * es;
+    const unsigned char *p = (const unsigned char *)im->pixels + (size_t)y * stride + ((size_t)x * im->channels + c) * es;
+    float v;
+    if (es == 4) { memcpy(&v, p, 4); return v; }
+    return (float)*p / 255.0f;
+}
+static const supermat_image *supermat__view_in(const supermat_run_desc *rd, int v) {
+    return rd->input_views ? &rd->input_views[v] : &rd->input;
+}
+
+/* PyTorch's F.interpolate(mode="bilinear", align_corners=False, antialias=False) of channel `c` of a
+   caller's image to (oh, ow), into dst with channel stride `ldc` */
+static void supermat__bilinear(const supermat_image *im, int c, int oh, int ow, float *dst, int ldc) {
+    float sh = (float)im->height / (float)oh, sw = (float)im->width / (float)ow;
+    int oy, ox;
+    for (oy = 0; oy < oh; oy++) {
+        float fy = sh * ((float)oy + 0.5f) - 0.5f, ly1, ly0;
+        int y0, y1;
+        if (fy < 0.0f) fy = 0.0f;
+        y0 = (int)fy; y1 = y0 + (y0 < im->height - 1);
+        ly1 = fy - (float)y0; ly0 = 1.0f - ly1;
+        for (ox = 0; ox < ow; ox++) {
+            float fx = sw * ((float)ox + 0.5f) - 0.5f, lx1, lx0;
+            int x0, x1;
+            if (fx < 0.0f) fx = 0.0f;
+            x0 = (int)fx; x1 = x0 + (x0 < im->width - 1);
+            lx1 = fx - (float)x0; lx0 = 1.0f - lx1;
+            dst[((size_t)oy * ow + ox) * ldc] = ly0 * (lx0 * supermat__px(im, x0, y0, c) + lx1 * supermat__px(im, x1, y0, c)) +
+                                                ly1 * (lx0 * supermat__px(im, x0, y1, c) + lx1 * supermat__px(im, x1, y1, c));
+        }
+    }
+}
+
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
                               supermat_flops *fl) {
     const supermat_model *m = S->m;
-    supermat__t img = supermat__tensor(X, 1, S->h, S->w, 3), lat, v[SUPERMAT__MAXBRANCH];
-    int want = supermat__branch_mask(m, S->outputs), b;
+    int V = S->views, uv = m->info.kind == SUPERMAT_KIND_UV_REFINE, mvk = m->info.kind == SUPERMAT_KIND_SUPERMAT_MV;
+    supermat__t img = supermat__tensor(X, V, S->h, S->w, 3), lat, v[SUPERMAT__MAXBRANCH];
+    int want = supermat__branch_mask(m, S->outputs), b, i;
+    float *cams = NULL;
     double f0;
     memset(fl, 0, sizeof *fl);
     if (supermat__live(X)) {
-        const supermat_image *in = &rd->input;
-        size_t stride = in->stride ? in->stride : (size_t)in->width * in->channels * (in->format == SUPERMAT_FORMAT_F32 ? 4 : 1);
-        int x, y;
-        for (y = 0; y < S->h; y++) {
-            const unsigned char *row = (const unsigned char *)in->pixels + (size_t)y * stride;
-            for (x = 0; x < S->w; x++) {
-                float px[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-                int c;
-                for (c = 0; c < in->channels; c++) {
-                    if (in->format == SUPERMAT_FORMAT_F32) memcpy(&px[c], row + ((size_t)x * in->channels + c) * 4, 4);
-                    else px[c] = (float)row[(size_t)x * in->channels + c] / 255.0f;
+        int x, y, c, k;
+        for (k = 0; k < V; k++) {
+            const supermat_image *in = supermat__view_in(rd, k);
+            float *dst = img.d + (size_t)k * S->h * S->w * 3;
+            for (y = 0; y < S->h; y++)
+                for (x = 0; x < S->w; x++) {
+                    float px[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+                    for (c = 0; c < SUPERMAT__MIN(in->channels, 4); c++) px[c] = supermat__px(in, x, y, c);
+                    if (in->channels < 4 || uv) px[3] = 1.0f; /* UV maps: RGB as is (the official loader drops alpha) */
+                    for (c = 0; c < 3; c++) {
+                        float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
+                        dst[((size_t)y * S->w + x) * 3 + c] = comp * 2.0f - 1.0f;
+                    }
                 }
-                if (in->channels == 3) px[3] = 1.0f;
-                for (c = 0; c < 3; c++) {
-                    float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]);
-                    img.d[((size_t)y * S->w + x) * 3 + c] = comp * 2.0f - 1.0f;
-                }
-            }
         }
-        if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, 1, img.h, img.w, 3);
+        if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, V, img.h, img.w, 3);
     }
     f0 = X->flops;
     lat = supermat__vae_encode(X, m, &img);
     fl->encode = X->flops - f0;
     supermat__drop(X, &img);
     if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_LATENT, 0, lat.d, lat.n, lat.h, lat.w, lat.c);
-    supermat__unet_fwd(X, m, &lat, NULL, want, rd, v, &fl->trunk, &fl->branch);
+    if (uv) { /* [latent, bilinear(mask), bilinear(position)] */
+        supermat__t u = supermat__tensor(X, 1, lat.h, lat.w, m->in_ch);
+        if (supermat__live(X)) {
+            size_t p, np = (size_t)lat.h * lat.w;
+            for (p = 0; p < np; p++) memcpy(u.d + p * u.c, lat.d + p * lat.c, sizeof(float) * (size_t)lat.c);
+            supermat__bilinear(&rd->mask, 0, lat.h, lat.w, u.d + lat.c, u.c);
+            for (i = 0; i < 3; i++) supermat__bilinear(&rd->position, i, lat.h, lat.w, u.d + lat.c + 1 + i, u.c);
+            if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_UNET_IN, 0, u.d, u.n, u.h, u.w, u.c);
+        }
+        supermat__drop(X, &lat);
+        lat = u;
+    }
+    if (mvk) {
+        cams = supermat__get(X, (size_t)V * m->class_in);
+        if (supermat__live(X)) memcpy(cams, rd->cameras, sizeof(float) * (size_t)V * m->class_in);
+    }
+    supermat__unet_fwd(X, m, &lat, cams, want, rd, v, &fl->trunk, &fl->branch);
+    supermat__put(X, cams);
     supermat__drop(X, &lat);
     for (b = 0; b < m->branches; b++) {
         dec[b].d = NULL;
@@ -2665,6 +2744,9 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
     if (d->outputs & ~(unsigned)SUPERMAT_OUTPUT_ALL) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown output bits 0x%x", d->outputs);
     if (d->threads < 0) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threads must be >= 0");
     if (d->threading.parallel_for && d->threading.max_threads < 1) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threading.max_threads must be >= 1");
+    if (d->views < 0 || d->views > 64) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "views = %d: between 1 and 64 (0 = default)", d->views);
+    if (d->views > 1 && d->model->info.kind != SUPERMAT_KIND_SUPERMAT_MV)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%d views: only a SuperMatMV model takes several views", d->views);
     return SUPERMAT_SUCCESS;
 }
 
@@ -2689,10 +2771,11 @@ static supermat_result supermat__plan(supermat_session *S, int threads, supermat
     X.err = err;
     supermat__forward(&X, S, NULL, dec, &S->flops);
     for (b = m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
+    S->work_total = X.work_total;
     if (X.status || X.nblk != 0) return supermat__fail(err, SUPERMAT_ERROR_INTERNAL, NULL, "memory planning failed (status %d, %d blocks left)", (int)X.status, X.nblk);
     S->arena_size = X.peak;
     S->scratch_floats = supermat__scratch_floats(m);
-    S->gn_cap = (size_t)SUPERMAT__MAX(m->groups, m->vgroups) * 1;
+    S->gn_cap = (size_t)SUPERMAT__MAX(m->groups, m->vgroups) * (size_t)S->views;
     S->total_bytes = sizeof(supermat_session) + S->arena_size + (size_t)threads * (S->scratch_floats * sizeof(float) + sizeof(float *))
                    + 2 * S->gn_cap * sizeof(double);
     return SUPERMAT_SUCCESS;
@@ -2704,7 +2787,7 @@ SUPERMAT__DEF supermat_result supermat_session_memory(const supermat_session_des
     if (r) return r;
     if (!bytes) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bytes is NULL");
     memset(&S, 0, sizeof S);
-    S.m = desc->model; S.w = desc->width; S.h = desc->height; S.outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
+    S.m = desc->model; S.w = desc->width; S.h = desc->height; S.views = supermat__views(desc); S.outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
     r = supermat__plan(&S, supermat__threads_for(desc), err);
     if (r) return r;
     *bytes = S.total_bytes;
@@ -2741,7 +2824,7 @@ SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_des
     S = (supermat_session *)supermat__alloc(&a, sizeof *S);
     if (!S) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the session");
     memset(S, 0, sizeof *S);
-    S->alloc = a; S->m = desc->model; S->w = desc->width; S->h = desc->height;
+    S->alloc = a; S->m = desc->model; S->w = desc->width; S->h = desc->height; S->views = supermat__views(desc);
     S->outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
     if (desc->threading.parallel_for) S->thr = desc->threading;
 #if SUPERMAT__HAS_PTHREADS
@@ -2773,37 +2856,40 @@ SUPERMAT__DEF void supermat_session_flops(const supermat_session *s, supermat_fl
 }
 
 /* >>run */
-static supermat_result supermat__check_image(const supermat_image *im, const char *what, int w, int h, int input, supermat_error *err) {
+static supermat_result supermat__check_image(const supermat_image *im, const char *what, int w, int h, int input, int min_ch,
+                                             supermat_error *err) {
     size_t es = im->format == SUPERMAT_FORMAT_F32 ? 4 : 1;
+    int iw = im->width ? im->width : (input ? 0 : w), ih = im->height ? im->height : (input ? 0 : h);
     if ((unsigned)im->format >= SUPERMAT_FORMAT_COUNT) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: unknown pixel format %d", what, (int)im->format);
-    if ((im->width || !input) && (im->width ? im->width : w) != w) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
-    if ((im->height || !input) && (im->height ? im->height : h) != h) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
-    if (input && (im->width != w || im->height != h)) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
-    if (input ? (im->channels != 3 && im->channels != 4) : (im->channels < 1 || im->channels > 4))
-        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s has %d channels", what, im->channels);
+    if (iw != w || ih != h) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
+    if (im->channels < min_ch || im->channels > 4) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s has %d channels (%d to 4)", what, im->channels, min_ch);
     if (im->stride && im->stride < (size_t)w * im->channels * es) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: stride %llu is smaller than a row", what, (unsigned long long)im->stride);
+    if (input && im->format == SUPERMAT_FORMAT_F32) { /* NaN / Inf are rejected, never propagated */
+        int x, y, c;
+        for (y = 0; y < h; y++)
+            for (x = 0; x < w; x++)
+                for (c = 0; c < im->channels; c++) {
+                    float v = supermat__px(im, x, y, c);
+                    if (!(v - v == 0.0f)) return supermat__fail(err, SUPERMAT_ERROR_NONFINITE, NULL, "%s: pixel (%d, %d) channel %d is NaN or Inf", what, x, y, c);
+                }
+    }
     return SUPERMAT_SUCCESS;
 }
 
-/* writes channel(s) of a decoded image (3 channels in [-1,1]) as x/2+0.5 clamped */
-static void supermat__write(const supermat_image *o, const supermat__t *dec, int src_channel, const supermat_image *in, int w, int h) {
+/* writes one view's decoded image (3 channels in [-1,1]) as x/2+0.5 clamped: src_channel >= 0 picks
+   one channel for every output channel but alpha; alpha (4th channel) comes from `alpha_src`, or is 1 */
+static void supermat__write(const supermat_image *o, const float *dec, int src_channel, const supermat_image *alpha_src, int w, int h) {
     size_t es = o->format == SUPERMAT_FORMAT_F32 ? 4 : 1, stride = o->stride ? o->stride : (size_t)w * o->channels * es;
-    size_t istride = in->stride ? in->stride : (size_t)w * in->channels * (in->format == SUPERMAT_FORMAT_F32 ? 4 : 1);
     int x, y, c;
     for (y = 0; y < h; y++) {
         unsigned char *row = (unsigned char *)o->pixels + (size_t)y * stride;
         for (x = 0; x < w; x++) {
-            const float *px = dec->d + ((size_t)y * w + x) * 3;
+            const float *px = dec + ((size_t)y * w + x) * 3;
             for (c = 0; c < o->channels; c++) {
                 float v;
-                if (c == 3) { /* alpha from the input */
-                    if (in->channels == 4) {
-                        const unsigned char *ir = (const unsigned char *)in->pixels + (size_t)y * istride;
-                        if (in->format == SUPERMAT_FORMAT_F32) memcpy(&v, ir + ((size_t)x * 4 + 3) * 4, 4);
-                        else v = ir[(size_t)x * 4 + 3] / 255.0f;
-                    } else v = 1.0f;
-                } else {
-                    v = px[src_channel >= 0 ? src_channel : c] / 2.0f + 0.5f;
+                if (c == 3) v = alpha_src && alpha_src->channels == 4 ? supermat__px(alpha_src, x, y, 3) : 1.0f;
+                else {
+                    v = px[src_channel >= 0 ? src_channel : (o->channels == 1 ? 0 : c)] / 2.0f + 0.5f;
                     v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
                 }
                 if (o->format == SUPERMAT_FORMAT_F32) memcpy(row + ((size_t)x * o->channels + c) * 4, &v, 4);
@@ -2813,38 +2899,58 @@ static void supermat__write(const supermat_image *o, const supermat__t *dec, int
     }
 }
 
+/* the caller's output image `k` (0 albedo, 1 roughness, 2 metallic, 3 orm, 4 refined) of view v, or NULL */
+static const supermat_image *supermat__out(const supermat_run_desc *rd, int k, int v) {
+    const supermat_image *one[5], *arr[5];
+    const supermat_image *o;
+    one[0] = &rd->albedo; one[1] = &rd->roughness; one[2] = &rd->metallic; one[3] = &rd->orm; one[4] = &rd->refined;
+    arr[0] = rd->albedo_views; arr[1] = rd->roughness_views; arr[2] = rd->metallic_views; arr[3] = rd->orm_views; arr[4] = NULL;
+    o = arr[k] ? &arr[k][v] : (v == 0 ? one[k] : NULL);
+    return o && o->pixels ? o : NULL;
+}
+
 SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_run_desc *rd, supermat_error *err) {
     supermat__ctx X;
     supermat__t dec[SUPERMAT__MAXBRANCH];
-    const supermat_image *outs[4];
-    const char *names[4] = {"albedo", "roughness", "metallic", "orm"};
-    unsigned need[4] = {SUPERMAT_OUTPUT_ALBEDO, SUPERMAT_OUTPUT_ROUGHNESS, SUPERMAT_OUTPUT_METALLIC, SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC};
+    const char *names[5] = {"albedo", "roughness", "metallic", "orm", "refined"};
+    unsigned need[5] = {SUPERMAT_OUTPUT_ALBEDO, SUPERMAT_OUTPUT_ROUGHNESS, SUPERMAT_OUTPUT_METALLIC, SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC, 0};
     supermat_flops fl;
     supermat_result r;
-    int i, b;
+    char what[64];
+    int i, b, v, uv;
     if (!S || !rd) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session and run desc must not be NULL");
-    if (!rd->input.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "input.pixels is NULL");
-    r = supermat__check_image(&rd->input, "the input image", S->w, S->h, 1, err);
-    if (r) return r;
-    outs[0] = &rd->albedo; outs[1] = &rd->roughness; outs[2] = &rd->metallic; outs[3] = &rd->orm;
-    for (i = 0; i < 4; i++) {
-        if (!outs[i]->pixels) continue;
-        r = supermat__check_image(outs[i], names[i], S->w, S->h, 0, err);
+    uv = S->m->info.kind == SUPERMAT_KIND_UV_REFINE;
+    if (S->views > 1 && !rd->input_views) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the session has %d views: give them in input_views", S->views);
+    for (v = 0; v < S->views; v++) {
+        const supermat_image *in = supermat__view_in(rd, v);
+        supermat__name(what, sizeof what, S->views > 1 ? "input view %d" : "the input image", v);
+        if (!in->pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s: pixels is NULL", what);
+        r = supermat__check_image(in, what, S->w, S->h, 1, 3, err);
         if (r) return r;
-        if ((S->outputs & need[i]) != need[i])
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the %s output was not requested when the session was created", names[i]);
     }
-    if (rd->input.format == SUPERMAT_FORMAT_F32) { /* reject NaN/Inf */
-        size_t stride = rd->input.stride ? rd->input.stride : (size_t)S->w * rd->input.channels * 4;
-        int x, y, c;
-        for (y = 0; y < S->h; y++)
-            for (x = 0; x < S->w; x++)
-                for (c = 0; c < rd->input.channels; c++) {
-                    float v;
-                    memcpy(&v, (const unsigned char *)rd->input.pixels + (size_t)y * stride + ((size_t)x * rd->input.channels + c) * 4, 4);
-                    if (!(v - v == 0.0f)) return supermat__fail(err, SUPERMAT_ERROR_NONFINITE, NULL, "input pixel (%d, %d) channel %d is NaN or Inf", x, y, c);
-                }
+    if (S->m->info.kind == SUPERMAT_KIND_SUPERMAT_MV) {
+        if (!rd->cameras) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "a SuperMatMV model needs the cameras (views x 16 floats)");
+        for (i = 0; i < S->views * S->m->class_in; i++)
+            if (!(rd->cameras[i] - rd->cameras[i] == 0.0f))
+                return supermat__fail(err, SUPERMAT_ERROR_NONFINITE, NULL, "camera %d, element %d is NaN or Inf", i / S->m->class_in, i % S->m->class_in);
     }
+    if (uv) {
+        if (!rd->mask.pixels || !rd->position.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "a UV-refine model needs the mask and the position map");
+        r = supermat__check_image(&rd->mask, "the mask", S->w, S->h, 1, 1, err);
+        if (!r) r = supermat__check_image(&rd->position, "the position map", S->w, S->h, 1, 3, err);
+        if (r) return r;
+    }
+    for (i = 0; i < 5; i++)
+        for (v = 0; v < S->views; v++) {
+            const supermat_image *o = supermat__out(rd, i, v);
+            if (!o) continue;
+            supermat__name(what, sizeof what, S->views > 1 ? "the %s output of view %d" : "the %s output", names[i], v);
+            if ((i == 4) != uv) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s: this model does not make it", what);
+            r = supermat__check_image(o, what, S->w, S->h, 0, 1, err);
+            if (r) return r;
+            if ((S->outputs & need[i]) != need[i])
+                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s was not requested when the session was created", what);
+        }
     memset(&X, 0, sizeof X);
     X.err = err; X.base = S->arena; X.cap = S->arena_size;
     X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2;
@@ -2856,26 +2962,17 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;
     X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;
     X.progress = rd->progress; X.progress_user = rd->progress_user;
-    X.work_total = 0;
-    { /* count the steps for the progress fraction (a plan-mode walk costs no memory) */
-        supermat__ctx P;
-        supermat__t pd[SUPERMAT__MAXBRANCH];
-        supermat_flops pf;
-        memset(&P, 0, sizeof P);
-        P.plan = 1;
-        supermat__forward(&P, S, NULL, pd, &pf);
-        X.work_total = P.work_total;
-    }
+    X.work_total = S->work_total;
     supermat__forward(&X, S, rd, dec, &fl);
-    if (X.status == SUPERMAT_SUCCESS) {
-        for (i = 0; i < 4; i++) {
-            const supermat_image *o = outs[i];
-            if (!o->pixels) continue;
-            if (i == 0) supermat__write(o, &dec[0], -1, &rd->input, S->w, S->h);
-            else if (i == 1) supermat__write(o, &dec[1], 1, &rd->input, S->w, S->h);
-            else if (i == 2) supermat__write(o, &dec[1], 2, &rd->input, S->w, S->h);
-            else supermat__write(o, &dec[1], -1, &rd->input, S->w, S->h);
-        }
+    if (X.status == SUPERMAT_SUCCESS) { /* outputs are written only once everything succeeded */
+        size_t per = (size_t)S->w * S->h * 3;
+        for (v = 0; v < S->views; v++)
+            for (i = 0; i < 5; i++) {
+                const supermat_image *o = supermat__out(rd, i, v);
+                static const int branch[5] = {0, 1, 1, 1, 0}, chan[5] = {-1, 1, 2, -1, -1};
+                if (!o) continue;
+                supermat__write(o, dec[branch[i]].d + (size_t)v * per, chan[i], i == 0 ? supermat__view_in(rd, v) : NULL, S->w, S->h);
+            }
     }
     for (b = S->m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
     if (X.status) {

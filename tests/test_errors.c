@@ -2,7 +2,7 @@
    weights and pixels, bad sizes, an allocator that fails at the N-th call, cancellation, and results that
    are bit-identical for any thread count. Every case must return a clear error, never crash, never leak
    (this test runs under ASan/UBSan in CI) and never write an output on failure.
-   usage: test_errors MODEL.safetensors */
+   usage: test_errors MODEL.safetensors [MV_MODEL UV_MODEL] */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
 #include "test_util.h"
@@ -310,8 +310,103 @@ static void test_run(void) {
     supermat_model_destroy(m);
 }
 
+/* SuperMatMV cameras and UV-refine inputs */
+static void test_mv_uv(const char *mv_path, const char *uv_path) {
+    size_t size = 0;
+    unsigned char *data = tu_load(mv_path, &size), rgba[6][16 * 16 * 4], out[6][16 * 16 * 3];
+    supermat_model *m = NULL;
+    supermat_error err;
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_image views[6], outs[6];
+    float cams[6 * 16];
+    int i;
+    TU_CHECK(data && create(data, size, &m, &err) == SUPERMAT_SUCCESS, "MV model: %s", data ? err.message : mv_path);
+    if (m) {
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = 16; sd.height = 16; sd.views = 3; sd.threads = 1;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "MV session: %s", err.message);
+        memset(&rd, 0, sizeof rd);
+        memset(views, 0, sizeof views); memset(outs, 0, sizeof outs);
+        for (i = 0; i < 6; i++) {
+            int k;
+            for (k = 0; k < 16 * 16 * 4; k++) rgba[i][k] = (unsigned char)(k * (i + 3));
+            views[i].pixels = rgba[i]; views[i].width = 16; views[i].height = 16; views[i].channels = 4;
+            outs[i].pixels = out[i]; outs[i].channels = 3;
+        }
+        for (i = 0; i < 6 * 16; i++) cams[i] = (i % 5 == 0) ? 1.0f : 0.0f;
+        rd.input_views = views; rd.albedo_views = outs;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "MV without cameras: %s", err.message);
+        printf("  %-28s -> %s\n", "MV without cameras", err.message);
+        rd.cameras = cams;
+        cams[16 + 3] = NAN;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_NONFINITE, "NaN camera: %s", err.message);
+        printf("  %-28s -> %s\n", "NaN camera", err.message);
+        cams[16 + 3] = INFINITY;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_NONFINITE, "Inf camera: %s", err.message);
+        cams[16 + 3] = 0.0f;
+        rd.input_views = NULL;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "3 views without input_views: %s", err.message);
+        rd.input_views = views;
+        views[2].width = 8;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "a view of another size: %s", err.message);
+        views[2].width = 16;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "MV run: %s", err.message);
+        /* the cameras matter: another camera for view 1 changes view 1's albedo */
+        memcpy(out[5], out[1], sizeof out[1]);
+        cams[16 + 0] = -1.0f;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS && memcmp(out[5], out[1], sizeof out[1]) != 0, "a camera change does not change the output");
+        supermat_session_destroy(s);
+        sd.views = 65;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "65 views: %s", err.message);
+        supermat_model_destroy(m);
+    }
+    free(data);
+    /* several views are for MV models only */
+    m = NULL;
+    if (create(model_data, model_size, &m, &err) == SUPERMAT_SUCCESS) {
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = 16; sd.height = 16; sd.views = 2;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "2 views on a single-view model: %s", err.message);
+        supermat_model_destroy(m);
+    }
+    /* UV refine: mask and position required, same size */
+    data = tu_load(uv_path, &size);
+    m = NULL;
+    TU_CHECK(data && create(data, size, &m, &err) == SUPERMAT_SUCCESS, "UV model: %s", data ? err.message : uv_path);
+    if (m) {
+        static unsigned char map[32 * 32 * 3], msk[32 * 32], pos[32 * 32 * 3], res[32 * 32 * 3];
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = 32; sd.height = 32; sd.threads = 1;
+        s = NULL;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "UV session: %s", err.message);
+        for (i = 0; i < 32 * 32 * 3; i++) { map[i] = (unsigned char)(i * 7); pos[i] = (unsigned char)(i * 3); }
+        for (i = 0; i < 32 * 32; i++) msk[i] = (unsigned char)(i % 4 * 85);
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = map; rd.input.width = 32; rd.input.height = 32; rd.input.channels = 3;
+        rd.refined.pixels = res; rd.refined.channels = 3;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "UV without mask: %s", err.message);
+        printf("  %-28s -> %s\n", "UV without mask/position", err.message);
+        rd.mask.pixels = msk; rd.mask.width = 32; rd.mask.height = 32; rd.mask.channels = 1;
+        rd.position.pixels = pos; rd.position.width = 16; rd.position.height = 32; rd.position.channels = 3;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "mismatched position size: %s", err.message);
+        printf("  %-28s -> %s\n", "mismatched position size", err.message);
+        rd.position.width = 32; rd.position.channels = 1;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "1-channel position: %s", err.message);
+        rd.position.channels = 3;
+        rd.albedo.pixels = out[0]; rd.albedo.channels = 3;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT, "albedo from a UV model: %s", err.message);
+        rd.albedo.pixels = NULL;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "UV run: %s", err.message);
+        supermat_session_destroy(s);
+        supermat_model_destroy(m);
+    }
+    free(data);
+}
+
 int main(int argc, char **argv) {
-    if (argc < 2) { fprintf(stderr, "usage: %s MODEL\n", argv[0]); return 2; }
+    if (argc < 2) { fprintf(stderr, "usage: %s MODEL [MV_MODEL UV_MODEL]\n", argv[0]); return 2; }
     model_data = tu_load(argv[1], &model_size);
     if (!model_data) { printf("cannot read %s\n", argv[1]); return 1; }
     test_semantic();
@@ -319,6 +414,7 @@ int main(int argc, char **argv) {
     test_corrupted();
     test_allocator();
     test_run();
+    if (argc > 3) test_mv_uv(argv[2], argv[3]);
     free(model_data);
     return tu_finish("errors");
 }

@@ -22,6 +22,7 @@ static void inspect(void *user, supermat_stage stage, int branch, float *d, int 
     case SUPERMAT_STAGE_UNET_OUT: snprintf(name, sizeof name, "unet_out_b%d", branch); file = name; break;
     case SUPERMAT_STAGE_X0: file = "x0_latents.npy"; batch_off = (size_t)branch; snprintf(name, sizeof name, "x0_b%d", branch); break;
     case SUPERMAT_STAGE_DECODED: snprintf(name, sizeof name, "vae_decoded_b%d", branch); file = name; break;
+    case SUPERMAT_STAGE_UNET_IN: snprintf(name, sizeof name, "unet_input"); file = name; break;
     default: return;
     }
     if (file == name) { snprintf(path, sizeof path, "%s/%s.npy", g->dir, name); }
@@ -48,58 +49,160 @@ static void inspect(void *user, supermat_stage stage, int branch, float *d, int 
     free(ref.data);
 }
 
+/* NCHW golden image batch -> NHWC floats */
+static float *to_nhwc(const tu_npy *a, int *n, int *c, int *h, int *w) {
+    float *o;
+    size_t i, per;
+    int x, y, k;
+    *n = (int)a->shape[0]; *c = (int)a->shape[1]; *h = (int)a->shape[2]; *w = (int)a->shape[3];
+    per = (size_t)*c * *h * *w;
+    o = (float *)malloc(per * *n * sizeof(float));
+    for (i = 0; i < (size_t)*n; i++)
+        for (y = 0; y < *h; y++) for (x = 0; x < *w; x++) for (k = 0; k < *c; k++)
+            o[i * per + ((size_t)y * *w + x) * *c + k] = a->data[i * per + ((size_t)k * *h + y) * *w + x];
+    return o;
+}
+static double cmp_nchw(const float *nhwc, const float *nchw, int n, int c, int h, int w, int ch_pick) {
+    /* ch_pick >= 0: nhwc has 1 channel, compared with channel ch_pick of the golden */
+    size_t i, per = (size_t)c * h * w, m = 0;
+    int x, y, k;
+    double num = 0, den = 0;
+    for (i = 0; i < (size_t)n; i++)
+        for (k = 0; k < c; k++) {
+            if (ch_pick >= 0 && k != ch_pick) continue;
+            for (y = 0; y < h; y++) for (x = 0; x < w; x++) {
+                double g = nchw[i * per + ((size_t)k * h + y) * w + x];
+                double a = ch_pick >= 0 ? nhwc[i * (size_t)h * w + (size_t)y * w + x] : nhwc[i * per + ((size_t)y * w + x) * c + k];
+                num += (a - g) * (a - g); den += g * g; m++;
+            }
+        }
+    (void)m;
+    return den > 0 ? sqrt(num / den) : sqrt(num);
+}
+
 static void run_case(supermat_model *model, const char *dir, int inject, double tol, int threads) {
     supermat_session_desc sd;
     supermat_session *s = NULL;
     supermat_run_desc rd;
     supermat_error err;
-    tu_npy src, ra, ro;
+    supermat_model_info info;
+    tu_npy src, cams, mask, pos, ra, ro;
+    memset(&info, 0, sizeof info);
     golden_ctx g;
     char path[512];
-    float *rgb, *albedo, *rough, *metal;
-    int W, H, x, y, c;
-    snprintf(path, sizeof path, "%s/inputs/source_image.npy", dir);
+    float *rgb, *maskf = NULL, *posf = NULL, *albedo, *rough, *metal, *refined;
+    supermat_image *views = NULL, *oa = NULL, *orr = NULL, *om = NULL;
+    int V, C, W, H, i, uv, mv, nstages;
+    size_t px;
+    supermat_model_get_info(model, &info);
+    uv = info.kind == SUPERMAT_KIND_UV_REFINE;
+    mv = info.kind == SUPERMAT_KIND_SUPERMAT_MV;
+    snprintf(path, sizeof path, "%s/inputs/%s", dir, uv ? "uv_map.npy" : "source_image.npy");
     if (tu_npy_load(path, &src) || src.ndim != 4) { TU_CHECK(0, "cannot read %s", path); return; }
-    H = (int)src.shape[2]; W = (int)src.shape[3];
-    printf("%s (%dx%d), %s, tolerance %.0e:\n", dir, W, H, inject ? "each stage from the golden input of that stage" : "chained end to end", tol);
-    rgb = (float *)malloc(sizeof(float) * 3 * W * H);
-    for (y = 0; y < H; y++) for (x = 0; x < W; x++) for (c = 0; c < 3; c++) rgb[(y * W + x) * 3 + c] = src.data[((size_t)c * H + y) * W + x];
+    rgb = to_nhwc(&src, &V, &C, &H, &W);
+    px = (size_t)W * H;
+    printf("%s (%d view%s, %dx%d), %s, tolerance %.0e:\n", dir, V, V > 1 ? "s" : "", W, H, inject ? "each stage from the golden input of that stage" : "chained end to end", tol);
     memset(&sd, 0, sizeof sd);
-    sd.model = model; sd.width = W; sd.height = H; sd.threads = threads;
+    sd.model = model; sd.width = W; sd.height = H; sd.threads = threads; sd.views = V;
     TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "session_create: %s", err.message);
     memset(&rd, 0, sizeof rd);
-    rd.input.pixels = rgb; rd.input.width = W; rd.input.height = H; rd.input.channels = 3; rd.input.format = SUPERMAT_FORMAT_F32;
-    albedo = (float *)malloc(sizeof(float) * 3 * W * H); rough = (float *)malloc(sizeof(float) * W * H); metal = (float *)malloc(sizeof(float) * W * H);
-    rd.albedo.pixels = albedo; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
-    rd.roughness.pixels = rough; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32;
-    rd.metallic.pixels = metal; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
+    albedo = (float *)malloc(sizeof(float) * 3 * px * V); rough = (float *)malloc(sizeof(float) * px * V);
+    metal = (float *)malloc(sizeof(float) * px * V); refined = (float *)malloc(sizeof(float) * 3 * px);
+    views = (supermat_image *)calloc((size_t)V, sizeof *views);
+    oa = (supermat_image *)calloc((size_t)V, sizeof *oa); orr = (supermat_image *)calloc((size_t)V, sizeof *orr); om = (supermat_image *)calloc((size_t)V, sizeof *om);
+    for (i = 0; i < V; i++) {
+        views[i].pixels = rgb + (size_t)i * 3 * px; views[i].width = W; views[i].height = H; views[i].channels = 3; views[i].format = SUPERMAT_FORMAT_F32;
+        oa[i].pixels = albedo + (size_t)i * 3 * px; oa[i].channels = 3; oa[i].format = SUPERMAT_FORMAT_F32;
+        orr[i].pixels = rough + (size_t)i * px; orr[i].channels = 1; orr[i].format = SUPERMAT_FORMAT_F32;
+        om[i].pixels = metal + (size_t)i * px; om[i].channels = 1; om[i].format = SUPERMAT_FORMAT_F32;
+    }
+    rd.input = views[0];
+    if (V > 1) { rd.input_views = views; }
+    if (uv) {
+        int n1, c1, h1, w1;
+        snprintf(path, sizeof path, "%s/inputs/uv_mask.npy", dir);
+        TU_CHECK(!tu_npy_load(path, &mask), "cannot read %s", path);
+        snprintf(path, sizeof path, "%s/inputs/uv_position.npy", dir);
+        TU_CHECK(!tu_npy_load(path, &pos), "cannot read %s", path);
+        maskf = to_nhwc(&mask, &n1, &c1, &h1, &w1);
+        rd.mask.pixels = maskf; rd.mask.width = w1; rd.mask.height = h1; rd.mask.channels = c1; rd.mask.format = SUPERMAT_FORMAT_F32;
+        posf = to_nhwc(&pos, &n1, &c1, &h1, &w1);
+        rd.position.pixels = posf; rd.position.width = w1; rd.position.height = h1; rd.position.channels = c1; rd.position.format = SUPERMAT_FORMAT_F32;
+        rd.refined.pixels = refined; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+        free(mask.data); free(pos.data);
+    } else if (V > 1) {
+        rd.albedo_views = oa; rd.roughness_views = orr; rd.metallic_views = om;
+    } else {
+        rd.albedo = oa[0]; rd.roughness = orr[0]; rd.metallic = om[0];
+    }
+    if (mv) {
+        snprintf(path, sizeof path, "%s/inputs/camera_embeds.npy", dir);
+        TU_CHECK(!tu_npy_load(path, &cams) && cams.n == (size_t)V * 16, "cannot read %s", path);
+        rd.cameras = cams.data;
+    }
     memset(&g, 0, sizeof g);
     g.dir = dir; g.tol = tol; g.inject = inject;
     rd.inspect = inspect; rd.inspect_user = &g;
+    nstages = uv ? 5 : 7;
     if (s) {
         TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "run: %s", err.message);
-        TU_CHECK(g.checked == 7, "%d stages checked, expected 7", g.checked);
-        snprintf(path, sizeof path, "%s/albedo.npy", dir);
+        TU_CHECK(g.checked == nstages, "%d stages checked, expected %d", g.checked, nstages);
+        snprintf(path, sizeof path, "%s/%s", dir, uv ? "uv_refined.npy" : "albedo.npy");
         if (!tu_npy_load(path, &ra)) {
-            float *nchw = (float *)malloc(sizeof(float) * 3 * W * H);
-            double e;
-            for (y = 0; y < H; y++) for (x = 0; x < W; x++) for (c = 0; c < 3; c++) nchw[((size_t)c * H + y) * W + x] = albedo[(y * W + x) * 3 + c];
-            e = tu_rel_l2(nchw, ra.data, (size_t)3 * W * H);
-            printf("  %-16s rel L2 %.3g\n", "albedo", e);
-            TU_CHECK(e <= tol, "albedo drifts: %.3g", e);
-            free(nchw); free(ra.data);
+            double e = cmp_nchw(uv ? refined : albedo, ra.data, V, 3, H, W, -1);
+            printf("  %-16s rel L2 %.3g\n", uv ? "refined" : "albedo", e);
+            TU_CHECK(e <= tol, "%s drifts: %.3g", uv ? "refined" : "albedo", e);
+            free(ra.data);
         } else TU_CHECK(0, "cannot read %s", path);
         snprintf(path, sizeof path, "%s/orm.npy", dir);
-        if (!tu_npy_load(path, &ro)) {
-            double e1 = tu_rel_l2(rough, ro.data + (size_t)W * H, (size_t)W * H), e2 = tu_rel_l2(metal, ro.data + (size_t)2 * W * H, (size_t)W * H);
+        if (!uv && !tu_npy_load(path, &ro)) {
+            double e1 = cmp_nchw(rough, ro.data, V, 3, H, W, 1), e2 = cmp_nchw(metal, ro.data, V, 3, H, W, 2);
             printf("  %-16s rel L2 %.3g\n  %-16s rel L2 %.3g\n", "roughness", e1, "metallic", e2);
             TU_CHECK(e1 <= tol && e2 <= tol, "roughness/metallic drift: %.3g %.3g", e1, e2);
             free(ro.data);
-        } else TU_CHECK(0, "cannot read %s", path);
+        } else if (!uv) TU_CHECK(0, "cannot read %s", path);
         if (g.first_drift[0]) printf("  first stage that drifts: %s\n", g.first_drift);
     }
+    if (mv) free(cams.data);
     supermat_session_destroy(s);
-    free(rgb); free(albedo); free(rough); free(metal); free(src.data);
+    free(rgb); free(maskf); free(posf); free(albedo); free(rough); free(metal); free(refined); free(src.data);
+    free(views); free(oa); free(orr); free(om);
+}
+
+/* The model's multi-view self-attention layers must be exactly the official list (run.json's
+   attn_processors.mv_layers, recorded by the reference harness), and every other attention per view. */
+static void check_mv_layers(const supermat_model *m, const char *dir) {
+    char path[512], name[128], names[64][128];
+    size_t size = 0;
+    unsigned char *js = NULL;
+    supermat_json_tok *toks = NULL;
+    int n = 0, nt, ap, ml, i, k, l, j, b, found = 0, total = 0;
+    const supermat__xformer *all[64];
+    snprintf(path, sizeof path, "%s/run.json", dir);
+    js = tu_load(path, &size);
+    if (!js) { TU_CHECK(0, "cannot read %s", path); return; }
+    nt = supermat_json_parse((const char *)js, size, NULL, 0);
+    toks = (supermat_json_tok *)malloc(sizeof *toks * (size_t)(nt > 0 ? nt : 1));
+    supermat_json_parse((const char *)js, size, toks, nt);
+    ap = supermat_json_find((const char *)js, toks, 0, "attn_processors");
+    ml = ap >= 0 ? supermat_json_find((const char *)js, toks, ap, "mv_layers") : -1;
+    TU_CHECK(ml >= 0 && toks[ml].type == SUPERMAT_JSON_ARRAY, "run.json has attn_processors.mv_layers");
+    if (ml >= 0) for (k = ml + 1, i = 0; i < toks[ml].size && n < 64; i++, k = toks[k].next) supermat_json_string((const char *)js, &toks[k], names[n++], 128);
+    /* every transformer of the model */
+    for (l = 0; l < m->L; l++) for (j = 0; j < m->down[l].nres; j++) if (m->down[l].has_attn) all[total++] = &m->down[l].att[j];
+    all[total++] = &m->mid_att;
+    for (l = 0; l < m->L - 1; l++) for (j = 0; j < m->up[l].nres; j++) if (m->up[l].has_attn) all[total++] = &m->up[l].att[j];
+    for (b = 0; b < m->branches; b++) for (j = 0; j < m->last[b].nres; j++) if (m->last[b].has_attn) all[total++] = &m->last[b].att[j];
+    for (i = 0; i < total; i++) {
+        int listed = 0;
+        snprintf(name, sizeof name, "%s.transformer_blocks.0.attn1", all[i]->name);
+        for (k = 0; k < n; k++) if (!strcmp(names[k], name)) listed = 1;
+        TU_CHECK(listed == all[i]->mv, "%s: multi-view %d in the model, %d in the official list", name, all[i]->mv, listed);
+        found += all[i]->mv;
+    }
+    TU_CHECK(found == n && n > 0, "%d multi-view layers in the model, %d in the official list", found, n);
+    printf("multi-view self-attention: %d of %d transformer layers, equal to the official list\n", found, total);
+    free(toks); free(js);
 }
 
 int main(int argc, char **argv) {
@@ -124,6 +227,9 @@ int main(int argc, char **argv) {
     }
     TU_CHECK(supermat_model_create(&md, &model, &err) == SUPERMAT_SUCCESS, "model_create: %s", err.message);
     if (model) {
+        supermat_model_info info;
+        supermat_model_get_info(model, &info);
+        if (info.kind == SUPERMAT_KIND_SUPERMAT_MV) check_mv_layers(model, argv[4]);
         for (i = 4; i < argc; i++) {
             run_case(model, argv[i], 1, 1e-5, threads);   /* the bound, per stage */
             run_case(model, argv[i], 0, 1e-4, threads);   /* the whole chain (errors compound) */
