@@ -2701,8 +2701,21 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         }
         if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, V, img.h, img.w, 3);
     }
+    /* the VAE works view by view (bounded memory for many views; the same numbers) */
     f0 = X->flops;
-    lat = supermat__vae_encode(X, m, &img);
+    {
+        int lh = S->h, lw = S->w, l;
+        for (l = 0; l < m->vL - 1; l++) { lh = (lh - 2) / 2 + 1; lw = (lw - 2) / 2 + 1; }
+        lat = supermat__tensor(X, V, lh, lw, m->latent);
+        for (i = 0; i < V; i++) {
+            supermat__t one = img, l1;
+            one.n = 1;
+            if (one.d) one.d += (size_t)i * S->h * S->w * 3;
+            l1 = supermat__vae_encode(X, m, &one);
+            if (supermat__live(X)) memcpy(lat.d + (size_t)i * supermat__numel(&l1), l1.d, sizeof(float) * supermat__numel(&l1));
+            supermat__drop(X, &l1);
+        }
+    }
     fl->encode = X->flops - f0;
     supermat__drop(X, &img);
     if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_LATENT, 0, lat.d, lat.n, lat.h, lat.w, lat.c);
@@ -2729,7 +2742,15 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         dec[b].d = NULL;
         if (!v[b].d) continue;
         f0 = X->flops;
-        dec[b] = supermat__vae_decode(X, m, &v[b]);
+        dec[b] = supermat__tensor(X, V, S->h, S->w, m->vout);
+        for (i = 0; i < V; i++) {
+            supermat__t z = v[b], d1;
+            z.n = 1;
+            if (z.d) z.d += (size_t)i * z.h * z.w * z.c;
+            d1 = supermat__vae_decode(X, m, &z);
+            if (supermat__live(X)) memcpy(dec[b].d + (size_t)i * supermat__numel(&d1), d1.d, sizeof(float) * supermat__numel(&d1));
+            supermat__drop(X, &d1);
+        }
         fl->decode += X->flops - f0;
         if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_DECODED, b, dec[b].d, dec[b].n, dec[b].h, dec[b].w, dec[b].c);
     }
