@@ -2,6 +2,8 @@
  *
  *     supermat convert --kind supermat --unet supermat.pth --base stable-diffusion-2-1 --out supermat.safetensors
  *     supermat image --model supermat.safetensors --out maps/ photo.png
+ *     supermat views --model supermat_mv.safetensors --cameras meta.json --out maps/ color_000*.png
+ *     supermat refine --model uv_refine_bc.safetensors --map uv_bc.png --mask uv_mask.png --position uv_position.png --out maps/
  *     supermat info supermat.safetensors
  *     supermat bench --model supermat.safetensors --size 512
  *
@@ -16,7 +18,9 @@
  *   >>args       option parsing, usage texts
  *   >>files      reading a whole file, creating directories, PNG / PFM writers
  *   >>convert    `supermat convert`
- *   >>image      `supermat image`
+ *   >>image      `supermat image` (and what `views` and `refine` share with it)
+ *   >>views      `supermat views`: meta.json cameras, the multi-view run
+ *   >>refine     `supermat refine`
  *   >>info       `supermat info`
  *   >>bench      `supermat bench`: FMA peak, the pipeline per stage, AVX2 vs scalar GEMM
  *   >>main
