@@ -31,10 +31,16 @@
  * WHAT IT DOES
  *   - Loads a model from a caller-supplied memory buffer: a safetensors file (F32, F16, BF16) whose
  *     `__metadata__` describes the architecture (see MODEL FILE below). Everything is validated first.
- *   - Runs the official single-view pipeline: RGBA (straight alpha) over gray 0.5, [-1, 1], VAE encode
- *     (mode x scaling factor), UNet trunk once, each requested expert branch on the same trunk output
- *     and skips, the one-step trailing-DDIM x0 (v- or epsilon-prediction), VAE decode per branch,
- *     x/2 + 0.5 clamped to [0, 1].
+ *   - SuperMat (single view): RGBA (straight alpha) over gray 0.5, [-1, 1], VAE encode (mode x scaling
+ *     factor), UNet trunk once, each requested expert branch on the same trunk output and skips, the
+ *     one-step trailing-DDIM x0 (v- or epsilon-prediction), VAE decode per branch, x/2 + 0.5 clamped.
+ *   - SuperMatMV: the same for a batch of views (session `views`, 6 by default) with each view's
+ *     camera-to-world matrix through the camera MLP, and self-attention over the keys of all views in
+ *     exactly the layers where the official code installs it (every attn1 outside down_blocks.0).
+ *   - UV refine: the partial UV map's latent, the mask and the position map (bilinearly resized to the
+ *     latent size as PyTorch does) -> one refined map (albedo or roughness/metallic, by checkpoint).
+ *   - Any size that is a multiple of 8 pixels, square or not: where the latent is not a multiple of 8,
+ *     each upsampler resizes to its skip tensor's size (nearest), exactly as diffusers does.
  *   - Computes only what was asked: a branch nobody wants is neither run nor decoded.
  *
  * WHAT IT DOES NOT DO

@@ -43,6 +43,7 @@
 #include "sm_convert.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -159,7 +160,9 @@ static const char cli_usage_main[] =
     "\n"
     "commands:\n"
     "  convert   official checkpoint (.pth) + Stable Diffusion 2.1 folder -> one model file\n"
-    "  image     albedo / roughness / metallic maps for images\n"
+    "  image     albedo / roughness / metallic maps for images (a supermat model)\n"
+    "  views     the same for the views of one object with their cameras (a supermat-mv model)\n"
+    "  refine    complete a partial UV texture map (a uv-refine model)\n"
     "  info      describe a model file: architecture, parameters, dtypes, memory\n"
     "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM\n"
     "\n"
@@ -189,7 +192,8 @@ static const char cli_usage_convert[] =
 static const char cli_usage_image[] =
     "usage: supermat image --model FILE --out DIR [options] IMAGE...\n"
     "\n"
-    "Runs the single-view SuperMat pipeline on each image, at the image's own size, and writes\n"
+    "Runs the single-view SuperMat pipeline (a supermat model) on each image, at the image's own\n"
+    "size, and writes\n"
     "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
     "  DIR/<stem>_roughness.png    gray, 8-bit\n"
     "  DIR/<stem>_metallic.png     gray, 8-bit\n"
@@ -210,14 +214,78 @@ static const char cli_usage_image[] =
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
     "\n"
+    "Progress is printed on stderr when it is a terminal. For a supermat-mv model use `supermat\n"
+    "views`, for a uv-refine model `supermat refine`.\n";
+
+static const char cli_usage_views[] =
+    "usage: supermat views --model FILE --cameras meta.json --out DIR [options] VIEW...\n"
+    "\n"
+    "Runs the multi-view SuperMatMV pipeline (a supermat-mv model) on all the views of one object\n"
+    "together (they attend to each other, each with its camera) and writes, for each view,\n"
+    "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
+    "  DIR/<stem>_roughness.png    gray, 8-bit\n"
+    "  DIR/<stem>_metallic.png     gray, 8-bit\n"
+    "where <stem> is the view's file name without its folder and extension.\n"
+    "\n"
+    "Cameras come from a meta.json in the official example format:\n"
+    "  {\"locations\": [{\"index\": \"0000\", \"transform_matrix\": [[4 numbers], x4]}, ...]}\n"
+    "(the 4x4 camera-to-world matrix, row by row; a flat list of 16 numbers is also read). A view's\n"
+    "camera is the location whose index (\"0003\" or 3) equals the number that ends the view's file\n"
+    "name: color_0003.png -> 3. Every view needs one; indices must be unique.\n"
+    "\n"
+    "Views are read like `image` reads images (8-bit RGBA, straight alpha, over gray 0.5). They must\n"
+    "all have the same size, width and height multiples of 8; they are NOT resized (the official\n"
+    "script uses 512x512). 1 to 64 views (the official model is trained on 6 orthogonal views).\n"
+    "\n"
+    "options:\n"
+    "  --model FILE      a supermat-mv model file made by `supermat convert` (required)\n"
+    "  --cameras FILE    the meta.json with the views' cameras (required)\n"
+    "  --out DIR         the output folder, created if missing (required)\n"
+    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three);\n"
+    "                    only what is asked for is computed\n"
+    "  --float           also write the maps before 8-bit quantisation as PFM files (float32,\n"
+    "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
+    "                    <stem>_metallic.pfm (Pf, gray)\n"
+    "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
+    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "\n"
+    "Progress is printed on stderr when it is a terminal.\n";
+
+static const char cli_usage_refine[] =
+    "usage: supermat refine --model FILE --map MAP --mask MASK --position POS --out DIR [options]\n"
+    "\n"
+    "Runs the UV refinement network (a uv-refine model) on a partial UV texture map: it fills in and\n"
+    "cleans up the map, guided by the observation mask and the surface position of each texel, and\n"
+    "writes\n"
+    "  DIR/<stem>_refined.png      RGB, 8-bit\n"
+    "where <stem> is the --map file's name without its folder and extension. Use uv_refine_bc for a\n"
+    "base colour (albedo) map, uv_refine_rm for a roughness/metallic map (R 0, G roughness, B metallic).\n"
+    "\n"
+    "The map and the position map are read as 8-bit RGB (alpha is dropped), the mask as 8-bit gray\n"
+    "(colour converted as 0.299 R + 0.587 G + 0.114 B, alpha dropped), as the official script does.\n"
+    "All three must have the same size, width and height multiples of 8; they are NOT resized (the\n"
+    "official script uses 1024x1024).\n"
+    "\n"
+    "options:\n"
+    "  --model FILE      a uv-refine model file made by `supermat convert` (required)\n"
+    "  --map FILE        the partial UV map (required)\n"
+    "  --mask FILE       the mask: where the map was observed (required)\n"
+    "  --position FILE   the position map (required)\n"
+    "  --out DIR         the output folder, created if missing (required)\n"
+    "  --float           also write the map before 8-bit quantisation as <stem>_refined.pfm (PF, RGB,\n"
+    "                    float32, little endian)\n"
+    "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
+    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
 static const char cli_usage_info[] =
     "usage: supermat info [options] FILE\n"
     "\n"
-    "Prints a model file's kind and architecture, its parameter counts (UNet trunk, per branch, VAE),\n"
-    "the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
-    "512x512 session plans (all outputs, and albedo only).\n"
+    "Prints a model file's kind and architecture (with the camera embedding of a supermat-mv model\n"
+    "and the input channels of a uv-refine model), its parameter counts (UNet trunk, per branch,\n"
+    "VAE), the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
+    "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv).\n"
     "\n"
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
@@ -227,16 +295,23 @@ static const char cli_usage_bench[] =
     "usage: supermat bench --model FILE [options]\n"
     "\n"
     "Measures, in one run: (a) this machine's AVX2 FMA peak on every thread; (b) the full pipeline on\n"
-    "a synthetic RGBA image, seconds / GFLOP / GFLOP/s / % of the peak per stage, model creation\n"
-    "time and peak memory; (c) one 3x3 convolution GEMM (M=4096, K=9*320, N=320, the first UNet\n"
-    "level at 512x512) with the AVX2 and the scalar micro-kernel, and their ratio.\n"
+    "synthetic input, seconds / GFLOP / GFLOP/s / % of the peak per stage (VAE encode, UNet trunk,\n"
+    "each branch tail, each VAE decode), model creation time and peak memory; (c) one 3x3\n"
+    "convolution GEMM (M=4096, K=9*320, N=320, the first UNet level at 512x512) with the AVX2 and\n"
+    "the scalar micro-kernel, and their ratio.\n"
+    "\n"
+    "Every model kind: supermat (one RGBA image), supermat-mv (--views RGBA views with cameras on a\n"
+    "circle around the object) and uv-refine (a UV map, its mask and position map).\n"
     "\n"
     "options:\n"
     "  --model FILE      a model file made by `supermat convert` (required)\n"
     "  --size S          image size: S (square) or WxH, multiples of 8 (default 512)\n"
+    "  --views N         supermat-mv: views processed together, 1 to 64 (default 6)\n"
     "  --threads N       threads (default 0 = all cores)\n"
     "  --repeats R       pipeline runs; the fastest is reported (default 1)\n"
-    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three)\n"
+    "  --pipeline-only   skip (a) and (c): no FMA peak (no % of peak), no GEMM comparison\n"
+    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three; uv-refine\n"
+    "                    makes its one refined map)\n"
     "  --kernel K        auto | scalar | avx2: the pipeline's kernels (default auto)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
@@ -485,6 +560,49 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     return CLI_OK;
 }
 
+/* the command that runs a model of this kind */
+static const char *cli_kind_command(supermat_model_kind k) {
+    switch (k) {
+    case SUPERMAT_KIND_SUPERMAT: return "`supermat image` (one image at a time)";
+    case SUPERMAT_KIND_SUPERMAT_MV: return "`supermat views` (several views of one object with a meta.json of cameras)";
+    case SUPERMAT_KIND_UV_REFINE: return "`supermat refine` (a partial UV map with its mask and position map)";
+    default: return "none of the commands";
+    }
+}
+
+/* CLI_OK if the model is of kind `want`, else a message saying which command runs it */
+static int cli_require_kind(const char *cmd, const char *path, const supermat_model *model, supermat_model_kind want) {
+    supermat_model_info mi;
+    supermat_model_get_info(model, &mi);
+    if (mi.kind == want) return CLI_OK;
+    cli_error("model '%s' is a %s model, `supermat %s` runs %s models: use %s", path, cli_kind_name(mi.kind), cmd,
+              cli_kind_name(want), cli_kind_command(mi.kind));
+    return CLI_FAIL;
+}
+
+/* DIR/<stem><suffix>.png for each map that is not NULL (and .pfm with want_float); tmp holds w*h*3 bytes */
+static int cli_write_maps(const char *dir, const char *stem, int n, const char *const *suffixes, float *const *maps,
+                          const int *channels, int w, int h, int want_float, unsigned char *tmp) {
+    int k, rc = CLI_OK;
+    for (k = 0; k < n && rc == CLI_OK; k++) {
+        char suffix[64], *path;
+        if (!maps[k]) continue;
+        snprintf(suffix, sizeof suffix, "%s.png", suffixes[k]);
+        path = cli_join(dir, stem, suffix);
+        if (!path) { cli_error("out of memory"); return CLI_FAIL; }
+        rc = cli_write_png(path, maps[k], w, h, channels[k], tmp);
+        free(path);
+        if (rc == CLI_OK && want_float) {
+            snprintf(suffix, sizeof suffix, "%s.pfm", suffixes[k]);
+            path = cli_join(dir, stem, suffix);
+            if (!path) { cli_error("out of memory"); return CLI_FAIL; }
+            rc = cli_write_pfm(path, maps[k], w, h, channels[k]);
+            free(path);
+        }
+    }
+    return rc;
+}
+
 /* >>convert */
 static int cli_convert(int argc, char **argv) {
     const char *cmd = "convert", *v;
@@ -560,12 +678,36 @@ static int cli_progress_cb(void *user, float fraction, const char *what) {
     return 0;
 }
 
+static const char *const cli_map_suffixes[3] = {"_albedo", "_roughness", "_metallic"};
+static const int cli_map_channels[3] = {3, 1, 1};
+
+/* the output stems of n inputs; two inputs with one stem would overwrite each other's maps (a usage
+   error). *stems is allocated (free with cli_free_stems) even on error. */
+static int cli_make_stems(const char *cmd, const char *const *inputs, int n, char ***stems) {
+    int i, j;
+    *stems = (char **)calloc((size_t)(n > 0 ? n : 1), sizeof(char *));
+    if (!*stems) { cli_error("out of memory"); return CLI_FAIL; }
+    for (i = 0; i < n; i++) {
+        char *s = (*stems)[i] = cli_stem(inputs[i]);
+        if (!s) { cli_error("out of memory"); return CLI_FAIL; }
+        if (!s[0]) return cli_usage_error(cmd, "'%s' has no file name", inputs[i]);
+        for (j = 0; j < i; j++)
+            if (!strcmp(s, (*stems)[j])) return cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", inputs[j], inputs[i], s);
+    }
+    return CLI_OK;
+}
+static void cli_free_stems(char **stems, int n) {
+    int i;
+    if (stems) for (i = 0; i < n; i++) free(stems[i]);
+    free(stems);
+}
+
 typedef struct cli_session_slot { int w, h; supermat_session *s; } cli_session_slot;
 
 static int cli_image(int argc, char **argv) {
     const char *cmd = "image", *v, *model_path = NULL, *out_dir = NULL;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
-    int want_float = 0, threads = 0, i, j, m, nimg = 0, rc = CLI_OK, tty = isatty(2);
+    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2);
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     const char **imgs;
     char **stems = NULL;
@@ -606,16 +748,7 @@ static int cli_image(int argc, char **argv) {
     if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
     if (!nimg) { free(imgs); return cli_usage_error(cmd, "no input image"); }
 
-    /* two inputs with one stem would overwrite each other's maps */
-    stems = (char **)calloc((size_t)nimg, sizeof(char *));
-    if (!stems) { free(imgs); cli_error("out of memory"); return CLI_FAIL; }
-    for (i = 0; i < nimg && rc == CLI_OK; i++) {
-        stems[i] = cli_stem(imgs[i]);
-        if (!stems[i]) { cli_error("out of memory"); rc = CLI_FAIL; break; }
-        if (!stems[i][0]) { rc = cli_usage_error(cmd, "'%s' has no file name", imgs[i]); break; }
-        for (j = 0; j < i; j++)
-            if (!strcmp(stems[i], stems[j])) { rc = cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", imgs[j], imgs[i], stems[i]); break; }
-    }
+    rc = cli_make_stems(cmd, imgs, nimg, &stems);
     /* check every image before the (slow) model load */
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w, h, c;
@@ -628,6 +761,7 @@ static int cli_image(int argc, char **argv) {
         }
     }
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT);
     if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
     if (rc == CLI_OK) {
         slots = (cli_session_slot *)calloc((size_t)nimg, sizeof *slots);
@@ -702,27 +836,9 @@ static int cli_image(int argc, char **argv) {
             }
         }
         if (rc == CLI_OK) {
-            const char *names[3] = {"_albedo", "_roughness", "_metallic"};
             float *maps[3];
-            int k, ch;
             maps[0] = fa; maps[1] = fr; maps[2] = fm;
-            for (k = 0; k < 3 && rc == CLI_OK; k++) {
-                char suffix[32], *path;
-                if (!maps[k]) continue;
-                ch = k == 0 ? 3 : 1;
-                snprintf(suffix, sizeof suffix, "%s.png", names[k]);
-                path = cli_join(out_dir, stems[i], suffix);
-                if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
-                rc = cli_write_png(path, maps[k], w, h, ch, tmp);
-                free(path);
-                if (rc == CLI_OK && want_float) {
-                    snprintf(suffix, sizeof suffix, "%s.pfm", names[k]);
-                    path = cli_join(out_dir, stems[i], suffix);
-                    if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
-                    rc = cli_write_pfm(path, maps[k], w, h, ch);
-                    free(path);
-                }
-            }
+            rc = cli_write_maps(out_dir, stems[i], 3, cli_map_suffixes, maps, cli_map_channels, w, h, want_float, tmp);
         }
         free(fa); free(fr); free(fm); free(tmp);
         stbi_image_free(px);
@@ -732,9 +848,528 @@ static int cli_image(int argc, char **argv) {
     free(slots);
     supermat_model_destroy(model);
     free(file);
-    if (stems) for (i = 0; i < nimg; i++) free(stems[i]);
-    free(stems);
+    cli_free_stems(stems, nimg);
     free(imgs);
+    return rc;
+}
+
+/* >>views */
+#define CLI_MAX_VIEWS 64
+#define CLI_MAX_INDEX 999999999L
+
+typedef struct cli_camera { long index; float m[16]; } cli_camera;
+
+/* decimal digits (leading zeros allowed) as an index; -1 if not all digits or too large */
+static long cli_digits_index(const char *s, size_t n) {
+    long v = 0;
+    size_t i;
+    if (n == 0) return -1;
+    for (i = 0; i < n; i++) {
+        int d = s[i] - '0';
+        if (d < 0 || d > 9 || v > (CLI_MAX_INDEX - d) / 10) return -1;
+        v = v * 10 + d;
+    }
+    return v;
+}
+
+/* the number that ends a file stem (color_0003 -> 3), or -1 */
+static long cli_stem_index(const char *stem) {
+    size_t n = strlen(stem), i = n;
+    while (i > 0 && stem[i - 1] >= '0' && stem[i - 1] <= '9') i--;
+    return cli_digits_index(stem + i, n - i);
+}
+
+/* a JSON token's text, shortened, for messages */
+static void cli_tok_text(const char *js, const supermat_json_tok *t, char *buf, size_t cap) {
+    int n = t->end - t->start;
+    if (t->type == SUPERMAT_JSON_OBJECT) { snprintf(buf, cap, "an object"); return; }
+    if (t->type == SUPERMAT_JSON_ARRAY) { snprintf(buf, cap, "an array"); return; }
+    if (n > 24) snprintf(buf, cap, "%s%.24s...%s", t->type == SUPERMAT_JSON_STRING ? "\"" : "", js + t->start,
+                         t->type == SUPERMAT_JSON_STRING ? "\"" : "");
+    else snprintf(buf, cap, "%s%.*s%s", t->type == SUPERMAT_JSON_STRING ? "\"" : "", n, js + t->start,
+                  t->type == SUPERMAT_JSON_STRING ? "\"" : "");
+}
+
+/* one matrix element: CLI_OK, else an error naming the file, the location and the element */
+static int cli_camera_number(const char *path, int loc, const char *js, const supermat_json_tok *t, const char *elem, float *out) {
+    double d;
+    char txt[40];
+    if (supermat_json_number(js, t, &d) != 0) {
+        cli_tok_text(js, t, txt, sizeof txt);
+        cli_error("cameras '%s': locations[%d]: transform_matrix%s is not a number (%s)", path, loc, elem, txt);
+        return CLI_FAIL;
+    }
+    if (!(d - d == 0.0) || fabs(d) > (double)FLT_MAX) {
+        cli_tok_text(js, t, txt, sizeof txt);
+        cli_error("cameras '%s': locations[%d]: transform_matrix%s is not a finite float32 number (%s)", path, loc, elem, txt);
+        return CLI_FAIL;
+    }
+    *out = (float)d;
+    return CLI_OK;
+}
+
+/* transform_matrix (token t) of locations[loc]: 4 rows of 4 numbers, or 16 numbers; row-major */
+static int cli_camera_matrix(const char *path, int loc, const char *js, const supermat_json_tok *toks, int t, float *m) {
+    int r, c, k;
+    char elem[32];
+    if (toks[t].type != SUPERMAT_JSON_ARRAY || toks[t].size < 1) {
+        cli_error("cameras '%s': locations[%d]: transform_matrix is not a 4x4 matrix (4 rows of 4 numbers)", path, loc);
+        return CLI_FAIL;
+    }
+    if (toks[t + 1].type == SUPERMAT_JSON_ARRAY) { /* [[...], [...], [...], [...]] */
+        if (toks[t].size != 4) {
+            cli_error("cameras '%s': locations[%d]: transform_matrix has %d rows, not 4 (a 4x4 camera-to-world matrix)", path, loc, toks[t].size);
+            return CLI_FAIL;
+        }
+        for (r = 0, k = t + 1; r < 4; r++, k = toks[k].next) {
+            if (toks[k].type != SUPERMAT_JSON_ARRAY || toks[k].size != 4) {
+                if (toks[k].type == SUPERMAT_JSON_ARRAY)
+                    cli_error("cameras '%s': locations[%d]: transform_matrix row %d has %d numbers, not 4", path, loc, r, toks[k].size);
+                else cli_error("cameras '%s': locations[%d]: transform_matrix row %d is not a list of 4 numbers", path, loc, r);
+                return CLI_FAIL;
+            }
+            for (c = 0; c < 4; c++) {
+                snprintf(elem, sizeof elem, "[%d][%d]", r, c);
+                if (cli_camera_number(path, loc, js, &toks[k + 1 + c], elem, &m[r * 4 + c])) return CLI_FAIL;
+            }
+        }
+        return CLI_OK;
+    }
+    if (toks[t].size != 16) { /* flat */
+        cli_error("cameras '%s': locations[%d]: transform_matrix has %d numbers, not 16 (4 rows of 4)", path, loc, toks[t].size);
+        return CLI_FAIL;
+    }
+    for (k = 0; k < 16; k++) {
+        snprintf(elem, sizeof elem, "[%d]", k);
+        if (cli_camera_number(path, loc, js, &toks[t + 1 + k], elem, &m[k])) return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+/* Reads meta.json ({"locations": [{"index": "0000" or 0, "transform_matrix": 4x4}, ...]}): every
+   location's index and camera-to-world matrix; unique indices. CLI_OK, or an error naming the file. */
+static int cli_read_cameras(const char *path, cli_camera **out, int *count) {
+    unsigned char *buf = NULL;
+    size_t size = 0;
+    supermat_json_tok *toks = NULL;
+    cli_camera *cams = NULL;
+    const char *js;
+    int ntok, loc, i, j, k, n = 0, rc = CLI_FAIL;
+    char txt[40];
+    *out = NULL; *count = 0;
+    if (cli_read_file(path, &buf, &size)) return CLI_FAIL;
+    js = (const char *)buf;
+    ntok = supermat_json_parse(js, size, NULL, 0);
+    if (ntok == SUPERMAT_ERROR_OUT_OF_MEMORY) { cli_error("out of memory reading cameras '%s'", path); goto done; }
+    if (ntok <= 0) { cli_error("cameras '%s' is not valid JSON", path); goto done; }
+    toks = (supermat_json_tok *)malloc(sizeof(supermat_json_tok) * (size_t)ntok);
+    if (!toks) { cli_error("out of memory reading cameras '%s'", path); goto done; }
+    if (supermat_json_parse(js, size, toks, ntok) != ntok) { cli_error("cameras '%s' is not valid JSON", path); goto done; }
+    loc = toks[0].type == SUPERMAT_JSON_OBJECT ? supermat_json_find(js, toks, 0, "locations") : -1;
+    if (loc < 0 || toks[loc].type != SUPERMAT_JSON_ARRAY) {
+        cli_error("cameras '%s' has no \"locations\" list (expected {\"locations\": [{\"index\": \"0000\", \"transform_matrix\": "
+                  "[[...], [...], [...], [...]]}, ...]})", path);
+        goto done;
+    }
+    cams = (cli_camera *)calloc((size_t)(toks[loc].size > 0 ? toks[loc].size : 1), sizeof *cams);
+    if (!cams) { cli_error("out of memory reading cameras '%s'", path); goto done; }
+    for (i = 0, k = loc + 1; i < toks[loc].size; i++, k = toks[k].next) {
+        int it, tm;
+        long index = -1;
+        if (toks[k].type != SUPERMAT_JSON_OBJECT) { cli_error("cameras '%s': locations[%d] is not an object", path, i); goto done; }
+        it = supermat_json_find(js, toks, k, "index");
+        tm = supermat_json_find(js, toks, k, "transform_matrix");
+        if (it < 0) { cli_error("cameras '%s': locations[%d] has no \"index\"", path, i); goto done; }
+        if (toks[it].type == SUPERMAT_JSON_STRING) {
+            index = cli_digits_index(js + toks[it].start, (size_t)(toks[it].end - toks[it].start));
+        } else {
+            double d;
+            if (supermat_json_number(js, &toks[it], &d) == 0 && d >= 0.0 && d <= (double)CLI_MAX_INDEX && d == floor(d)) index = (long)d;
+        }
+        if (index < 0) {
+            cli_tok_text(js, &toks[it], txt, sizeof txt);
+            cli_error("cameras '%s': locations[%d]: index %s is not a whole number from 0 to %ld (e.g. \"0003\" or 3)", path, i, txt, CLI_MAX_INDEX);
+            goto done;
+        }
+        if (tm < 0) { cli_error("cameras '%s': locations[%d] (index %ld) has no \"transform_matrix\"", path, i, index); goto done; }
+        if (cli_camera_matrix(path, i, js, toks, tm, cams[n].m)) goto done;
+        for (j = 0; j < n; j++)
+            if (cams[j].index == index) {
+                cli_error("cameras '%s': index %ld appears twice (locations[%d] and locations[%d])", path, index, j, i);
+                goto done;
+            }
+        cams[n++].index = index;
+    }
+    rc = CLI_OK;
+done:
+    free(toks);
+    free(buf);
+    if (rc != CLI_OK) { free(cams); return rc; }
+    *out = cams;
+    *count = n;
+    return CLI_OK;
+}
+
+/* the camera with this index, or NULL after a message that lists the indices there are */
+static const cli_camera *cli_find_camera(const cli_camera *cams, int n, long index, const char *view, const char *path) {
+    char list[160];
+    size_t len = 0;
+    int i;
+    for (i = 0; i < n; i++) if (cams[i].index == index) return &cams[i];
+    list[0] = 0;
+    for (i = 0; i < n && len < sizeof list - 24; i++) len += (size_t)snprintf(list + len, sizeof list - len, "%s%ld", i ? ", " : "", cams[i].index);
+    if (i < n) snprintf(list + len, sizeof list - len, ", ...");
+    cli_error("view '%s' has index %ld (the number its file name ends with), but cameras '%s' has no location with index %ld "
+              "(%s%s)", view, index, path, index, n ? "it has " : "it has no locations", list);
+    return NULL;
+}
+
+/* equally spaced cameras on a circle around the origin, looking at it (bench input) */
+static void cli_ring_cameras(int views, float *c2w) {
+    int v;
+    for (v = 0; v < views; v++) {
+        double a = 2.0 * 3.14159265358979323846 * v / views, s = sin(a), c = cos(a);
+        float *m = c2w + 16 * v;
+        memset(m, 0, 16 * sizeof(float));
+        m[0] = (float)c;  m[2] = (float)s;  m[3] = (float)(2.0 * s);
+        m[5] = 1.0f;
+        m[8] = (float)-s; m[10] = (float)c; m[11] = (float)(2.0 * c);
+        m[15] = 1.0f;
+    }
+}
+
+static int cli_views(int argc, char **argv) {
+    const char *cmd = "views", *v, *model_path = NULL, *cam_path = NULL, *out_dir = NULL;
+    unsigned outputs = SUPERMAT_OUTPUT_ALL;
+    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    const char **imgs;
+    char **stems = NULL;
+    long *index = NULL;
+    cli_camera *cams = NULL;
+    float *c2w = NULL, *fa = NULL, *fr = NULL, *fm = NULL;
+    unsigned char **px = NULL, *tmp = NULL;
+    supermat_image *in = NULL, *oa = NULL, *orr = NULL, *om = NULL;
+    unsigned char *file = NULL;
+    size_t file_size = 0, np = 0;
+    supermat_model *model = NULL;
+    supermat_session *sess = NULL;
+
+    imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
+    if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_views, stdout); free(imgs); return CLI_OK; }
+        if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
+            model_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cameras", &v)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
+            cam_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
+            out_dir = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
+            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
+        } else if (!strcmp(a, "--float")) {
+            want_float = 1;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
+            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) { free(imgs); return CLI_USAGE; }
+        } else if (a[0] == '-' && a[1]) {
+            free(imgs);
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            imgs[nimg++] = a;
+        }
+    }
+    if (!model_path) { free(imgs); return cli_usage_error(cmd, "--model FILE is required"); }
+    if (!cam_path) { free(imgs); return cli_usage_error(cmd, "--cameras meta.json is required"); }
+    if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
+    if (!nimg) { free(imgs); return cli_usage_error(cmd, "no view image"); }
+    if (nimg > CLI_MAX_VIEWS) { free(imgs); return cli_usage_error(cmd, "%d views: at most %d are processed together", nimg, CLI_MAX_VIEWS); }
+
+    rc = cli_make_stems(cmd, imgs, nimg, &stems);
+    /* every view's index, size and camera before the (slow) model load */
+    if (rc == CLI_OK) {
+        index = (long *)calloc((size_t)nimg, sizeof(long));
+        c2w = (float *)calloc((size_t)nimg * 16, sizeof(float));
+        if (!index || !c2w) { cli_error("out of memory"); rc = CLI_FAIL; }
+    }
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        index[i] = cli_stem_index(stems[i]);
+        if (index[i] < 0) {
+            cli_error("view '%s': its file name does not end with a number (up to 9 digits; e.g. color_0003.png -> 3), "
+                      "so it has no camera index in the meta.json", imgs[i]);
+            rc = CLI_FAIL;
+        }
+    }
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        int iw, ih, c;
+        if (!stbi_info(imgs[i], &iw, &ih, &c)) { cli_error("cannot read view '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (i == 0) { w = iw; h = ih; }
+        if (iw != w || ih != h) {
+            cli_error("view '%s' is %dx%d but view '%s' is %dx%d: all views must have the same size (supermat does not resize)",
+                      imgs[i], iw, ih, imgs[0], w, h);
+            rc = CLI_FAIL;
+        } else if (w % 8 || h % 8) {
+            cli_error("view '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
+                      "resize the views first, e.g. to 512x512)", imgs[i], w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_read_cameras(cam_path, &cams, &ncam);
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        const cli_camera *c = cli_find_camera(cams, ncam, index[i], imgs[i], cam_path);
+        if (!c) rc = CLI_FAIL;
+        else memcpy(c2w + 16 * i, c->m, sizeof c->m);
+    }
+
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT_MV);
+    if (rc == CLI_OK) {
+        supermat_model_info mi;
+        supermat_model_get_info(model, &mi);
+        if (mi.class_embed_in != 16) {
+            cli_error("model '%s' takes %d camera numbers per view; a meta.json camera is a 4x4 matrix (16)", model_path, mi.class_embed_in);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) {
+        supermat_session_desc sd;
+        supermat_error err;
+        supermat_result r;
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nimg; sd.threads = threads;
+        r = supermat_session_create(&sd, &sess, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char what[64];
+            snprintf(what, sizeof what, "session (%d view%s, %dx%d)", nimg, nimg == 1 ? "" : "s", w, h);
+            cli_lib_error(what, r, &err);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
+    if (rc == CLI_OK) {
+        np = (size_t)w * (size_t)h;
+        px = (unsigned char **)calloc((size_t)nimg, sizeof *px);
+        in = (supermat_image *)calloc((size_t)nimg, sizeof *in);
+        oa = (supermat_image *)calloc((size_t)nimg, sizeof *oa);
+        orr = (supermat_image *)calloc((size_t)nimg, sizeof *orr);
+        om = (supermat_image *)calloc((size_t)nimg, sizeof *om);
+        if (outputs & SUPERMAT_OUTPUT_ALBEDO) fa = (float *)malloc(np * 3 * (size_t)nimg * sizeof(float));
+        if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) fr = (float *)malloc(np * (size_t)nimg * sizeof(float));
+        if (outputs & SUPERMAT_OUTPUT_METALLIC) fm = (float *)malloc(np * (size_t)nimg * sizeof(float));
+        tmp = (unsigned char *)malloc(np * 3);
+        if (!px || !in || !oa || !orr || !om || !tmp || ((outputs & SUPERMAT_OUTPUT_ALBEDO) && !fa) ||
+            ((outputs & SUPERMAT_OUTPUT_ROUGHNESS) && !fr) || ((outputs & SUPERMAT_OUTPUT_METALLIC) && !fm)) {
+            cli_error("out of memory for %d views of %dx%d", nimg, w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        int iw = 0, ih = 0, c = 0;
+        px[i] = stbi_load(imgs[i], &iw, &ih, &c, 4);
+        if (!px[i]) { cli_error("cannot read view '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (iw != w || ih != h) { cli_error("view '%s' is %dx%d, not %dx%d as before (did it change?)", imgs[i], iw, ih, w, h); rc = CLI_FAIL; break; }
+        in[i].pixels = px[i]; in[i].width = w; in[i].height = h; in[i].channels = 4; in[i].format = SUPERMAT_FORMAT_U8;
+        oa[i].pixels = fa ? fa + np * 3 * (size_t)i : NULL; oa[i].channels = 3; oa[i].format = SUPERMAT_FORMAT_F32;
+        orr[i].pixels = fr ? fr + np * (size_t)i : NULL; orr[i].channels = 1; orr[i].format = SUPERMAT_FORMAT_F32;
+        om[i].pixels = fm ? fm + np * (size_t)i : NULL; om[i].channels = 1; om[i].format = SUPERMAT_FORMAT_F32;
+    }
+    if (rc == CLI_OK) {
+        supermat_run_desc rd;
+        supermat_error err;
+        supermat_result r;
+        cli_progress prog;
+        char name[64];
+        double t0 = cli_now();
+        memset(&rd, 0, sizeof rd);
+        rd.input_views = in;
+        rd.cameras = c2w;
+        rd.albedo_views = fa ? oa : NULL;
+        rd.roughness_views = fr ? orr : NULL;
+        rd.metallic_views = fm ? om : NULL;
+        snprintf(name, sizeof name, "%d view%s", nimg, nimg == 1 ? "" : "s");
+        memset(&prog, 0, sizeof prog);
+        prog.name = name;
+        if (tty) { rd.progress = cli_progress_cb; rd.progress_user = &prog; }
+        r = supermat_run(sess, &rd, &err);
+        if (tty && prog.shown) {
+            if (r == SUPERMAT_SUCCESS) fprintf(stderr, "\r%s 100%% done (%.2f s)%*s\n", name, cli_now() - t0, 8, "");
+            else fputc('\n', stderr);
+        }
+        if (r != SUPERMAT_SUCCESS) {
+            snprintf(name, sizeof name, "%d view%s", nimg, nimg == 1 ? "" : "s");
+            cli_lib_error(name, r, &err);
+            rc = CLI_FAIL;
+        }
+    }
+    for (i = 0; i < nimg && rc == CLI_OK; i++) {
+        float *maps[3];
+        maps[0] = fa ? fa + np * 3 * (size_t)i : NULL;
+        maps[1] = fr ? fr + np * (size_t)i : NULL;
+        maps[2] = fm ? fm + np * (size_t)i : NULL;
+        rc = cli_write_maps(out_dir, stems[i], 3, cli_map_suffixes, maps, cli_map_channels, w, h, want_float, tmp);
+    }
+
+    if (px) for (i = 0; i < nimg; i++) if (px[i]) stbi_image_free(px[i]);
+    free(px); free(in); free(oa); free(orr); free(om); free(fa); free(fr); free(fm); free(tmp);
+    supermat_session_destroy(sess);
+    supermat_model_destroy(model);
+    free(file);
+    free(cams); free(c2w); free(index);
+    cli_free_stems(stems, nimg);
+    free(imgs);
+    return rc;
+}
+
+/* >>refine */
+/* an 8-bit gray image as PIL's convert("L"): gray as is, colour as (19595 R + 38470 G + 7471 B + 32768) >> 16
+   (0.299/0.587/0.114), alpha dropped. Free with stbi_image_free. */
+static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
+    int c = 0;
+    unsigned char *p = stbi_load(path, w, h, &c, 0);
+    size_t n, i;
+    if (!p || c == 1) return p;
+    n = (size_t)*w * (size_t)*h;
+    for (i = 0; i < n; i++) { /* in place: pixel i is read before anything at or after it is written */
+        const unsigned char *s = p + i * (size_t)c;
+        p[i] = c <= 2 ? s[0] : (unsigned char)(((uint32_t)s[0] * 19595u + (uint32_t)s[1] * 38470u + (uint32_t)s[2] * 7471u + 0x8000u) >> 16);
+    }
+    return p;
+}
+
+static int cli_refine(int argc, char **argv) {
+    const char *cmd = "refine", *v, *model_path = NULL, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
+    static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
+    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    char *stem = NULL;
+    unsigned char *px[3] = {NULL, NULL, NULL}, *file = NULL, *tmp = NULL;
+    float *refined = NULL;
+    size_t file_size = 0;
+    supermat_model *model = NULL;
+    supermat_session *sess = NULL;
+
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        int k, hit = 0;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_refine, stdout); return CLI_OK; }
+        for (k = 0; k < 3 && !hit; k++)
+            if ((m = cli_opt(cmd, argc, argv, &i, opts[k], &v)) != 0) {
+                if (m < 0) return CLI_USAGE;
+                paths[k] = v;
+                hit = 1;
+            }
+        if (hit) continue;
+        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            model_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            out_dir = v;
+        } else if (!strcmp(a, "--float")) {
+            want_float = 1;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
+            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
+        }
+    }
+    if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
+    for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);
+    if (!out_dir) return cli_usage_error(cmd, "--out DIR is required");
+    stem = cli_stem(paths[0]);
+    if (!stem) { cli_error("out of memory"); return CLI_FAIL; }
+    if (!stem[0]) { free(stem); return cli_usage_error(cmd, "--map '%s' has no file name", paths[0]); }
+
+    /* the three sizes before the (slow) model load */
+    for (i = 0; i < 3 && rc == CLI_OK; i++) {
+        int iw, ih, c;
+        if (!stbi_info(paths[i], &iw, &ih, &c)) { cli_error("cannot read %s '%s': %s", what[i], paths[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (i == 0) { w = iw; h = ih; }
+        if (iw != w || ih != h) {
+            cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
+                      "size (supermat does not resize)", what[i], paths[i], iw, ih, paths[0], w, h);
+            rc = CLI_FAIL;
+        } else if (w % 8 || h % 8) {
+            cli_error("the map '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
+                      "resize the three maps first, e.g. to 1024x1024)", paths[0], w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_UV_REFINE);
+    if (rc == CLI_OK) {
+        supermat_session_desc sd;
+        supermat_error err;
+        supermat_result r;
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
+        r = supermat_session_create(&sd, &sess, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char msg[64];
+            snprintf(msg, sizeof msg, "session (%dx%d)", w, h);
+            cli_lib_error(msg, r, &err);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
+    for (i = 0; i < 3 && rc == CLI_OK; i++) {
+        int iw = 0, ih = 0, c = 0;
+        px[i] = i == 1 ? cli_load_gray(paths[i], &iw, &ih) : stbi_load(paths[i], &iw, &ih, &c, 3);
+        if (!px[i]) { cli_error("cannot read %s '%s': %s", what[i], paths[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (iw != w || ih != h) { cli_error("%s '%s' is %dx%d, not %dx%d as before (did it change?)", what[i], paths[i], iw, ih, w, h); rc = CLI_FAIL; break; }
+    }
+    if (rc == CLI_OK) {
+        refined = (float *)malloc((size_t)w * (size_t)h * 3 * sizeof(float));
+        tmp = (unsigned char *)malloc((size_t)w * (size_t)h * 3);
+        if (!refined || !tmp) { cli_error("out of memory for a %dx%d map", w, h); rc = CLI_FAIL; }
+    }
+    if (rc == CLI_OK) {
+        supermat_run_desc rd;
+        supermat_error err;
+        supermat_result r;
+        cli_progress prog;
+        double t0 = cli_now();
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = px[0]; rd.input.width = w; rd.input.height = h; rd.input.channels = 3;
+        rd.mask.pixels = px[1]; rd.mask.width = w; rd.mask.height = h; rd.mask.channels = 1;
+        rd.position.pixels = px[2]; rd.position.width = w; rd.position.height = h; rd.position.channels = 3;
+        rd.refined.pixels = refined; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+        memset(&prog, 0, sizeof prog);
+        prog.name = paths[0];
+        if (tty) { rd.progress = cli_progress_cb; rd.progress_user = &prog; }
+        r = supermat_run(sess, &rd, &err);
+        if (tty && prog.shown) {
+            if (r == SUPERMAT_SUCCESS) fprintf(stderr, "\r%s 100%% done (%.2f s)%*s\n", paths[0], cli_now() - t0, 8, "");
+            else fputc('\n', stderr);
+        }
+        if (r != SUPERMAT_SUCCESS) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "'%s'", paths[0]);
+            cli_lib_error(msg, r, &err);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) {
+        static const char *const suffix[1] = {"_refined"};
+        static const int channels[1] = {3};
+        rc = cli_write_maps(out_dir, stem, 1, suffix, &refined, channels, w, h, want_float, tmp);
+    }
+
+    for (i = 0; i < 3; i++) if (px[i]) stbi_image_free(px[i]);
+    free(refined); free(tmp); free(stem);
+    supermat_session_destroy(sess);
+    supermat_model_destroy(model);
+    free(file);
     return rc;
 }
 
@@ -1357,6 +1992,8 @@ int main(int argc, char **argv) {
     }
     if (!strcmp(c, "convert")) return cli_convert(argc, argv);
     if (!strcmp(c, "image")) return cli_image(argc, argv);
+    if (!strcmp(c, "views")) return cli_views(argc, argv);
+    if (!strcmp(c, "refine")) return cli_refine(argc, argv);
     if (!strcmp(c, "info")) return cli_info(argc, argv);
     if (!strcmp(c, "bench")) return cli_bench(argc, argv);
     return cli_usage_error(NULL, "unknown command '%s'", c);
