@@ -1345,10 +1345,40 @@ SUPERMAT__AVX2 static void supermat__silu_avx2(float *y, const float *x, int n) 
         y[i] = _mm256_cvtss_f32(_mm256_div_ps(v, _mm256_add_ps(_mm256_set1_ps(1.0f), e)));
     }
 }
-SUPERMAT__AVX2 static void supermat__exp_row_avx2(float *x, int n) {
-    int i = 0;
-    for (; i + 8 <= n; i += 8) _mm256_storeu_ps(x + i, supermat__exp_avx2(_mm256_loadu_ps(x + i)));
-    for (; i < n; i++) x[i] = _mm256_cvtss_f32(supermat__exp_avx2(_mm256_set1_ps(x[i])));
+/* one row of the online softmax: s *= scale, new running max, s = exp(s - max), running sum;
+   returns the factor that rescales the previous partial output */
+SUPERMAT__AVX2 static float supermat__softmax_block_avx2(float *s, int n, float scale, float *mrow, float *lrow) {
+    __m256 vs = _mm256_set1_ps(scale), vmax = _mm256_set1_ps(-INFINITY), vsum = _mm256_setzero_ps();
+    float mx, mnew, corr, sum, tmp[8];
+    int c = 0, i;
+    for (; c + 8 <= n; c += 8) {
+        __m256 v = _mm256_mul_ps(_mm256_loadu_ps(s + c), vs);
+        _mm256_storeu_ps(s + c, v);
+        vmax = _mm256_max_ps(vmax, v);
+    }
+    _mm256_storeu_ps(tmp, vmax);
+    mx = tmp[0];
+    for (i = 1; i < 8; i++) mx = tmp[i] > mx ? tmp[i] : mx;
+    for (; c < n; c++) { s[c] *= scale; if (s[c] > mx) mx = s[c]; }
+    mnew = *mrow > mx ? *mrow : mx;
+    corr = *mrow == -INFINITY ? 0.0f : expf(*mrow - mnew);
+    {
+        __m256 vm = _mm256_set1_ps(mnew);
+        for (c = 0; c + 8 <= n; c += 8) {
+            __m256 e = supermat__exp_avx2(_mm256_sub_ps(_mm256_loadu_ps(s + c), vm));
+            _mm256_storeu_ps(s + c, e);
+            vsum = _mm256_add_ps(vsum, e);
+        }
+        _mm256_storeu_ps(tmp, vsum);
+        sum = ((tmp[0] + tmp[4]) + (tmp[1] + tmp[5])) + ((tmp[2] + tmp[6]) + (tmp[3] + tmp[7]));
+        for (; c < n; c++) {
+            s[c] = _mm256_cvtss_f32(supermat__exp_avx2(_mm256_set1_ps(s[c] - mnew)));
+            sum += s[c];
+        }
+    }
+    *lrow = *lrow * corr + sum;
+    *mrow = mnew;
+    return corr;
 }
 #endif
 static void supermat__silu(const supermat__ctx *X, float *y, const float *x, int n) {
@@ -1500,7 +1530,7 @@ static void supermat__geglu(supermat__ctx *X, const float *h, float *y, int M, i
    dims (keys x 16). Queries of group g attend to key group g (kv_groups == query groups) or to the
    one shared key set (kv_groups == 1). */
 #define SUPERMAT__QB 48
-#define SUPERMAT__KB 64
+#define SUPERMAT__KB 128
 
 static size_t supermat__attn_kp_floats(int mk, int d) { return (size_t)((mk + 15) / 16) * 16 * d; }
 static size_t supermat__attn_vp_floats(int mk, int d) { return (size_t)((d + 15) / 16) * 16 * mk; }
@@ -1570,21 +1600,21 @@ static void supermat__attn_task(void *user, int index, int thread) {
         }
         /* online softmax over this block */
         for (r = 0; r < nq; r++) {
-            float *s = S + (size_t)r * SUPERMAT__KB, mx = -INFINITY, mnew, corr, sum = 0.0f;
+            float *s = S + (size_t)r * SUPERMAT__KB, mnew, corr;
             int c;
-            for (c = 0; c < nk; c++) { s[c] *= a->scale; if (s[c] > mx) mx = s[c]; }
-            mnew = mrow[r] > mx ? mrow[r] : mx;
-            corr = mrow[r] == -INFINITY ? 0.0f : expf(mrow[r] - mnew);
-            for (c = 0; c < nk; c++) s[c] -= mnew;
 #if SUPERMAT__HAS_AVX2
-            if (a->X->avx2) {
-                supermat__exp_row_avx2(s, nk);
-            } else
+            if (a->X->avx2) corr = supermat__softmax_block_avx2(s, nk, a->scale, &mrow[r], &lrow[r]);
+            else
 #endif
-                for (c = 0; c < nk; c++) s[c] = expf(s[c]);
-            for (c = 0; c < nk; c++) sum += s[c];
-            lrow[r] = lrow[r] * corr + sum;
-            mrow[r] = mnew;
+            {
+                float mx = -INFINITY, sum = 0.0f;
+                for (c = 0; c < nk; c++) { s[c] *= a->scale; if (s[c] > mx) mx = s[c]; }
+                mnew = mrow[r] > mx ? mrow[r] : mx;
+                corr = mrow[r] == -INFINITY ? 0.0f : expf(mrow[r] - mnew);
+                for (c = 0; c < nk; c++) { s[c] = expf(s[c] - mnew); sum += s[c]; }
+                lrow[r] = lrow[r] * corr + sum;
+                mrow[r] = mnew;
+            }
             if (corr != 1.0f) { float *o = O + (size_t)r * dpad; for (c = 0; c < dpad; c++) o[c] *= corr; }
         }
         for (jd = 0; jd < npv; jd++) {

@@ -241,6 +241,12 @@ static void test_norms(int avx2, int threads) {
     kctx_free(&k);
 }
 
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static void exp_row_avx2(float *x, int n) {
+    int i;
+    for (i = 0; i + 8 <= n; i += 8) _mm256_storeu_ps(x + i, supermat__exp_avx2(_mm256_loadu_ps(x + i)));
+}
+#endif
 static void test_exp(void) {
 #if SUPERMAT__HAS_AVX2
     if (supermat_cpu_has_avx2()) {
@@ -249,12 +255,12 @@ static void test_exp(void) {
         int i, j;
         for (i = 0; i < 20000; i++) {
             for (j = 0; j < 8; j++) x[j] = (float)(-87.0 + 175.0 * (i * 8 + j) / 160000.0);
-            memcpy(y, x, sizeof x); supermat__exp_row_avx2(y, 8);
+            memcpy(y, x, sizeof x); exp_row_avx2(y, 8);
             for (j = 0; j < 8; j++) { double r = exp((double)x[j]), e = fabs(y[j] - r) / r; if (e > worst) worst = e; }
         }
         TU_CHECK(worst < 4e-7, "AVX2 exp max relative error %.3g on [-87, 88]", worst);
         x[0] = -1000.0f; x[1] = 1000.0f; x[2] = -INFINITY; x[3] = 0; x[4] = -87.5f; x[5] = 1e-30f; x[6] = -1e-30f; x[7] = 88.0f;
-        memcpy(y, x, sizeof x); supermat__exp_row_avx2(y, 8);
+        memcpy(y, x, sizeof x); exp_row_avx2(y, 8);
         TU_CHECK(y[0] >= 0 && y[0] < 1e-37 && y[1] > 1e38 && y[2] >= 0 && y[2] < 1e-37 && y[3] == 1.0f && y[5] == 1.0f && y[6] == 1.0f && nan_free(y, 8),
                  "AVX2 exp at the extremes: %g %g %g %g %g", y[0], y[1], y[2], y[3], y[4]);
     }
