@@ -288,6 +288,38 @@ static void test_run(void) {
         else TU_CHECK(!memcmp(ref1, f1, sizeof f1) && !memcmp(ref2, f2, sizeof f2), "results differ between 1 thread and config %d", t);
         supermat_session_destroy(s);
     }
+    /* strides: a padded input and padded outputs give the same pixels and leave the padding alone */
+    {
+        static unsigned char pin[16 * 100], pout[16 * 120], ref[24 * 16 * 3];
+        static float pf[16 * 40];
+        int x, y, c;
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = W; sd.height = H; sd.threads = 2;
+        s = NULL;
+        if (supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS) {
+            memset(&rd, 0, sizeof rd);
+            rd.input.pixels = rgba; rd.input.width = W; rd.input.height = H; rd.input.channels = 4;
+            rd.albedo.pixels = ref; rd.albedo.channels = 3;
+            TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "packed run: %s", err.message);
+            memset(pin, 0x5A, sizeof pin);
+            for (y = 0; y < H; y++) memcpy(pin + (size_t)y * 100, rgba + (size_t)y * W * 4, (size_t)W * 4);
+            memset(pout, 0x77, sizeof pout);
+            for (i = 0; i < 16 * 40; i++) pf[i] = -7.0f;
+            rd.input.pixels = pin; rd.input.stride = 100;
+            rd.albedo.pixels = pout; rd.albedo.stride = 120;
+            rd.roughness.pixels = pf; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32; rd.roughness.stride = 40 * sizeof(float);
+            TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "strided run: %s", err.message);
+            for (y = 0; y < H; y++) {
+                TU_CHECK(!memcmp(pout + (size_t)y * 120, ref + (size_t)y * W * 3, (size_t)W * 3), "strided albedo row %d differs", y);
+                for (x = W * 3; x < 120; x++) if (pout[(size_t)y * 120 + x] != 0x77) { TU_CHECK(0, "albedo padding written at row %d", y); break; }
+                for (c = W; c < 40; c++) if (pf[(size_t)y * 40 + c] != -7.0f) { TU_CHECK(0, "roughness padding written at row %d", y); break; }
+                for (c = 0; c < W; c++) if (!(pf[(size_t)y * 40 + c] >= 0.0f && pf[(size_t)y * 40 + c] <= 1.0f)) { TU_CHECK(0, "roughness out of [0,1]"); break; }
+            }
+            rd.albedo.stride = 10; /* smaller than a row */
+            TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_ERROR_BAD_IMAGE, "stride smaller than a row: %s", err.message);
+            supermat_session_destroy(s);
+        }
+    }
     /* an output that was not requested */
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = W; sd.height = H; sd.threads = 1; sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
