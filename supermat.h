@@ -58,7 +58,7 @@
  *
  * MEMORY
  *   Every byte comes from the caller's allocator (default malloc/free). A model holds the packed
- *   weights (one copy, created once) and borrows the caller's file buffer for small tensors unless
+ *   weights (one copy, created once; f32, or f16 / bf16 / int8 with `supermat_model_desc.weights`) and borrows the caller's file buffer for small tensors unless
  *   `copy_data` is set. A session holds one arena planned before anything runs
  *   (`supermat_session_memory` answers its size without allocating); `supermat_run` allocates nothing.
  *
@@ -217,17 +217,29 @@ typedef enum supermat_model_kind {
     SUPERMAT_KIND_COUNT
 } supermat_model_kind;
 
+typedef enum supermat_weights {
+    SUPERMAT_WEIGHTS_DEFAULT = 0, /* as stored in the file: F32 -> f32, F16 -> f16, BF16 -> bf16 */
+    SUPERMAT_WEIGHTS_F32,         /* the reference */
+    SUPERMAT_WEIGHTS_F16,         /* half the memory; widened with F16C in the micro-kernel */
+    SUPERMAT_WEIGHTS_BF16,        /* half the memory; widened with a shift */
+    SUPERMAT_WEIGHTS_I8,          /* a quarter: symmetric int8, one scale per output channel per 256 of K */
+    SUPERMAT_WEIGHTS_COUNT
+} supermat_weights;
+
 typedef struct supermat_model_desc {
     const void *data;   /* the model file in memory (8-byte alignment recommended) */
     size_t size;
     int copy_data;      /* nonzero: nothing is borrowed, `data` may be freed after create */
     supermat_kernel kernel;
+    supermat_weights weights; /* storage of the GEMM weights (convolutions, linears); activations,
+                                 norms, biases and softmax stay float32 */
     supermat_allocator allocator;
 } supermat_model_desc;
 
 typedef struct supermat_model_info {
     supermat_model_kind kind;
     supermat_kernel kernel;        /* the kernel set chosen */
+    supermat_weights weights;      /* DEFAULT resolved: the storage of the first GEMM weight */
     int unet_in_channels, unet_out_channels, unet_levels, layers_per_block, norm_groups;
     int block_channels[8], num_heads[8];
     int cross_attention_dim, context_tokens, branches, class_embed_in;
@@ -846,6 +858,30 @@ static float supermat__bf16_to_f32(uint16_t h) {
     memcpy(&f, &bits, 4);
     return f;
 }
+static uint16_t supermat__f32_to_f16(float f) { /* round to nearest even; caller checks the range */
+    uint32_t x, sign, e, m;
+    memcpy(&x, &f, 4);
+    sign = (x >> 16) & 0x8000u; e = (x >> 23) & 255; m = x & 0x7FFFFFu;
+    if (e >= 143) return (uint16_t)(sign | 0x7C00u);                 /* overflow -> inf */
+    if (e < 113) {                                                    /* subnormal half or zero */
+        uint32_t shift, hm, rem, half;
+        if (e < 102) return (uint16_t)sign;
+        m |= 0x800000u; shift = 126 - e; hm = m >> shift; rem = m & ((1u << shift) - 1); half = 1u << (shift - 1);
+        if (rem > half || (rem == half && (hm & 1))) hm++;
+        return (uint16_t)(sign | hm);
+    }
+    {
+        uint32_t h = ((e - 112) << 10) | (m >> 13), rem = m & 0x1FFFu;
+        if (rem > 0x1000u || (rem == 0x1000u && (h & 1))) h++;        /* may carry into the exponent: correct */
+        return (uint16_t)(sign | h);
+    }
+}
+static uint16_t supermat__f32_to_bf16(float f) {
+    uint32_t x;
+    memcpy(&x, &f, 4);
+    x += 0x7FFFu + ((x >> 16) & 1u);
+    return (uint16_t)(x >> 16);
+}
 static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size_t i) {
     uint16_t h;
     float f;
@@ -865,10 +901,16 @@ static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size
 #define SUPERMAT__MC 96
 
 typedef struct supermat__pw { /* a packed weight: y = x W^T + b, W [N][K] */
-    float *p;      /* ceil(N/16) panels of K x 16 */
+    float *p;      /* ceil(N/16) panels of K x 16 (f32 weights) */
+    void *q;       /* the same panels in f16 / bf16 / int8 when fmt != 0 (then p is NULL) */
+    float *qs;     /* int8: a scale per column per KC block of K: [ceil(K/KC)][ceil(N/16)*16] */
     float *bias;   /* padded to a multiple of 16, or NULL */
-    int K, N;
+    int K, N, fmt; /* fmt: SUPERMAT_WEIGHTS_* (0 = f32) */
 } supermat__pw;
+
+/* micro-kernel over f16 / bf16 / int8 panels: c = init + bscale * sum (bscale NULL = 1) */
+typedef void (*supermat__ukrq_fn)(int kc, const float *const *a, const void *b, const float *bscale, float *c, size_t ldc, int mr,
+                                  int nr, const float *bias, const float *r, size_t ldr, int accumulate);
 
 typedef void (*supermat__ukr_fn)(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
                                  const float *bias, const float *r, size_t ldr, int accumulate);
@@ -899,6 +941,35 @@ static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, 
     for (i = 0; i < mr; i++)
         for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = acc[i][j];
 }
+
+static float supermat__wload(const void *b, int fmt, size_t i) {
+    const uint16_t *h = (const uint16_t *)b;
+    switch (fmt) {
+    case 1: return supermat__f16_to_f32(h[i]);
+    case 2: return supermat__bf16_to_f32(h[i]);
+    default: return (float)((const signed char *)b)[i];
+    }
+}
+#define SUPERMAT__UKRQ_SCALAR(NAME, FMT) \
+static void NAME(int kc, const float *const *a, const void *b, const float *bscale, float *c, size_t ldc, int mr, int nr, \
+                 const float *bias, const float *r, size_t ldr, int accumulate) { \
+    float acc[SUPERMAT__MR][SUPERMAT__NR]; \
+    int i, j, k; \
+    memset(acc, 0, sizeof acc); \
+    for (k = 0; k < kc; k++) \
+        for (i = 0; i < SUPERMAT__MR; i++) { \
+            float av = a[i][k]; \
+            for (j = 0; j < SUPERMAT__NR; j++) acc[i][j] += av * supermat__wload(b, FMT, (size_t)k * SUPERMAT__NR + j); \
+        } \
+    for (i = 0; i < mr; i++) \
+        for (j = 0; j < nr; j++) { \
+            float init = accumulate ? c[(size_t)i * ldc + j] : (bias ? bias[j] : 0.0f) + (r ? r[(size_t)i * ldr + j] : 0.0f); \
+            c[(size_t)i * ldc + j] = init + (bscale ? bscale[j] * acc[i][j] : acc[i][j]); \
+        } \
+}
+SUPERMAT__UKRQ_SCALAR(supermat__ukr_f16_scalar, 1)
+SUPERMAT__UKRQ_SCALAR(supermat__ukr_bf16_scalar, 2)
+SUPERMAT__UKRQ_SCALAR(supermat__ukr_i8_scalar, 3)
 
 #if SUPERMAT__HAS_AVX2
 SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
@@ -966,6 +1037,46 @@ SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, con
     for (i = 0; i < mr; i++)
         for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = tile[i * SUPERMAT__NR + j];
 }
+/* f16 / bf16 / int8 panels: 16 values a k-step, widened to f32 in registers (F16C, shifts, cvt) */
+#define SUPERMAT__UKRQ_AVX2(NAME, LOADB) \
+SUPERMAT__AVX2 static void NAME(int kc, const float *const *a, const void *bv, const float *bscale, float *c, size_t ldc, int mr, int nr, \
+                                const float *bias, const float *r, size_t ldr, int accumulate) { \
+    __m256 acc[12], b0, b1, av, s0, s1; \
+    float tile[SUPERMAT__MR * SUPERMAT__NR]; \
+    const float *a0 = a[0], *a1 = a[1], *a2 = a[2], *a3 = a[3], *a4 = a[4], *a5 = a[5]; \
+    int k, i, j; \
+    for (i = 0; i < 12; i++) acc[i] = _mm256_setzero_ps(); \
+    for (k = 0; k < kc; k++) { \
+        LOADB \
+        av = _mm256_broadcast_ss(a0 + k); acc[0] = _mm256_fmadd_ps(av, b0, acc[0]); acc[1] = _mm256_fmadd_ps(av, b1, acc[1]); \
+        av = _mm256_broadcast_ss(a1 + k); acc[2] = _mm256_fmadd_ps(av, b0, acc[2]); acc[3] = _mm256_fmadd_ps(av, b1, acc[3]); \
+        av = _mm256_broadcast_ss(a2 + k); acc[4] = _mm256_fmadd_ps(av, b0, acc[4]); acc[5] = _mm256_fmadd_ps(av, b1, acc[5]); \
+        av = _mm256_broadcast_ss(a3 + k); acc[6] = _mm256_fmadd_ps(av, b0, acc[6]); acc[7] = _mm256_fmadd_ps(av, b1, acc[7]); \
+        av = _mm256_broadcast_ss(a4 + k); acc[8] = _mm256_fmadd_ps(av, b0, acc[8]); acc[9] = _mm256_fmadd_ps(av, b1, acc[9]); \
+        av = _mm256_broadcast_ss(a5 + k); acc[10] = _mm256_fmadd_ps(av, b0, acc[10]); acc[11] = _mm256_fmadd_ps(av, b1, acc[11]); \
+    } \
+    s0 = bscale ? _mm256_loadu_ps(bscale) : _mm256_set1_ps(1.0f); \
+    s1 = bscale ? _mm256_loadu_ps(bscale + 8) : _mm256_set1_ps(1.0f); \
+    for (i = 0; i < SUPERMAT__MR; i++) { \
+        _mm256_storeu_ps(tile + i * 16, _mm256_mul_ps(acc[2 * i], s0)); \
+        _mm256_storeu_ps(tile + i * 16 + 8, _mm256_mul_ps(acc[2 * i + 1], s1)); \
+    } \
+    for (i = 0; i < mr; i++) \
+        for (j = 0; j < nr; j++) { \
+            float init = accumulate ? c[(size_t)i * ldc + j] : (bias ? bias[j] : 0.0f) + (r ? r[(size_t)i * ldr + j] : 0.0f); \
+            c[(size_t)i * ldc + j] = init + tile[i * 16 + j]; \
+        } \
+}
+SUPERMAT__UKRQ_AVX2(supermat__ukr_f16_avx2,
+    { const __m128i *bp = (const __m128i *)bv + 2 * k; b0 = _mm256_cvtph_ps(_mm_loadu_si128(bp)); b1 = _mm256_cvtph_ps(_mm_loadu_si128(bp + 1)); })
+SUPERMAT__UKRQ_AVX2(supermat__ukr_bf16_avx2,
+    { const __m128i *bp = (const __m128i *)bv + 2 * k;
+      b0 = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(bp)), 16));
+      b1 = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(bp + 1)), 16)); })
+SUPERMAT__UKRQ_AVX2(supermat__ukr_i8_avx2,
+    { __m128i q = _mm_loadu_si128((const __m128i *)((const signed char *)bv + 16 * (size_t)k));
+      b0 = _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(q));
+      b1 = _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(_mm_srli_si128(q, 8))); })
 #endif
 
 /* A operand of a GEMM */
@@ -1014,6 +1125,10 @@ static void supermat__gather(const supermat__asrc *s, int m0, int mr, int k0, in
 
 typedef struct supermat__gemm_args {
     supermat__ukr_fn ukr;
+    supermat__ukrq_fn ukrq;     /* for fmt != 0 */
+    const void *Bq;            /* f16 / bf16 / int8 panels */
+    const float *qs;           /* int8 scales [K blocks][np * 16] */
+    int fmt, np;
     int M, N, K;
     const supermat__asrc *A;
     const float *B;        /* packed panels (K x 16 each) */
@@ -1044,15 +1159,22 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             abase = A->a + (size_t)m0 * A->lda + k0; lda = A->lda;
         }
         for (p = p0; p < p1; p++) {
-            const float *bp = g->B + ((size_t)p * g->K + k0) * SUPERMAT__NR;
+            size_t boff = ((size_t)p * g->K + k0) * SUPERMAT__NR;
+            const float *bp = g->fmt ? NULL : g->B + boff;
+            const void *bq = g->fmt ? (const void *)((const char *)g->Bq + boff * (g->fmt == 3 ? 1 : 2)) : NULL;
+            const float *bs = g->fmt == 3 ? g->qs + (size_t)(k0 / SUPERMAT__KC) * g->np * SUPERMAT__NR + (size_t)p * SUPERMAT__NR : NULL;
             int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
             for (m = m0; m < m1; m += SUPERMAT__MR) {
                 const float *rows[SUPERMAT__MR];
                 int mr = SUPERMAT__MIN(SUPERMAT__MR, m1 - m), i;
                 for (i = 0; i < SUPERMAT__MR; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
-                g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
-                       g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
-                       k0 > 0);
+                if (g->fmt)
+                    g->ukrq(kc, rows, bq, bs, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
+                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                else
+                    g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
+                           g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
+                           k0 > 0);
             }
         }
     }
@@ -1186,6 +1308,7 @@ typedef struct supermat__ctx {
     size_t boff[SUPERMAT__MAXBLK], bsize[SUPERMAT__MAXBLK];
     int nblk;
     supermat__ukr_fn ukr;
+    supermat__ukrq_fn ukrq[4];  /* [fmt]: f16, bf16, int8 panels */
     int avx2;
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
@@ -1266,6 +1389,9 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     if (!supermat__live(X) || M <= 0) return;
     memset(&g, 0, sizeof g);
     g.ukr = X->ukr; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
+    g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    if (W->fmt) g.ukrq = X->ukrq[W->fmt];
+    if (W->fmt && !g.ukrq) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
     npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     tasks_m = (M + SUPERMAT__MC - 1) / SUPERMAT__MC;
@@ -1712,6 +1838,7 @@ typedef struct supermat__loader {
     supermat_result r;
     uint64_t params;
     int avx2;
+    int weights;            /* requested supermat_weights */
 } supermat__loader;
 
 static void *supermat__mem(supermat__loader *L, size_t bytes) {
@@ -1852,6 +1979,66 @@ nonfinite:
     return NULL;
 }
 
+/* converts packed f32 panels (K x 16 each) to f16 / bf16 / int8 panels of the same layout; int8 takes
+   one symmetric scale (max |w| / 127) per column per KC block of K. Returns -1 if a value does not fit
+   f16 (first such index in *bad). */
+static int supermat__quantize_panels(const float *p, size_t total, int K, int N, int fmt, void *qv, float *qs, size_t *bad) {
+    size_t i;
+    int np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR, nkb = (K + SUPERMAT__KC - 1) / SUPERMAT__KC;
+    if (fmt == 1) {
+        uint16_t *q = (uint16_t *)qv;
+        for (i = 0; i < total; i++) {
+            if (fabsf(p[i]) > 65504.0f) { *bad = i; return -1; }
+            q[i] = supermat__f32_to_f16(p[i]);
+        }
+    } else if (fmt == 2) {
+        uint16_t *q = (uint16_t *)qv;
+        for (i = 0; i < total; i++) q[i] = supermat__f32_to_bf16(p[i]);
+    } else {
+        signed char *q = (signed char *)qv;
+        int pnl, kb, c, k;
+        for (pnl = 0; pnl < np; pnl++)
+            for (kb = 0; kb < nkb; kb++) {
+                int k0 = kb * SUPERMAT__KC, k1 = SUPERMAT__MIN(K, k0 + SUPERMAT__KC);
+                for (c = 0; c < SUPERMAT__NR; c++) {
+                    float mx = 0.0f, inv;
+                    for (k = k0; k < k1; k++) { float v = fabsf(p[((size_t)pnl * K + k) * SUPERMAT__NR + c]); if (v > mx) mx = v; }
+                    inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+                    qs[(size_t)kb * np * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
+                    for (k = k0; k < k1; k++) {
+                        size_t o = ((size_t)pnl * K + k) * SUPERMAT__NR + c;
+                        float v = rintf(p[o] * inv);
+                        q[o] = (signed char)(v > 127.0f ? 127 : v < -127.0f ? -127 : (int)v);
+                    }
+                }
+            }
+    }
+    return 0;
+}
+
+/* converts a packed f32 weight to its storage format and releases the f32 copy */
+static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, size_t total, const char *name) {
+    supermat_model *m = L->m;
+    size_t i, bad = 0;
+    int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, nkb = (pw->K + SUPERMAT__KC - 1) / SUPERMAT__KC;
+    pw->q = supermat__mem(L, total * (fmt == 3 ? 1 : 2));
+    if (fmt == 3) pw->qs = (float *)supermat__mem(L, sizeof(float) * (size_t)nkb * np * SUPERMAT__NR);
+    if (L->r) return;
+    if (supermat__quantize_panels(pw->p, total, pw->K, pw->N, fmt, pw->q, pw->qs, &bad)) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_UNSUPPORTED, name, "tensor '%s' has a value %g beyond the f16 range", name, (double)pw->p[bad]);
+        return;
+    }
+    pw->fmt = fmt;
+    for (i = (size_t)m->nblocks; i-- > 0;) /* release the f32 panels */
+        if (m->blocks[i] == (void *)pw->p) {
+            supermat__free(&m->alloc, m->blocks[i], m->block_sizes[i]);
+            m->info.model_bytes -= m->block_sizes[i];
+            m->blocks[i] = NULL; m->block_sizes[i] = 0;
+            break;
+        }
+    pw->p = NULL;
+}
+
 /* Packs rows of one or more weight tensors [rows][K] (or convs [rows][Cin][k][k], reordered to
    K = (ky*k + kx)*Cin + ci) into GEMM panels. `first`/`count` select rows of each tensor. */
 typedef struct supermat__wpart { const char *name; const char *bias; int rows_total, first, count; } supermat__wpart;
@@ -1914,6 +2101,16 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
             L->params += (uint64_t)parts[p].rows_total;
         }
         n0 += parts[p].count;
+    }
+    if (L->r) return;
+    {   /* storage format: as the file stores it, or as asked */
+        int fmt = L->weights == SUPERMAT_WEIGHTS_F16 ? 1 : L->weights == SUPERMAT_WEIGHTS_BF16 ? 2 : L->weights == SUPERMAT_WEIGHTS_I8 ? 3 : 0;
+        if (L->weights == SUPERMAT_WEIGHTS_DEFAULT) {
+            int t0 = supermat__find_tensor(L, parts[0].name);
+            fmt = t0 < 0 ? 0 : L->ti[t0].dtype == SUPERMAT_DTYPE_F16 ? 1 : L->ti[t0].dtype == SUPERMAT_DTYPE_BF16 ? 2 : 0;
+        }
+        if (!L->m->info.weights) L->m->info.weights = (supermat_weights)(fmt + 1);
+        if (fmt) supermat__quantize(L, pw, fmt, total, parts[0].name);
     }
 }
 
@@ -2199,6 +2396,7 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if (out) *out = NULL;
     if (!desc || !out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and out must not be NULL");
     if (!desc->data) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc->data is NULL");
+    if ((unsigned)desc->weights >= SUPERMAT_WEIGHTS_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown weight format %d", (int)desc->weights);
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
     if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
@@ -2213,6 +2411,7 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     L.m = m; L.data = (const unsigned char *)desc->data; L.size = desc->size; L.copy = desc->copy_data; L.err = err;
     L.js = (const char *)desc->data + 8; L.meta = -1;
     L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
+    L.weights = (int)desc->weights;
     r = supermat__st_tokens(desc->data, desc->size, desc->size, &a, &L.toks, &ntok, err);
     if (r) { supermat__model_free(m); return r; }
     /* the tensor table */
@@ -2912,6 +3111,19 @@ SUPERMAT__DEF void supermat_session_flops(const supermat_session *s, supermat_fl
     if (s && out) *out = s->flops;
 }
 
+/* >>dispatch */
+static void supermat__select_kernels(supermat__ctx *X) {
+#if SUPERMAT__HAS_AVX2
+    if (X->avx2) {
+        X->ukr = supermat__ukr_avx2;
+        X->ukrq[1] = supermat__ukr_f16_avx2; X->ukrq[2] = supermat__ukr_bf16_avx2; X->ukrq[3] = supermat__ukr_i8_avx2;
+        return;
+    }
+#endif
+    X->ukr = supermat__ukr_scalar;
+    X->ukrq[1] = supermat__ukr_f16_scalar; X->ukrq[2] = supermat__ukr_bf16_scalar; X->ukrq[3] = supermat__ukr_i8_scalar;
+}
+
 /* >>run */
 static supermat_result supermat__check_image(const supermat_image *im, const char *what, int w, int h, int input, int min_ch,
                                              supermat_error *err) {
@@ -3011,11 +3223,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     memset(&X, 0, sizeof X);
     X.err = err; X.base = S->arena; X.cap = S->arena_size;
     X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2;
-#if SUPERMAT__HAS_AVX2
-    X.ukr = X.avx2 ? supermat__ukr_avx2 : supermat__ukr_scalar;
-#else
-    X.ukr = supermat__ukr_scalar;
-#endif
+    supermat__select_kernels(&X);
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;
     X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;
     X.progress = rd->progress; X.progress_user = rd->progress_user;

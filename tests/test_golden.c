@@ -220,8 +220,13 @@ int main(int argc, char **argv) {
     if (!file) { printf("cannot read %s\n", argv[1]); return 1; }
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size;
-    if (!strcmp(kern, "scalar")) md.kernel = SUPERMAT_KERNEL_SCALAR;
-    if (!strcmp(kern, "avx2")) {
+    if (!strncmp(kern, "scalar", 6)) md.kernel = SUPERMAT_KERNEL_SCALAR;
+    /* "KERNEL:WEIGHTS" runs with reduced-precision weights against the same goldens, chained only,
+       with the bound given by GOLDEN_TOL */
+    if (strstr(kern, ":f16")) md.weights = SUPERMAT_WEIGHTS_F16;
+    if (strstr(kern, ":bf16")) md.weights = SUPERMAT_WEIGHTS_BF16;
+    if (strstr(kern, ":i8")) md.weights = SUPERMAT_WEIGHTS_I8;
+    if (!strncmp(kern, "avx2", 4)) {
         if (!supermat_cpu_has_avx2()) { printf("no AVX2 on this CPU: skipped\n0 passed, 0 failed\n"); free(file); return 0; }
         md.kernel = SUPERMAT_KERNEL_AVX2;
     }
@@ -231,9 +236,11 @@ int main(int argc, char **argv) {
         supermat_model_get_info(model, &info);
         if (info.kind == SUPERMAT_KIND_SUPERMAT_MV) check_mv_layers(model, argv[4]);
         const char *mode = getenv("GOLDEN_MODE"); /* both (default), stages, chain */
+        double tol = getenv("GOLDEN_TOL") ? atof(getenv("GOLDEN_TOL")) : 0.0;
+        if (md.weights) mode = "chain";
         for (i = 4; i < argc; i++) {
-            if (!mode || strcmp(mode, "chain")) run_case(model, argv[i], 1, 1e-5, threads);   /* the bound, per stage */
-            if (!mode || strcmp(mode, "stages")) run_case(model, argv[i], 0, 1e-4, threads);  /* the whole chain (errors compound) */
+            if (!mode || strcmp(mode, "chain")) run_case(model, argv[i], 1, tol > 0 ? tol : 1e-5, threads);   /* the bound, per stage */
+            if (!mode || strcmp(mode, "stages")) run_case(model, argv[i], 0, tol > 0 ? tol : 1e-4, threads);  /* the whole chain (errors compound) */
         }
     }
     supermat_model_destroy(model);

@@ -42,6 +42,7 @@ static void kctx_free(kctx *k) {
 /* pack W [N][Cin][k][k] into panels the way the loader does */
 static void pack_w(supermat__pw *pw, const float *w, const float *b, int N, int cin, int k) {
     int K = cin * k * k, np = (N + 15) / 16, n, ci, ky, kx;
+    memset(pw, 0, sizeof *pw);
     pw->K = K; pw->N = N;
     pw->p = (float *)calloc((size_t)np * 16 * K, sizeof(float));
     pw->bias = b ? (float *)calloc((size_t)np * 16, sizeof(float)) : NULL;
@@ -140,6 +141,48 @@ static void test_gemm_conv(int avx2, int threads) {
 }
 
 /* attention_ref: per group g, head h: softmax(q k^T * scale) v, float64 */
+/* f16 / bf16 / int8 weight panels: the kernels against a float64 GEMM on the dequantized weights
+   (the kernel's own error), and the quantisation error itself against the f32 weights */
+static void test_quantized(int avx2, int threads) {
+    kctx k;
+    int it, fmt;
+    kctx_init(&k, avx2, threads);
+    supermat__select_kernels(&k.X);
+    for (fmt = 1; fmt <= 3; fmt++)
+        for (it = 0; it < 8; it++) {
+            int M = irand(1, 100), N = irand(1, 50), K = irand(1, 600), i, j, kq, np = (N + 15) / 16, nkb = (K + 255) / 256;
+            float *a = rvec((size_t)M * K, 1.0), *wt = rvec((size_t)N * K, 0.1), *c = (float *)malloc(sizeof(float) * M * N), *cf = (float *)malloc(sizeof(float) * M * N);
+            double *ref = (double *)malloc(sizeof(double) * M * N), qerr = 0, qmax = 0;
+            size_t total = (size_t)np * 16 * K, bad;
+            supermat__pw pw, pq;
+            pack_w(&pw, wt, NULL, N, K, 1);
+            pq = pw;
+            pq.q = malloc(total * 2); pq.qs = (float *)malloc(sizeof(float) * nkb * np * 16); pq.fmt = fmt; pq.p = NULL;
+            TU_CHECK(supermat__quantize_panels(pw.p, total, K, N, fmt, pq.q, pq.qs, &bad) == 0, "quantize fmt %d", fmt);
+            for (i = 0; i < M; i++)
+                for (j = 0; j < N; j++) {
+                    double s = 0;
+                    for (kq = 0; kq < K; kq++) {
+                        size_t o = ((size_t)(j / 16) * K + kq) * 16 + j % 16;
+                        double w = fmt == 1 ? supermat__f16_to_f32(((uint16_t *)pq.q)[o]) : fmt == 2 ? supermat__bf16_to_f32(((uint16_t *)pq.q)[o])
+                                 : (double)((signed char *)pq.q)[o] * pq.qs[(size_t)(kq / 256) * np * 16 + j];
+                        s += (double)a[(size_t)i * K + kq] * w;
+                    }
+                    ref[(size_t)i * N + j] = s;
+                }
+            k.X.status = SUPERMAT_SUCCESS;
+            supermat__linear(&k.X, a, (size_t)K, M, &pq, c, (size_t)N, NULL, 0);
+            TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, avx2 ? "avx2" : "scalar", M, N, K, maxerr(c, ref, (size_t)M * N));
+            supermat__linear(&k.X, a, (size_t)K, M, &pw, cf, (size_t)N, NULL, 0);
+            for (i = 0; i < M * N; i++) { qerr += (double)(c[i] - cf[i]) * (c[i] - cf[i]); qmax += (double)cf[i] * cf[i]; }
+            qerr = sqrt(qerr / (qmax + 1e-30));
+            /* relative L2 of the product: f16 ~ 2^-11, bf16 ~ 2^-8, int8 ~ 1/127/sqrt(3) */
+            TU_CHECK(qerr < (fmt == 1 ? 1e-3 : fmt == 2 ? 5e-3 : 1.5e-2), "fmt %d quantisation error %.3g", fmt, qerr);
+            free(a); free(wt); free(c); free(cf); free(ref); free(pw.p); free(pq.q); free(pq.qs);
+        }
+    kctx_free(&k);
+}
+
 static void test_attention(int avx2, int threads) {
     kctx k;
     int it;
@@ -275,6 +318,15 @@ static void test_scheduler(void) {
     TU_CHECK(bits == 0x3b98b3b8u, "alphas_cumprod[999] = %.9g (bits %08x), diffusers has 0.00466009602 (3b98b3b8)", a, bits);
     TU_CHECK(fabsf(sqrtf(1.0f - a) - 0.997667253f) < 1e-7f, "sqrt(1 - a) = %.9g", sqrtf(1.0f - a));
     TU_CHECK(supermat__nearest(4, 3, 5) == 2 && supermat__nearest(5, 3, 6) == 2 && supermat__nearest(2, 5, 3) == 3, "nearest index rule");
+    TU_CHECK(supermat__f32_to_f16(1.0f) == 0x3c00 && supermat__f32_to_f16(-2.0f) == 0xc000 && supermat__f32_to_f16(65504.0f) == 0x7bff &&
+             supermat__f32_to_f16(5.9604644775390625e-08f) == 0x0001 && supermat__f32_to_f16(1e-9f) == 0 && supermat__f32_to_f16(1.00048828125f) == 0x3c00 &&
+             supermat__f32_to_f16(1.00146484375f) == 0x3c02 && supermat__f32_to_bf16(1.0f) == 0x3f80 && supermat__f32_to_bf16(1.00390625f) == 0x3f80,
+             "f32 -> f16 / bf16 rounding (nearest even)");
+    { /* every f16 value round-trips */
+        int h, ok = 1;
+        for (h = 0; h < 0x7c00; h++) if (supermat__f32_to_f16(supermat__f16_to_f32((uint16_t)h)) != h) { ok = 0; break; }
+        TU_CHECK(ok, "f16 round trip fails at %04x", h);
+    }
     TU_CHECK(supermat__f16_to_f32(0x3c00) == 1.0f && supermat__f16_to_f32(0xc000) == -2.0f && supermat__f16_to_f32(0x0001) == 5.9604644775390625e-08f &&
              supermat__bf16_to_f32(0x3f80) == 1.0f, "f16/bf16 conversion");
 }
@@ -313,6 +365,7 @@ int main(void) {
         test_gemm_conv(avx2, 3);
         test_attention(avx2, 1);
         test_attention(avx2, 3);
+        test_quantized(avx2, 2);
         test_norms(avx2, 1);
         test_norms(avx2, 2);
     }
