@@ -7,7 +7,13 @@
 # non-square) with and without --float, and checks file names, PNG sizes and colour types (IHDR bytes
 # read with od), PFM headers and sizes, that --outputs limits what is written, that threads do not
 # change the bits, and that bad input (an image that is not a multiple of 8, a missing model, bad
-# options) fails with a message and the documented exit code. Needs only bash, coreutils and od.
+# options) fails with a message and the documented exit code.
+# Then the same for the multi-view and UV-refine models: converts both, runs `views` (6 views, 3 views,
+# one view with a numeric index and a flat matrix) and `refine`, compares their --float maps with the
+# official goldens (max abs error 1e-4, tests/pfm_npy_diff.c built with ${CC:-cc}), checks the camera
+# file errors (missing index, malformed JSON, duplicate index, short / non-numeric / non-finite /
+# missing matrix), size mismatches, a model of the wrong kind for each command, and `bench` on all
+# three kinds. Needs bash, coreutils, od and a C compiler (without one the golden comparison is skipped).
 set -eu
 
 if [ $# -ne 2 ]; then
@@ -29,12 +35,17 @@ check() { # check "description" command...
     if "$@"; then ok; else bad "$what"; fi
 }
 
-# runs the tool, keeping stdout, stderr and the exit code
+# runs the tool, keeping stdout, stderr and the exit code; a sanitizer report (ASan exits 1 too, like
+# an expected error) is a failure of its own
 run() {
     set +e
     "$BIN" "$@" >"$T/out" 2>"$T/err"
     RC=$?
     set -e
+    if grep -Eq 'Sanitizer|runtime error:' "$T/err"; then
+        bad "sanitizer report from: supermat $*"
+        cat "$T/err"
+    fi
 }
 
 # PNG width, height, bit depth, colour type from the IHDR chunk (bytes 16..25)
@@ -77,7 +88,7 @@ check "--version prints the version" grep -Eq '^supermat [0-9]+\.[0-9]+\.[0-9]+$
 run --help
 check "--help exits 0" [ $RC -eq 0 ]
 check "--help lists the commands" grep -q 'convert' "$T/out"
-for c in convert image info bench; do
+for c in convert image views refine info bench; do
     run "$c" --help
     check "$c --help exits 0" [ $RC -eq 0 ]
     check "$c --help prints usage" grep -q "usage: supermat $c" "$T/out"
@@ -215,6 +226,215 @@ check "missing image: the message names it" grep -q 'no_such_image.png' "$T/err"
 
 run image --model "$MODEL" --out "$T/out10" "$SPHERE" "$T/sphere_64.png"
 check "two images with one stem exit 2" [ $RC -eq 2 ]
+
+# ---- multi-view (views) and UV refine (refine) ---------------------------------------------------
+MV=$T/tiny_mv.safetensors
+UV=$T/tiny_uv.safetensors
+MVIMG=$DATA/img/mv
+UVIMG=$DATA/img/uv
+run convert --kind supermat-mv --unet "$DATA/tiny/supermat_mv.pth" --base "$DATA/tiny/base" --out "$MV"
+check "convert supermat-mv exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$UV"
+check "convert uv-refine exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+
+run info "$MV"
+check "info mv exits 0" [ $RC -eq 0 ]
+check "info mv: kind" grep -Eq '^kind +supermat-mv$' "$T/out"
+check "info mv: camera embedding" grep -q 'camera embedding in 16' "$T/out"
+check "info mv: session for 6 views" grep -q '6 views' "$T/out"
+check "info mv: the command" grep -q 'supermat views' "$T/out"
+run info "$UV"
+check "info uv exits 0" [ $RC -eq 0 ]
+check "info uv: kind" grep -Eq '^kind +uv-refine$' "$T/out"
+check "info uv: input channels" grep -q 'UNet input 8 channels = latent 4 + mask 1 + position 3' "$T/out"
+check "info uv: the command" grep -q 'supermat refine' "$T/out"
+
+# the golden comparison tool (max abs error of PFMs against a float32 NCHW .npy)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+DIFF=""
+if command -v "${CC:-cc}" >/dev/null 2>&1; then
+    if ${CC:-cc} -std=c99 -O2 -o "$T/pfm_npy_diff" "$HERE/pfm_npy_diff.c" -lm 2>"$T/cc_err"; then DIFF=$T/pfm_npy_diff
+    else bad "cannot compile tests/pfm_npy_diff.c"; cat "$T/cc_err"; fi
+else
+    echo "SKIP: no C compiler (${CC:-cc}): the PFM vs golden comparisons do not run"
+fi
+golden() { # golden "description" [--channel C] REF.npy PFM...
+    local what=$1
+    shift
+    [ -n "$DIFF" ] || return 0
+    local ch=()
+    if [ "$1" = "--channel" ]; then ch=(--channel "$2"); shift 2; fi
+    if "$DIFF" ${ch[@]+"${ch[@]}"} 1e-4 "$@" >"$T/diff_out" 2>&1; then
+        ok
+        echo "$what: $(cat "$T/diff_out")"
+    else
+        bad "$what: $(cat "$T/diff_out")"
+    fi
+}
+
+VIEWS=()
+for k in 0 1 2 3 4 5; do VIEWS+=("$MVIMG/color_000$k.png"); done
+OV=$T/views6
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OV" --float "${VIEWS[@]}"
+check "views (6 views) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "views writes nothing on stdout" [ ! -s "$T/out" ]
+for k in 0 1 2 3 4 5; do
+    check_png "$OV/color_000${k}_albedo.png" 64 64 2
+    check_png "$OV/color_000${k}_roughness.png" 64 64 0
+    check_png "$OV/color_000${k}_metallic.png" 64 64 0
+    check_pfm "$OV/color_000${k}_albedo.pfm" 64 64 3
+    check_pfm "$OV/color_000${k}_metallic.pfm" 64 64 1
+done
+check "views: 36 files (18 PNG, 18 PFM)" [ "$(find "$OV" -type f | wc -l)" -eq 36 ]
+golden "views albedo vs golden mv6_64/albedo.npy" "$DATA/golden/mv6_64/albedo.npy" "$OV"/color_000{0,1,2,3,4,5}_albedo.pfm
+golden "views roughness vs golden mv6_64/orm.npy G" --channel 1 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_roughness.pfm
+golden "views metallic vs golden mv6_64/orm.npy B" --channel 2 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_metallic.pfm
+
+OV3=$T/views3
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OV3" --outputs albedo,metallic --threads 1 \
+    "$MVIMG/color_0004.png" "$MVIMG/color_0001.png" "$MVIMG/color_0002.png"
+check "views (3 views, --outputs albedo,metallic) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+for k in 1 2 4; do
+    check_png "$OV3/color_000${k}_albedo.png" 64 64 2
+    check_png "$OV3/color_000${k}_metallic.png" 64 64 0
+    absent "$OV3/color_000${k}_roughness.png"
+done
+absent "$OV3/color_0000_albedo.png"
+
+# one view; a numeric index and a flat 16-number matrix (color_0003's camera)
+CAM3=$(tr -d ' \n' <"$MVIMG/meta.json" | sed 's/.*"index":"0003","transform_matrix":\[\(\[[^]]*\]\),\(\[[^]]*\]\),\(\[[^]]*\]\),\(\[[^]]*\]\)\].*/\1,\2,\3,\4/' | tr -d '[]')
+printf '{"locations": [{"index": 3, "transform_matrix": [%s]}]}\n' "$CAM3" >"$T/meta_num.json"
+OV1=$T/views1
+run views --model "$MV" --cameras "$T/meta_num.json" --out "$OV1" "$MVIMG/color_0003.png"
+check "views (1 view, numeric index, flat matrix) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || { cat "$T/err"; cat "$T/meta_num.json"; }
+check_png "$OV1/color_0003_albedo.png" 64 64 2
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views1s" "$MVIMG/color_0003.png"
+check "views (1 view, the official meta.json) exits 0" [ $RC -eq 0 ]
+check "index 3 and \"0003\", nested and flat matrix: the same camera" cmp -s "$OV1/color_0003_albedo.png" "$T/views1s/color_0003_albedo.png"
+
+# camera file errors: exit 1, a message naming the file, nothing written
+ID='[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]'
+cam_error() { # cam_error "description" 'pattern in the message' JSON
+    local what=$1 pat=$2
+    printf '%s\n' "$3" >"$T/meta_bad.json"
+    run views --model "$MV" --cameras "$T/meta_bad.json" --out "$T/views_bad" "$MVIMG/color_0000.png" "$MVIMG/color_0001.png"
+    check "$what: exits 1" [ $RC -eq 1 ]
+    check "$what: the message names the file" grep -q 'meta_bad.json' "$T/err"
+    if grep -q -- "$pat" "$T/err"; then ok; else bad "$what: no '$pat' in: $(cat "$T/err")"; fi
+    absent "$T/views_bad"
+}
+cam_error "meta.json without index 1" 'no location with index 1' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID}, {\"index\": \"0002\", \"transform_matrix\": $ID}]}"
+cam_error "malformed meta.json" 'not valid JSON' "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID},"
+cam_error "meta.json without locations" 'no "locations"' '{"frames": []}'
+cam_error "duplicate index" 'index 1 appears twice' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID}, {\"index\": \"0001\", \"transform_matrix\": $ID}, {\"index\": 1, \"transform_matrix\": $ID}]}"
+cam_error "short matrix row" 'row 2 has 3 numbers' \
+    '{"locations": [{"index": "0000", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1],[0,0,0,1]]}, {"index": "0001", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]}'
+cam_error "three matrix rows" 'has 3 rows' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,0]]}, {\"index\": \"0001\", \"transform_matrix\": $ID}]}"
+cam_error "non-numeric matrix element" 'transform_matrix\[1\]\[2\] is not a number' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID}, {\"index\": \"0001\", \"transform_matrix\": [[1,0,0,0],[0,1,\"x\",0],[0,0,1,0],[0,0,0,1]]}]}"
+cam_error "non-finite matrix element" 'not a finite' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,1e999],[0,0,0,1]]}, {\"index\": \"0001\", \"transform_matrix\": $ID}]}"
+cam_error "missing matrix" 'no "transform_matrix"' \
+    "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID}, {\"index\": \"0001\"}]}"
+cam_error "non-numeric index" 'index "front" is not a whole number' \
+    "{\"locations\": [{\"index\": \"front\", \"transform_matrix\": $ID}]}"
+
+# view errors
+mkdir -p "$T/vin"
+cp "$RING" "$T/vin/ring_0002.png"
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$MVIMG/color_0000.png" "$T/vin/ring_0002.png"
+check "views of two sizes exit 1" [ $RC -eq 1 ]
+check "views of two sizes: the message names the view" grep -q 'ring_0002.png' "$T/err"
+check "views of two sizes: the message says same size" grep -q 'same size' "$T/err"
+cp "$SPHERE" "$T/vin/front.png"
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$T/vin/front.png"
+check "a view without a number exits 1" [ $RC -eq 1 ]
+check "a view without a number: the message names it" grep -q 'front.png' "$T/err"
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$BAD"
+check "a 30x30 view exits 1" [ $RC -eq 1 ]
+check "a 30x30 view: multiples of 8" grep -q 'multiples of 8' "$T/err"
+run views --model "$MV" --cameras "$T/no_such_meta.json" --out "$T/views_bad" "$MVIMG/color_0000.png"
+check "a missing meta.json exits 1" [ $RC -eq 1 ]
+check "a missing meta.json: the message names it" grep -q 'no_such_meta.json' "$T/err"
+run views --model "$MV" --out "$T/views_bad" "$MVIMG/color_0000.png"
+check "views without --cameras exits 2" [ $RC -eq 2 ]
+absent "$T/views_bad"
+
+# refine
+OU=$T/refine
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --out "$OU" --float
+check "refine exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check_png "$OU/uv_bc_refined.png" 128 128 2
+check_pfm "$OU/uv_bc_refined.pfm" 128 128 3
+check "refine: 2 files" [ "$(find "$OU" -type f | wc -l)" -eq 2 ]
+golden "refined vs golden uv_128/uv_refined.npy" "$DATA/golden/uv_128/uv_refined.npy" "$OU/uv_bc_refined.pfm"
+
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_position.png" --position "$UVIMG/uv_position.png" --out "$T/refine_rgbmask"
+check "refine with an RGB mask (converted to gray) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check_png "$T/refine_rgbmask/uv_bc_refined.png" 128 128 2
+
+# a valid 64x64 8-bit gray PNG (a horizontal ramp): a mask smaller than the 128x128 map
+SMALL=$T/small_64.png
+printf '\211\120\116\107\015\012\032\012\000\000\000\015\111\110\104\122\000\000\000\100\000\000\000\100\010\000\000\000\000\217\002\056\002\000\000\000\162\111\104\101\124\170\332\143\140\140\341\340\021\020\221\220\121\120\321\320\061\060\261\260\161\160\361\360\011\010\211\210\111\110\311\310\051\050\251\250\151\150\351\350\231\060\145\306\234\005\113\126\254\331\260\145\307\236\003\107\116\234\271\160\345\306\235\007\117\136\274\371\360\345\307\037\206\121\003\106\015\030\065\140\324\200\121\003\106\015\030\065\140\324\200\121\003\106\015\030\065\140\324\200\121\003\106\015\030\065\140\270\033\000\000\173\066\340\152\221\332\203\037\000\000\000\000\111\105\116\104\256\102\140\202' >"$SMALL"
+check_png "$SMALL" 64 64 0
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$SMALL" --position "$UVIMG/uv_position.png" --out "$T/refine_bad"
+check "refine with a smaller mask exits 1" [ $RC -eq 1 ]
+check "refine with a smaller mask: the message names it" grep -q 'small_64.png' "$T/err"
+check "refine with a smaller mask: the message says same size" grep -q 'same size' "$T/err"
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$SPHERE" --out "$T/refine_bad"
+check "refine with a smaller position map exits 1" [ $RC -eq 1 ]
+check "refine with a smaller position map: the message names it" grep -q 'sphere_64.png' "$T/err"
+absent "$T/refine_bad"
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --position "$UVIMG/uv_position.png" --out "$T/refine_bad"
+check "refine without --mask exits 2" [ $RC -eq 2 ]
+
+# a model of the wrong kind: exit 1, pointing to the right command
+run image --model "$MV" --out "$T/kind_bad" "$SPHERE"
+check "image with the MV model exits 1" [ $RC -eq 1 ]
+check "image with the MV model points to views" grep -q 'supermat views' "$T/err"
+run image --model "$UV" --out "$T/kind_bad" "$SPHERE"
+check "image with the UV model exits 1" [ $RC -eq 1 ]
+check "image with the UV model points to refine" grep -q 'supermat refine' "$T/err"
+run views --model "$MODEL" --cameras "$MVIMG/meta.json" --out "$T/kind_bad" "$MVIMG/color_0000.png"
+check "views with the single-view model exits 1" [ $RC -eq 1 ]
+check "views with the single-view model points to image" grep -q 'supermat image' "$T/err"
+run refine --model "$MV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --out "$T/kind_bad"
+check "refine with the MV model exits 1" [ $RC -eq 1 ]
+check "refine with the MV model points to views" grep -q 'supermat views' "$T/err"
+absent "$T/kind_bad"
+
+# bench on the three kinds (pipeline only: no FMA peak or GEMM, quick)
+run bench --model "$MODEL" --size 64 --pipeline-only --json "$T/bench.json"
+check "bench supermat exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench: a trunk row" grep -q '^unet trunk ' "$T/out"
+check "bench: an albedo branch row" grep -q '^unet branch albedo ' "$T/out"
+check "bench: a roughness/metallic branch row" grep -q '^unet branch roughness/metallic ' "$T/out"
+check "bench: no x0 row" bash -c "! grep -q 'x0' '$T/out'"
+check "bench: JSON written" grep -q '"stage": "unet trunk"' "$T/bench.json"
+run bench --model "$MV" --size 64 --views 2 --pipeline-only --outputs albedo
+check "bench supermat-mv --views 2 exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench mv: 2 views" grep -q '64x64 x 2 views' "$T/out"
+check "bench mv: one branch row" [ "$(grep -c '^unet branch' "$T/out")" -eq 1 ]
+run bench --model "$UV" --size 64 --pipeline-only
+check "bench uv-refine exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench uv: the refined branch row" grep -q '^unet branch refined ' "$T/out"
+check "bench uv: the unet input row" grep -q '^unet input (mask, position)' "$T/out"
+run bench --model "$MODEL" --size 64 --pipeline-only --views 2
+check "bench --views 2 with the single-view model exits 1" [ $RC -eq 1 ]
+check "bench --views 2 with the single-view model explains" grep -q 'supermat-mv' "$T/err"
 
 echo "$PASS passed, $FAIL failed"
 [ "$FAIL" -eq 0 ]

@@ -573,6 +573,7 @@ static const char *cli_kind_command(supermat_model_kind k) {
 /* CLI_OK if the model is of kind `want`, else a message saying which command runs it */
 static int cli_require_kind(const char *cmd, const char *path, const supermat_model *model, supermat_model_kind want) {
     supermat_model_info mi;
+    memset(&mi, 0, sizeof mi);
     supermat_model_get_info(model, &mi);
     if (mi.kind == want) return CLI_OK;
     cli_error("model '%s' is a %s model, `supermat %s` runs %s models: use %s", path, cli_kind_name(mi.kind), cmd,
@@ -894,14 +895,16 @@ static void cli_tok_text(const char *js, const supermat_json_tok *t, char *buf, 
 static int cli_camera_number(const char *path, int loc, const char *js, const supermat_json_tok *t, const char *elem, float *out) {
     double d;
     char txt[40];
-    if (supermat_json_number(js, t, &d) != 0) {
-        cli_tok_text(js, t, txt, sizeof txt);
-        cli_error("cameras '%s': locations[%d]: transform_matrix%s is not a number (%s)", path, loc, elem, txt);
-        return CLI_FAIL;
-    }
-    if (!(d - d == 0.0) || fabs(d) > (double)FLT_MAX) {
+    int i, bad = supermat_json_number(js, t, &d) != 0;
+    if (!bad && (!(d - d == 0.0) || fabs(d) > (double)FLT_MAX)) { /* 1e999, -Infinity (Python's json writes it) */
         cli_tok_text(js, t, txt, sizeof txt);
         cli_error("cameras '%s': locations[%d]: transform_matrix%s is not a finite float32 number (%s)", path, loc, elem, txt);
+        return CLI_FAIL;
+    }
+    for (i = t->start; i < t->end && !bad; i++) bad = !strchr("0123456789+-.eE", js[i]); /* JSON numbers only: no 0x10 */
+    if (bad) {
+        cli_tok_text(js, t, txt, sizeof txt);
+        cli_error("cameras '%s': locations[%d]: transform_matrix%s is not a number (%s)", path, loc, elem, txt);
         return CLI_FAIL;
     }
     *out = (float)d;
@@ -918,13 +921,15 @@ static int cli_camera_matrix(const char *path, int loc, const char *js, const su
     }
     if (toks[t + 1].type == SUPERMAT_JSON_ARRAY) { /* [[...], [...], [...], [...]] */
         if (toks[t].size != 4) {
-            cli_error("cameras '%s': locations[%d]: transform_matrix has %d rows, not 4 (a 4x4 camera-to-world matrix)", path, loc, toks[t].size);
+            cli_error("cameras '%s': locations[%d]: transform_matrix has %d row%s, not 4 (a 4x4 camera-to-world matrix)", path, loc,
+                      toks[t].size, toks[t].size == 1 ? "" : "s");
             return CLI_FAIL;
         }
         for (r = 0, k = t + 1; r < 4; r++, k = toks[k].next) {
             if (toks[k].type != SUPERMAT_JSON_ARRAY || toks[k].size != 4) {
                 if (toks[k].type == SUPERMAT_JSON_ARRAY)
-                    cli_error("cameras '%s': locations[%d]: transform_matrix row %d has %d numbers, not 4", path, loc, r, toks[k].size);
+                    cli_error("cameras '%s': locations[%d]: transform_matrix row %d has %d number%s, not 4", path, loc, r, toks[k].size,
+                              toks[k].size == 1 ? "" : "s");
                 else cli_error("cameras '%s': locations[%d]: transform_matrix row %d is not a list of 4 numbers", path, loc, r);
                 return CLI_FAIL;
             }
@@ -936,7 +941,8 @@ static int cli_camera_matrix(const char *path, int loc, const char *js, const su
         return CLI_OK;
     }
     if (toks[t].size != 16) { /* flat */
-        cli_error("cameras '%s': locations[%d]: transform_matrix has %d numbers, not 16 (4 rows of 4)", path, loc, toks[t].size);
+        cli_error("cameras '%s': locations[%d]: transform_matrix has %d number%s, not 16 (4 rows of 4)", path, loc, toks[t].size,
+                  toks[t].size == 1 ? "" : "s");
         return CLI_FAIL;
     }
     for (k = 0; k < 16; k++) {
@@ -1131,6 +1137,7 @@ static int cli_views(int argc, char **argv) {
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT_MV);
     if (rc == CLI_OK) {
         supermat_model_info mi;
+        memset(&mi, 0, sizeof mi);
         supermat_model_get_info(model, &mi);
         if (mi.class_embed_in != 16) {
             cli_error("model '%s' takes %d camera numbers per view; a meta.json camera is a 4x4 matrix (16)", model_path, mi.class_embed_in);
@@ -1472,8 +1479,14 @@ static int cli_info(int argc, char **argv) {
     printf(", heads ");
     cli_print_list(mi.num_heads, mi.unet_levels);
     printf("; %d layers per block, %d norm groups\n", mi.layers_per_block, mi.norm_groups);
-    printf("              cross-attention dim %d, context %d tokens, %d branches, class embedding in %d\n",
-           mi.cross_attention_dim, mi.context_tokens, mi.branches, mi.class_embed_in);
+    printf("              cross-attention dim %d, context %d tokens, %d branch%s\n", mi.cross_attention_dim, mi.context_tokens,
+           mi.branches, mi.branches == 1 ? "" : "es");
+    if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV)
+        printf("multi-view    camera embedding in %d (class_embed_in: the view's 4x4 camera-to-world matrix, row-major),\n"
+               "              added to the time embedding per view; views attend to each other (default 6)\n", mi.class_embed_in);
+    else if (mi.kind == SUPERMAT_KIND_UV_REFINE)
+        printf("uv refine     UNet input %d channels = latent %d + mask 1 + position %d; output: the refined map\n",
+               mi.unet_in_channels, mi.latent_channels, mi.unet_in_channels - mi.latent_channels - 1);
     printf("vae           %d levels: channels ", mi.vae_levels);
     cli_print_list(mi.vae_block_channels, mi.vae_levels);
     printf("; latent %d channels, scaling factor %g\n", mi.latent_channels, (double)mi.scaling_factor);
@@ -1497,6 +1510,7 @@ static int cli_info(int argc, char **argv) {
         int nthreads;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = 512; sd.height = 512; sd.threads = threads;
+        sd.views = mi.kind == SUPERMAT_KIND_SUPERMAT_MV ? 6 : 1;
         nthreads = supermat__threads_for(&sd);
         sd.outputs = SUPERMAT_OUTPUT_ALL;
         r = supermat_session_memory(&sd, &all, &err);
@@ -1510,10 +1524,15 @@ static int cli_info(int argc, char **argv) {
             free(file);
             return CLI_FAIL;
         }
-        printf("session 512   %llu bytes (%.1f MiB) all outputs, %llu bytes (%.1f MiB) albedo only (%d thread%s)\n",
-               (unsigned long long)all, cli_mib((double)all), (unsigned long long)alb, cli_mib((double)alb), nthreads,
-               nthreads == 1 ? "" : "s");
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE)
+            printf("session 512   %llu bytes (%.1f MiB), the refined map (%d thread%s)\n", (unsigned long long)all, cli_mib((double)all),
+                   nthreads, nthreads == 1 ? "" : "s");
+        else
+            printf("session 512   %llu bytes (%.1f MiB) all outputs, %llu bytes (%.1f MiB) albedo only (%s%d thread%s)\n",
+                   (unsigned long long)all, cli_mib((double)all), (unsigned long long)alb, cli_mib((double)alb),
+                   mi.kind == SUPERMAT_KIND_SUPERMAT_MV ? "6 views, " : "", nthreads, nthreads == 1 ? "" : "s");
     }
+    printf("command       %s\n", cli_kind_command(mi.kind));
     supermat_model_destroy(model);
     free(file);
     return CLI_OK;
@@ -1613,39 +1632,44 @@ static void cli_inspect_cb(void *user, supermat_stage stage, int branch, float *
 #define CLI_MAX_ROWS 12
 typedef struct cli_row { char name[48]; double seconds, flops; } cli_row;
 
-/* stage rows from one run's events: t0 = before supermat_run, t1 = after */
+static const char *cli_branch_name(const supermat_model_info *mi, int branch) {
+    if (mi->kind == SUPERMAT_KIND_UV_REFINE) return "refined";
+    if (mi->branches < 2) return "output";
+    return branch == 0 ? "albedo" : branch == 1 ? "roughness/metallic" : "branch";
+}
+
+/* stage rows from one run's events: t0 = before supermat_run, t1 = after. Each row ends at an event.
+   The UNet is the trunk (ends at TRUNK) and one tail per wanted branch (ends at its UNET_OUT); the
+   branch's X0 event follows at once (x0 = coefficient x output, no time), so it ends no row. */
 static int cli_rows(const cli_events *e, double t0, double t1, const supermat_flops *fl, const supermat_model_info *mi, cli_row *rows) {
-    int n = 0, i, ndec = 0, nunet = 0, first_unet = -1, last_x0 = -1;
+    int n = 0, i, ndec = 0, nbranch = 0;
     double prev = t0;
     for (i = 0; i < e->n; i++) {
         if (e->ev[i].stage == SUPERMAT_STAGE_DECODED) ndec++;
-        if (e->ev[i].stage == SUPERMAT_STAGE_UNET_OUT) { nunet++; if (first_unet < 0) first_unet = i; }
-        if (e->ev[i].stage == SUPERMAT_STAGE_X0) last_x0 = i;
+        if (e->ev[i].stage == SUPERMAT_STAGE_UNET_OUT) nbranch++;
     }
-    for (i = 0; i < e->n; i++) {
+    for (i = 0; i < e->n && n < CLI_MAX_ROWS - 1; i++) {
         const cli_event *v = &e->ev[i];
-        if (v->stage == SUPERMAT_STAGE_INPUT) {
-            snprintf(rows[n].name, sizeof rows[n].name, "input (plan walk, to [-1,1])");
-            rows[n].seconds = v->t - prev; rows[n].flops = 0.0; n++;
-            prev = v->t;
-        } else if (v->stage == SUPERMAT_STAGE_LATENT) {
-            snprintf(rows[n].name, sizeof rows[n].name, "vae encode");
-            rows[n].seconds = v->t - prev; rows[n].flops = fl->encode; n++;
-            prev = v->t;
-        } else if (i == first_unet) {
-            snprintf(rows[n].name, sizeof rows[n].name, "unet trunk + %d branch%s", nunet, nunet == 1 ? "" : "es");
-            rows[n].seconds = v->t - prev; rows[n].flops = fl->trunk + fl->branch; n++;
-            prev = v->t;
-        } else if (i == last_x0) {
-            snprintf(rows[n].name, sizeof rows[n].name, "x0 (ddim step)");
-            rows[n].seconds = v->t - prev; rows[n].flops = 0.0; n++;
-            prev = v->t;
-        } else if (v->stage == SUPERMAT_STAGE_DECODED && n < CLI_MAX_ROWS - 1) {
-            const char *bn = mi->branches >= 2 ? (v->branch == 0 ? "albedo" : v->branch == 1 ? "roughness/metallic" : "branch") : "output";
-            snprintf(rows[n].name, sizeof rows[n].name, "vae decode %s", bn);
-            rows[n].seconds = v->t - prev; rows[n].flops = ndec ? fl->decode / ndec : 0.0; n++;
-            prev = v->t;
+        cli_row *r = &rows[n];
+        r->flops = 0.0;
+        switch (v->stage) {
+        case SUPERMAT_STAGE_INPUT: snprintf(r->name, sizeof r->name, "input (plan walk, to [-1,1])"); break;
+        case SUPERMAT_STAGE_LATENT: snprintf(r->name, sizeof r->name, "vae encode"); r->flops = fl->encode; break;
+        case SUPERMAT_STAGE_UNET_IN: snprintf(r->name, sizeof r->name, "unet input (mask, position)"); break;
+        case SUPERMAT_STAGE_TRUNK: snprintf(r->name, sizeof r->name, "unet trunk"); r->flops = fl->trunk; break;
+        case SUPERMAT_STAGE_UNET_OUT:
+            snprintf(r->name, sizeof r->name, "unet branch %s", cli_branch_name(mi, v->branch));
+            r->flops = nbranch ? fl->branch / nbranch : 0.0; /* the tails have one architecture */
+            break;
+        case SUPERMAT_STAGE_DECODED:
+            snprintf(r->name, sizeof r->name, "vae decode %s", cli_branch_name(mi, v->branch));
+            r->flops = ndec ? fl->decode / ndec : 0.0;
+            break;
+        default: continue; /* X0 */
         }
+        r->seconds = v->t - prev;
+        prev = v->t;
+        n++;
     }
     snprintf(rows[n].name, sizeof rows[n].name, "write outputs");
     rows[n].seconds = t1 - prev; rows[n].flops = 0.0; n++;
@@ -1746,11 +1770,14 @@ static size_t cli_peak_rss(void) {
 
 static int cli_bench(int argc, char **argv) {
     const char *cmd = "bench", *v, *model_path = NULL, *json_path = NULL;
-    int w = 512, h = 512, threads = 0, repeats = 1, i, m, rc = CLI_OK, nrows = 0, rep, x, y;
+    int w = 512, h = 512, threads = 0, repeats = 1, i, m, rc = CLI_OK, nrows = 0, rep, x, y, k;
+    int views = 0, nviews = 1, pipeline_only = 0;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
-    unsigned char *file = NULL, *rgba = NULL, *alb = NULL, *rough = NULL, *metal = NULL;
-    size_t file_size = 0, session_bytes = 0, np, rss = 0;
+    unsigned char *file = NULL, *rgba = NULL, *alb = NULL, *rough = NULL, *metal = NULL, *mask = NULL, *pos = NULL;
+    supermat_image *in_v = NULL, *alb_v = NULL, *rough_v = NULL, *metal_v = NULL;
+    float *c2w = NULL;
+    size_t file_size = 0, session_bytes = 0, np = 0, rss = 0;
     long fma_iters = 0;
     supermat_model *model = NULL;
     supermat_model_info mi;
@@ -1780,6 +1807,10 @@ static int cli_bench(int argc, char **argv) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 64, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--repeats", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--repeats", v, 1, 1000, &repeats)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--views", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--views", v, 1, CLI_MAX_VIEWS, &views)) return CLI_USAGE;
+        } else if (!strcmp(a, "--pipeline-only")) {
+            pipeline_only = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
@@ -1794,7 +1825,6 @@ static int cli_bench(int argc, char **argv) {
         }
     }
     if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
-    cli_outputs_string(outputs, outs_s, sizeof outs_s);
     memset(&mi, 0, sizeof mi);
     memset(&fl, 0, sizeof fl);
 
@@ -1807,40 +1837,83 @@ static int cli_bench(int argc, char **argv) {
     (void)cli_serial_for;
 
     /* (a) here and again at the end (the best counts: a busy neighbour only lowers it) */
-    peak1 = cli_fma_peak(NULL, 3, &fma_iters);
-    peak = cli_fma_peak(&hook, 3, &fma_iters);
+    if (!pipeline_only) {
+        peak1 = cli_fma_peak(NULL, 3, &fma_iters);
+        peak = cli_fma_peak(&hook, 3, &fma_iters);
+    }
 
     /* (b) */
     rc = cli_load_model(model_path, kernel, &file, &file_size, &model, &create_s);
     if (rc == CLI_OK) {
         supermat_model_get_info(model, &mi);
+        if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) nviews = views ? views : 6;
+        else if (views > 1) {
+            cli_error("--views %d: model '%s' is a %s model, only a supermat-mv model takes several views", views, model_path,
+                      cli_kind_name(mi.kind));
+            rc = CLI_FAIL;
+        }
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE) outputs = SUPERMAT_OUTPUT_ALL; /* one refined map, whatever --outputs says */
+    }
+    if (mi.kind == SUPERMAT_KIND_UV_REFINE) snprintf(outs_s, sizeof outs_s, "refined");
+    else cli_outputs_string(outputs, outs_s, sizeof outs_s);
+    if (rc == CLI_OK) {
         memset(&sd, 0, sizeof sd);
-        sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threading = hook;
+        sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nviews; sd.threading = hook;
         r = supermat_session_memory(&sd, &session_bytes, &err);
         if (r == SUPERMAT_SUCCESS) r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) { cli_lib_error("session", r, &err); rc = CLI_FAIL; }
     }
     if (rc == CLI_OK) {
+        size_t nv = (size_t)nviews;
         np = (size_t)w * (size_t)h;
-        rgba = (unsigned char *)malloc(np * 4);
-        alb = (unsigned char *)malloc(np * 3);
-        rough = (unsigned char *)malloc(np);
-        metal = (unsigned char *)malloc(np);
-        if (!rgba || !alb || !rough || !metal) { cli_error("out of memory"); rc = CLI_FAIL; }
+        rgba = (unsigned char *)malloc(np * 4 * nv);
+        alb = (unsigned char *)malloc(np * 3 * nv); /* uv-refine: the refined map */
+        rough = (unsigned char *)malloc(np * nv);
+        metal = (unsigned char *)malloc(np * nv);
+        mask = (unsigned char *)malloc(np);
+        pos = (unsigned char *)malloc(np * 3);
+        in_v = (supermat_image *)calloc(nv, sizeof *in_v);
+        alb_v = (supermat_image *)calloc(nv, sizeof *alb_v);
+        rough_v = (supermat_image *)calloc(nv, sizeof *rough_v);
+        metal_v = (supermat_image *)calloc(nv, sizeof *metal_v);
+        c2w = (float *)calloc(nv * 16, sizeof(float));
+        if (!rgba || !alb || !rough || !metal || !mask || !pos || !in_v || !alb_v || !rough_v || !metal_v || !c2w) {
+            cli_error("out of memory");
+            rc = CLI_FAIL;
+        }
     }
     if (rc == CLI_OK) {
-        /* a deterministic pattern: gradients, a checker, an opaque disk on transparent noise */
+        /* a deterministic pattern per view: gradients, a checker, an opaque disk (moving from view to view) on
+           transparent noise; for uv-refine the same as the map (alpha ignored), banded mask, gradient positions */
         uint32_t seed = 7u;
+        for (k = 0; k < nviews; k++) {
+            double cx = 0.5 + 0.05 * sin(2.0 * 3.14159265358979323846 * k / nviews);
+            for (y = 0; y < h; y++)
+                for (x = 0; x < w; x++) {
+                    unsigned char *p = rgba + (((size_t)k * h + y) * w + x) * 4;
+                    double dx = (x + 0.5) / w - cx, dy = (y + 0.5) / h - 0.5, d = sqrt(dx * dx + dy * dy);
+                    int inside = d < 0.4, check = ((x / 8) + (y / 8) + k) & 1;
+                    p[0] = (unsigned char)(inside ? 40 + 180 * x / w : (int)(cli_rand(&seed) & 255u));
+                    p[1] = (unsigned char)(inside ? 40 + 180 * y / h : (int)(cli_rand(&seed) & 255u));
+                    p[2] = (unsigned char)(inside ? (check ? 200 : 60) : (int)(cli_rand(&seed) & 255u));
+                    p[3] = (unsigned char)(inside ? 255 : d < 0.41 ? 128 : 0);
+                }
+        }
         for (y = 0; y < h; y++)
             for (x = 0; x < w; x++) {
-                unsigned char *p = rgba + ((size_t)y * w + x) * 4;
-                double dx = (x + 0.5) / w - 0.5, dy = (y + 0.5) / h - 0.5, d = sqrt(dx * dx + dy * dy);
-                int inside = d < 0.4, check = ((x / 8) + (y / 8)) & 1;
-                p[0] = (unsigned char)(inside ? 40 + 180 * x / w : (int)(cli_rand(&seed) & 255u));
-                p[1] = (unsigned char)(inside ? 40 + 180 * y / h : (int)(cli_rand(&seed) & 255u));
-                p[2] = (unsigned char)(inside ? (check ? 200 : 60) : (int)(cli_rand(&seed) & 255u));
-                p[3] = (unsigned char)(inside ? 255 : d < 0.41 ? 128 : 0);
+                size_t o = (size_t)y * w + x;
+                mask[o] = (unsigned char)(85 * (((x / 16) + (y / 16)) % 4));
+                pos[o * 3] = (unsigned char)(255 * x / w);
+                pos[o * 3 + 1] = (unsigned char)(255 * y / h);
+                pos[o * 3 + 2] = 127;
             }
+        cli_ring_cameras(nviews, c2w);
+        for (k = 0; k < nviews; k++) {
+            in_v[k].pixels = rgba + np * 4 * (size_t)k; in_v[k].width = w; in_v[k].height = h; in_v[k].channels = 4;
+            alb_v[k].pixels = alb + np * 3 * (size_t)k; alb_v[k].channels = 3;
+            rough_v[k].pixels = rough + np * (size_t)k; rough_v[k].channels = 1;
+            metal_v[k].pixels = metal + np * (size_t)k; metal_v[k].channels = 1;
+        }
     }
     for (rep = 0; rep < repeats && rc == CLI_OK; rep++) {
         supermat_run_desc rd;
@@ -1848,10 +1921,22 @@ static int cli_bench(int argc, char **argv) {
         cli_row tmp[CLI_MAX_ROWS];
         int n;
         memset(&rd, 0, sizeof rd);
-        rd.input.pixels = rgba; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
-        if (outputs & SUPERMAT_OUTPUT_ALBEDO) { rd.albedo.pixels = alb; rd.albedo.channels = 3; }
-        if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) { rd.roughness.pixels = rough; rd.roughness.channels = 1; }
-        if (outputs & SUPERMAT_OUTPUT_METALLIC) { rd.metallic.pixels = metal; rd.metallic.channels = 1; }
+        rd.input = in_v[0];
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE) {
+            rd.mask.pixels = mask; rd.mask.width = w; rd.mask.height = h; rd.mask.channels = 1;
+            rd.position.pixels = pos; rd.position.width = w; rd.position.height = h; rd.position.channels = 3;
+            rd.refined = alb_v[0];
+        } else if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) {
+            rd.input_views = in_v;
+            rd.cameras = c2w;
+            if (outputs & SUPERMAT_OUTPUT_ALBEDO) rd.albedo_views = alb_v;
+            if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) rd.roughness_views = rough_v;
+            if (outputs & SUPERMAT_OUTPUT_METALLIC) rd.metallic_views = metal_v;
+        } else {
+            if (outputs & SUPERMAT_OUTPUT_ALBEDO) rd.albedo = alb_v[0];
+            if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) rd.roughness = rough_v[0];
+            if (outputs & SUPERMAT_OUTPUT_METALLIC) rd.metallic = metal_v[0];
+        }
         memset(&ev, 0, sizeof ev);
         rd.inspect = cli_inspect_cb; rd.inspect_user = &ev;
         t0 = cli_now();
@@ -1867,7 +1952,7 @@ static int cli_bench(int argc, char **argv) {
     rss = cli_peak_rss(); /* the pipeline's peak, before the GEMM's buffers */
 
     /* (c) */
-    if (rc == CLI_OK) {
+    if (rc == CLI_OK && !pipeline_only) {
         cli_gemm g;
         float *ref = NULL;
         size_t nout = (size_t)CLI_GEMM_HW * CLI_GEMM_HW * CLI_GEMM_C, k;
@@ -1893,7 +1978,7 @@ static int cli_bench(int argc, char **argv) {
         cli_gemm_free(&g);
     }
 
-    if (rc == CLI_OK) {
+    if (rc == CLI_OK && !pipeline_only) {
         double p1 = cli_fma_peak(NULL, 3, &fma_iters), pa = cli_fma_peak(&hook, 3, &fma_iters);
         if (p1 > peak1) peak1 = p1;
         if (pa > peak) peak = pa;
@@ -1902,9 +1987,13 @@ static int cli_bench(int argc, char **argv) {
         size_t planned = mi.model_bytes + session_bytes;
         double total_flops = fl.total;
         FILE *jf = NULL;
-        printf("supermat bench: %s (%s, kernel %s), %dx%d, outputs %s, %d thread%s\n", model_path, cli_kind_name(mi.kind),
-               cli_kernel_name(mi.kernel), w, h, outs_s, hook.max_threads, hook.max_threads == 1 ? "" : "s");
-        if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (AVX2, %d independent _mm256_fmadd_ps chains; best of 6)\n",
+        char vs[32];
+        vs[0] = 0;
+        if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) snprintf(vs, sizeof vs, " x %d view%s", nviews, nviews == 1 ? "" : "s");
+        printf("supermat bench: %s (%s, kernel %s), %dx%d%s, outputs %s, %d thread%s\n", model_path, cli_kind_name(mi.kind),
+               cli_kernel_name(mi.kernel), w, h, vs, outs_s, hook.max_threads, hook.max_threads == 1 ? "" : "s");
+        if (pipeline_only) printf("FMA peak      skipped (--pipeline-only)\n");
+        else if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (AVX2, %d independent _mm256_fmadd_ps chains; best of 6)\n",
                              peak, hook.max_threads, hook.max_threads == 1 ? "" : "s", peak1, CLI_FMA_CHAINS);
         else printf("FMA peak      n/a (no AVX2/FMA on this CPU or in this build)\n");
         printf("model create  %.3f s (validation and weight packing)\n", create_s);
@@ -1915,22 +2004,25 @@ static int cli_bench(int argc, char **argv) {
                 double gfs = rows[i].flops / rows[i].seconds / 1e9;
                 printf(" %9.2f", gfs);
                 if (peak > 0) printf(" %6.1f%%", 100.0 * gfs / peak);
+                else printf(" %7s", "-");
             } else printf(" %9s %7s", "-", "-");
             printf("\n");
         }
         printf("%-32s %9.4f %9.3f %9.2f", "total", best_total, total_flops / 1e9, total_flops / best_total / 1e9);
         if (peak > 0) printf(" %6.1f%%", 100.0 * total_flops / best_total / 1e9 / peak);
+        else printf(" %7s", "-");
         printf("\n");
         if (repeats > 1) printf("(%d runs, mean total %.4f s)\n", repeats, sum_total / repeats);
         printf("\nmemory        model %.1f MiB + session %.1f MiB = %.1f MiB planned; process peak RSS %.1f MiB (getrusage, after the runs; includes the %.1f MiB file buffer)\n",
                cli_mib((double)mi.model_bytes), cli_mib((double)session_bytes), cli_mib((double)planned), cli_mib((double)rss),
                cli_mib((double)file_size));
-        printf("conv GEMM     3x3, %dx%dx%d -> %d (M=%d, K=%d, N=%d, %.2f GFLOP), packed weights, %d thread%s:\n", CLI_GEMM_HW,
+        if (pipeline_only) printf("conv GEMM     skipped (--pipeline-only)\n");
+        else printf("conv GEMM     3x3, %dx%dx%d -> %d (M=%d, K=%d, N=%d, %.2f GFLOP), packed weights, %d thread%s:\n", CLI_GEMM_HW,
                CLI_GEMM_HW, CLI_GEMM_C, CLI_GEMM_C, CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9,
                hook.max_threads, hook.max_threads == 1 ? "" : "s");
         if (t_avx2 > 0) printf("              avx2   %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_avx2 / 1e9, t_avx2);
-        else printf("              avx2   n/a\n");
-        printf("              scalar %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_scalar / 1e9, t_scalar);
+        else if (!pipeline_only) printf("              avx2   n/a\n");
+        if (t_scalar > 0) printf("              scalar %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_scalar / 1e9, t_scalar);
         if (t_avx2 > 0) printf("              ratio  %.1fx (avx2 / scalar); max difference %.2g of max |C|; avx2 at %.1f%% of the FMA peak\n",
                                t_scalar / t_avx2, gemm_diff, peak > 0 ? 100.0 * gemm_flops / t_avx2 / 1e9 / peak : 0.0);
 
@@ -1942,8 +2034,8 @@ static int cli_bench(int argc, char **argv) {
             fprintf(jf, "{\n  \"version\": \"%d.%d.%d\",\n  \"model\": ", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255,
                     SUPERMAT_VERSION & 255);
             cli_json_string(jf, model_path);
-            fprintf(jf, ",\n  \"kind\": \"%s\",\n  \"kernel\": \"%s\",\n  \"width\": %d,\n  \"height\": %d,\n  \"outputs\": \"%s\",\n",
-                    cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), w, h, outs_s);
+            fprintf(jf, ",\n  \"kind\": \"%s\",\n  \"kernel\": \"%s\",\n  \"width\": %d,\n  \"height\": %d,\n  \"views\": %d,\n  \"outputs\": \"%s\",\n",
+                    cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), w, h, nviews, outs_s);
             fprintf(jf, "  \"threads\": %d,\n  \"repeats\": %d,\n  \"fma_peak_gflops\": %.6g,\n  \"fma_peak_one_thread_gflops\": %.6g,\n  \"model_create_seconds\": %.6g,\n",
                     hook.max_threads, repeats, peak, peak1, create_s);
             fprintf(jf, "  \"stages\": [\n");
@@ -1962,14 +2054,16 @@ static int cli_bench(int argc, char **argv) {
             fprintf(jf, "  \"memory\": {\"model_bytes\": %llu, \"session_bytes\": %llu, \"planned_bytes\": %llu, \"peak_rss_bytes\": %llu, \"file_bytes\": %llu},\n",
                     (unsigned long long)mi.model_bytes, (unsigned long long)session_bytes, (unsigned long long)planned,
                     (unsigned long long)rss, (unsigned long long)file_size);
-            fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g}\n}\n",
+            if (pipeline_only) fprintf(jf, "  \"gemm\": null\n}\n");
+            else fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g}\n}\n",
                     CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9, t_avx2 > 0 ? gemm_flops / t_avx2 / 1e9 : 0.0,
-                    gemm_flops / t_scalar / 1e9, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff);
+                    t_scalar > 0 ? gemm_flops / t_scalar / 1e9 : 0.0, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff);
             if (fclose(jf) != 0) { cli_error("cannot write '%s'", json_path); rc = CLI_FAIL; }
         }
     }
 
-    free(rgba); free(alb); free(rough); free(metal);
+    free(rgba); free(alb); free(rough); free(metal); free(mask); free(pos);
+    free(in_v); free(alb_v); free(rough_v); free(metal_v); free(c2w);
     supermat_session_destroy(sess);
     supermat_model_destroy(model);
     free(file);
