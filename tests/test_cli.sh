@@ -127,6 +127,18 @@ check "convert of a missing checkpoint exits 1" [ $RC -eq 1 ]
 check "convert error names the file" grep -q 'missing.pth' "$T/err"
 absent "$T/never.safetensors"
 
+# ---- --weights (GEMM weight storage) ----------------------------------------------------------
+run info --weights int8 "$MODEL"
+check "info --weights int8 exits 0" [ $RC -eq 0 ]
+check "info --weights int8 reports int8" grep -Eq '^weights +int8' "$T/out"
+run info "$T/tiny_f16.safetensors"
+check "an f16 file is held as f16 by default" grep -Eq '^weights +f16' "$T/out"
+run image --weights bf16 --model "$MODEL" --out "$T/w_bf16" "$DATA/img/sphere_64.png"
+check "image --weights bf16 exits 0" [ $RC -eq 0 ]
+check_png "$T/w_bf16/sphere_64_albedo.png" 64 64 2
+run image --weights q4 --model "$MODEL" --out "$T/w_bad" "$DATA/img/sphere_64.png"
+check "--weights q4 exits 2" [ $RC -eq 2 ]
+
 # ---- info -------------------------------------------------------------------------------------
 run info "$MODEL"
 check "info exits 0" [ $RC -eq 0 ]

@@ -213,6 +213,7 @@ static const char cli_usage_image[] =
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal. For a supermat-mv model use `supermat\n"
     "views`, for a uv-refine model `supermat refine`.\n";
@@ -248,6 +249,7 @@ static const char cli_usage_views[] =
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -276,6 +278,7 @@ static const char cli_usage_refine[] =
     "                    float32, little endian)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -289,7 +292,8 @@ static const char cli_usage_info[] =
     "\n"
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
-    "  --kernel K        auto | scalar | avx2 (default auto)\n";
+    "  --kernel K        auto | scalar | avx2 (default auto)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n";
 
 static const char cli_usage_bench[] =
     "usage: supermat bench --model FILE [options]\n"
@@ -313,6 +317,7 @@ static const char cli_usage_bench[] =
     "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three; uv-refine\n"
     "                    makes its one refined map)\n"
     "  --kernel K        auto | scalar | avx2: the pipeline's kernels (default auto)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
 static int cli_usage_error(const char *cmd, const char *fmt, ...) CLI_PRINTF(2, 3);
@@ -349,6 +354,18 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
         return -1;
     }
     *out = (int)v;
+    return 0;
+}
+
+/* --weights: the storage of the GEMM weights (a speed / accuracy lever, see README) */
+static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
+static int cli_parse_weights(const char *cmd, const char *s) {
+    if (!strcmp(s, "default")) cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
+    else if (!strcmp(s, "f32")) cli_weights = SUPERMAT_WEIGHTS_F32;
+    else if (!strcmp(s, "f16")) cli_weights = SUPERMAT_WEIGHTS_F16;
+    else if (!strcmp(s, "bf16")) cli_weights = SUPERMAT_WEIGHTS_BF16;
+    else if (!strcmp(s, "int8") || !strcmp(s, "i8")) cli_weights = SUPERMAT_WEIGHTS_I8;
+    else { cli_usage_error(cmd, "--weights: '%s' is not default, f32, f16, bf16 or int8", s); return -1; }
     return 0;
 }
 
@@ -547,7 +564,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     *model = NULL;
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
-    md.data = *buf; md.size = *size; md.kernel = kernel;
+    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights;
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);
     if (create_seconds) *create_seconds = cli_now() - t0;
@@ -738,6 +755,8 @@ static int cli_image(int argc, char **argv) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) { free(imgs); return CLI_USAGE; }
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
+            if (m < 0 || cli_parse_weights(cmd, v)) { free(imgs); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(imgs);
             return cli_usage_error(cmd, "unknown option '%s'", a);
@@ -1084,6 +1103,8 @@ static int cli_views(int argc, char **argv) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) { free(imgs); return CLI_USAGE; }
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
+            if (m < 0 || cli_parse_weights(cmd, v)) { free(imgs); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(imgs);
             return cli_usage_error(cmd, "unknown option '%s'", a);
@@ -1284,6 +1305,8 @@ static int cli_refine(int argc, char **argv) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
+            if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else {
@@ -1411,6 +1434,8 @@ static int cli_info(int argc, char **argv) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
+            if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else if (path) {
@@ -1461,7 +1486,7 @@ static int cli_info(int argc, char **argv) {
 
     /* the loaded model */
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel;
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights;
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;
@@ -1474,6 +1499,10 @@ static int cli_info(int argc, char **argv) {
     }
     supermat_model_get_info(model, &mi);
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
+    {
+        static const char *wn[] = {"default", "f32", "f16", "bf16", "int8"};
+        printf("weights       %s (GEMM weight storage; %.1f MiB held by the model)\n", (unsigned)mi.weights < 5 ? wn[mi.weights] : "?", (double)mi.model_bytes / 1048576.0);
+    }
     printf("unet          in %d, out %d channels; %d levels: channels ", mi.unet_in_channels, mi.unet_out_channels, mi.unet_levels);
     cli_print_list(mi.block_channels, mi.unet_levels);
     printf(", heads ");
@@ -1815,6 +1844,8 @@ static int cli_bench(int argc, char **argv) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
+            if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             json_path = v;
