@@ -55,6 +55,8 @@
  *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
  *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only)
  *   SUPERMAT_ASSERT(x)                internal assertions (default: none)
+ *   SUPERMAT_NO_MADVISE               Linux: do not ask for transparent huge pages on the default
+ *                                     allocator's big blocks (weights, arenas)
  *
  * MEMORY
  *   Every byte comes from the caller's allocator (default malloc/free). A model holds the packed
@@ -394,6 +396,10 @@ SUPERMAT_API void supermat_session_flops(const supermat_session *session, superm
 #define SUPERMAT__HAS_AVX2 0
 #endif
 
+#if defined(__linux__) && !defined(SUPERMAT_NO_MADVISE)
+#include <sys/mman.h> /* madvise(MADV_HUGEPAGE) for the big default allocations */
+#endif
+
 #if !defined(SUPERMAT_NO_PTHREADS) && (defined(__unix__) || defined(__APPLE__))
 #define SUPERMAT__HAS_PTHREADS 1
 #include <pthread.h>
@@ -466,11 +472,17 @@ static void *supermat__default_alloc(void *user, size_t size, size_t align) {
     void *raw, **p;
     (void)user;
     if (align < sizeof(void *)) align = sizeof(void *);
+#if defined(__linux__) && defined(MADV_HUGEPAGE) && !defined(SUPERMAT_NO_MADVISE)
+    if (size >= ((size_t)8 << 20)) align = (size_t)2 << 20; /* whole huge pages for weights and arenas */
+#endif
     if (size > SIZE_MAX - align - sizeof(void *)) return NULL;
     raw = malloc(size + align + sizeof(void *));
     if (!raw) return NULL;
     p = (void **)(((uintptr_t)raw + sizeof(void *) + align - 1) & ~(uintptr_t)(align - 1));
     p[-1] = raw;
+#if defined(__linux__) && defined(MADV_HUGEPAGE) && !defined(SUPERMAT_NO_MADVISE)
+    if (size >= ((size_t)8 << 20)) madvise(p, size & ~(((size_t)2 << 20) - 1), MADV_HUGEPAGE); /* a hint: failure is harmless */
+#endif
     return p;
 }
 static void supermat__default_free(void *user, void *ptr, size_t size) {
@@ -2079,8 +2091,12 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
                 for (kx = 0; kx < k; kx++) {
                     float *d = dst + (size_t)(ky * k + kx) * cin * SUPERMAT__NR;
                     size_t src = base + (size_t)ky * k + kx, kk = (size_t)k * k;
+                    const unsigned char *raw = L->data + L->ti[t].offset;
+                    int f32 = L->ti[t].dtype == SUPERMAT_DTYPE_F32;
                     for (ci = 0; ci < cin; ci++) {
-                        float v = supermat__tval(L, t, src + (size_t)ci * kk);
+                        float v;
+                        if (f32) memcpy(&v, raw + 4 * (src + (size_t)ci * kk), 4);
+                        else v = supermat__tval(L, t, src + (size_t)ci * kk);
                         if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, parts[p].name, "tensor '%s' contains NaN or Inf", parts[p].name); return; }
                         d[(size_t)ci * SUPERMAT__NR] = v;
                     }
@@ -2195,19 +2211,35 @@ static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, co
         kv = (float *)supermat__mem(L, sizeof(float) * 2 * (size_t)m->ctx_tokens * c);
         x->kp2 = (float *)supermat__mem(L, sizeof(float) * heads * supermat__attn_kp_floats(m->ctx_tokens, x->d));
         x->vp2 = (float *)supermat__mem(L, sizeof(float) * heads * supermat__attn_vp_floats(m->ctx_tokens, x->d));
-        if (L->r) return;
-        for (t = 0; t < m->ctx_tokens; t++)
+        {   /* float64 dot products over float copies of the rows (one conversion per element) */
+            size_t D = (size_t)m->cross_dim;
+            float *rows = (float *)supermat__alloc(&m->alloc, sizeof(float) * ((size_t)m->ctx_tokens + 2) * D);
+            float *wkr = rows + (size_t)m->ctx_tokens * D, *wvr = wkr + D;
+            if (!rows) { if (!L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory (cross-attention keys)"); return; }
+            if (L->r) { supermat__free(&m->alloc, rows, sizeof(float) * ((size_t)m->ctx_tokens + 2) * D); return; }
+            for (i = 0; i < (int)((size_t)m->ctx_tokens * D); i++) rows[i] = supermat__tval(L, ctx_t, (size_t)i);
             for (j = 0; j < c; j++) {
-                double sk = 0.0, sv = 0.0;
-                for (i = 0; i < m->cross_dim; i++) {
-                    double cv = supermat__tval(L, ctx_t, (size_t)t * m->cross_dim + i);
-                    sk += cv * supermat__tval(L, wk, (size_t)j * m->cross_dim + i);
-                    sv += cv * supermat__tval(L, wv, (size_t)j * m->cross_dim + i);
+                for (i = 0; i < (int)D; i++) { wkr[i] = supermat__tval(L, wk, (size_t)j * D + i); wvr[i] = supermat__tval(L, wv, (size_t)j * D + i); }
+                for (t = 0; t < m->ctx_tokens; t++) {
+                    const float *cr = rows + (size_t)t * D;
+                    double sk0 = 0, sk1 = 0, sk2 = 0, sk3 = 0, sv0 = 0, sv1 = 0, sv2 = 0, sv3 = 0, sk, sv;
+                    for (i = 0; i + 4 <= (int)D; i += 4) {
+                        sk0 += (double)cr[i] * wkr[i]; sk1 += (double)cr[i + 1] * wkr[i + 1]; sk2 += (double)cr[i + 2] * wkr[i + 2]; sk3 += (double)cr[i + 3] * wkr[i + 3];
+                        sv0 += (double)cr[i] * wvr[i]; sv1 += (double)cr[i + 1] * wvr[i + 1]; sv2 += (double)cr[i + 2] * wvr[i + 2]; sv3 += (double)cr[i + 3] * wvr[i + 3];
+                    }
+                    for (; i < (int)D; i++) { sk0 += (double)cr[i] * wkr[i]; sv0 += (double)cr[i] * wvr[i]; }
+                    sk = (sk0 + sk1) + (sk2 + sk3); sv = (sv0 + sv1) + (sv2 + sv3);
+                    if (!(sk - sk == 0.0) || !(sv - sv == 0.0)) {
+                        supermat__free(&m->alloc, rows, sizeof(float) * ((size_t)m->ctx_tokens + 2) * D);
+                        L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, k, "cross-attention keys/values of '%s' are not finite", pre);
+                        return;
+                    }
+                    kv[(size_t)t * c + j] = (float)sk;
+                    kv[(size_t)(m->ctx_tokens + t) * c + j] = (float)sv;
                 }
-                if (!(sk - sk == 0.0) || !(sv - sv == 0.0)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, k, "cross-attention keys/values of '%s' are not finite", pre); return; }
-                kv[(size_t)t * c + j] = (float)sk;
-                kv[(size_t)(m->ctx_tokens + t) * c + j] = (float)sv;
             }
+            supermat__free(&m->alloc, rows, sizeof(float) * ((size_t)m->ctx_tokens + 2) * D);
+        }
         pa.k = kv; pa.v = kv + (size_t)m->ctx_tokens * c; pa.ldk = pa.ldv = (size_t)c; pa.mk = m->ctx_tokens;
         pa.heads = heads; pa.d = x->d; pa.kp = x->kp2; pa.vp = x->vp2;
         for (i = 0; i < heads; i++) supermat__attn_pack_task(&pa, i, 0);

@@ -52,6 +52,7 @@
 #include <time.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/mman.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -422,7 +423,18 @@ static int cli_parse_size(const char *cmd, const char *s, int *w, int *h) {
 }
 
 /* >>files */
-/* Reads a whole file (64-bit sizes). 0 on success, else prints an error and returns CLI_FAIL. */
+/* Big files (model files) are mapped read-only instead of read: no copy, and no page zeroing for
+   gigabytes of buffer; the library only reads them. cli_free_file() releases either kind. */
+static struct { void *p; size_t n; } cli_maps[8];
+static void cli_free_file(void *p) {
+    int i;
+    if (!p) return;
+    for (i = 0; i < 8; i++)
+        if (cli_maps[i].p == p) { munmap(p, cli_maps[i].n); cli_maps[i].p = NULL; return; }
+    free(p);
+}
+
+/* Reads (or maps) a whole file (64-bit sizes). 0 on success, else prints an error and returns CLI_FAIL. */
 static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
     FILE *f = fopen(path, "rb");
     struct stat st;
@@ -441,6 +453,19 @@ static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
         return CLI_FAIL;
     }
     n = (size_t)st.st_size;
+    if (n >= ((size_t)1 << 20)) {
+        int i;
+        for (i = 0; i < 8 && cli_maps[i].p; i++) {}
+        if (i < 8) {
+            void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fileno(f), 0);
+            if (m != MAP_FAILED) {
+                cli_maps[i].p = m; cli_maps[i].n = n;
+                fclose(f);
+                *data = (unsigned char *)m; *size = n;
+                return CLI_OK;
+            }
+        }
+    }
     buf = (unsigned char *)malloc(n ? n : 1);
     if (!buf) { cli_error("out of memory reading '%s' (%.1f MiB)", path, cli_mib((double)n)); fclose(f); return CLI_FAIL; }
     while (got < n) {
@@ -571,7 +596,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     if (r != SUPERMAT_SUCCESS) {
         snprintf(what, sizeof what, "model '%s'", path);
         cli_lib_error(what, r, &err);
-        free(*buf); *buf = NULL;
+        cli_free_file(*buf); *buf = NULL;
         return CLI_FAIL;
     }
     return CLI_OK;
@@ -867,7 +892,7 @@ static int cli_image(int argc, char **argv) {
     for (i = 0; i < nslots; i++) supermat_session_destroy(slots[i].s);
     free(slots);
     supermat_model_destroy(model);
-    free(file);
+    cli_free_file(file);
     cli_free_stems(stems, nimg);
     free(imgs);
     return rc;
@@ -1028,7 +1053,7 @@ static int cli_read_cameras(const char *path, cli_camera **out, int *count) {
     rc = CLI_OK;
 done:
     free(toks);
-    free(buf);
+    cli_free_file(buf);
     if (rc != CLI_OK) { free(cams); return rc; }
     *out = cams;
     *count = n;
@@ -1247,7 +1272,7 @@ static int cli_views(int argc, char **argv) {
     free(px); free(in); free(oa); free(orr); free(om); free(fa); free(fr); free(fm); free(tmp);
     supermat_session_destroy(sess);
     supermat_model_destroy(model);
-    free(file);
+    cli_free_file(file);
     free(cams); free(c2w); free(index);
     cli_free_stems(stems, nimg);
     free(imgs);
@@ -1399,7 +1424,7 @@ static int cli_refine(int argc, char **argv) {
     free(refined); free(tmp); free(stem);
     supermat_session_destroy(sess);
     supermat_model_destroy(model);
-    free(file);
+    cli_free_file(file);
     return rc;
 }
 
@@ -1453,7 +1478,7 @@ static int cli_info(int argc, char **argv) {
         char what[600];
         snprintf(what, sizeof what, "'%s'", path);
         cli_lib_error(what, r, &err);
-        free(file);
+        cli_free_file(file);
         return CLI_FAIL;
     }
     memset(counts, 0, sizeof counts);
@@ -1465,7 +1490,7 @@ static int cli_info(int argc, char **argv) {
             char what[600];
             snprintf(what, sizeof what, "'%s' tensor %d", path, i);
             cli_lib_error(what, r, &err);
-            free(file);
+            cli_free_file(file);
             return CLI_FAIL;
         }
         if ((unsigned)ti.dtype < SUPERMAT_DTYPE_COUNT) { counts[ti.dtype]++; bytes_by[ti.dtype] += ti.nbytes; }
@@ -1494,7 +1519,7 @@ static int cli_info(int argc, char **argv) {
         char what[600];
         snprintf(what, sizeof what, "model '%s'", path);
         cli_lib_error(what, r, &err);
-        free(file);
+        cli_free_file(file);
         return CLI_FAIL;
     }
     supermat_model_get_info(model, &mi);
@@ -1550,7 +1575,7 @@ static int cli_info(int argc, char **argv) {
         if (r != SUPERMAT_SUCCESS) {
             cli_lib_error("session memory", r, &err);
             supermat_model_destroy(model);
-            free(file);
+            cli_free_file(file);
             return CLI_FAIL;
         }
         if (mi.kind == SUPERMAT_KIND_UV_REFINE)
@@ -1563,7 +1588,7 @@ static int cli_info(int argc, char **argv) {
     }
     printf("command       %s\n", cli_kind_command(mi.kind));
     supermat_model_destroy(model);
-    free(file);
+    cli_free_file(file);
     return CLI_OK;
 }
 
@@ -2097,7 +2122,7 @@ static int cli_bench(int argc, char **argv) {
     free(in_v); free(alb_v); free(rough_v); free(metal_v); free(c2w);
     supermat_session_destroy(sess);
     supermat_model_destroy(model);
-    free(file);
+    cli_free_file(file);
 #if SUPERMAT__HAS_PTHREADS
     supermat_pool_destroy(pool);
 #endif
