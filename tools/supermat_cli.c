@@ -165,6 +165,7 @@ static const char cli_usage_main[] =
     "  views     the same for the views of one object with their cameras (a supermat-mv model)\n"
     "  refine    complete a partial UV texture map (a uv-refine model)\n"
     "  info      describe a model file: architecture, parameters, dtypes, memory\n"
+    "  mesh      a textured glTF mesh -> complete albedo + metallicRoughness UV textures (supermat_uv.h)\n"
     "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM\n"
     "\n"
     "  supermat COMMAND --help   the options of a command\n"
@@ -2131,6 +2132,10 @@ static int cli_bench(int argc, char **argv) {
 }
 
 /* >>main */
+#ifdef SUPERMAT_CLI_MESH
+int supermat_cli_mesh(int argc, char **argv); /* tools/supermat_mesh.cpp (tinygltf), when built with it */
+#endif
+
 int main(int argc, char **argv) {
     const char *c;
     if (argc < 2) { fputs(cli_usage_main, stderr); return CLI_USAGE; }
@@ -2146,5 +2151,13 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "refine")) return cli_refine(argc, argv);
     if (!strcmp(c, "info")) return cli_info(argc, argv);
     if (!strcmp(c, "bench")) return cli_bench(argc, argv);
+    if (!strcmp(c, "mesh")) {
+#ifdef SUPERMAT_CLI_MESH
+        return supermat_cli_mesh(argc - 1, argv + 1);
+#else
+        cli_error("this supermat was built without tinygltf (libtinygltf-dev): `mesh` is not available");
+        return CLI_FAIL;
+#endif
+    }
     return cli_usage_error(NULL, "unknown command '%s'", c);
 }
