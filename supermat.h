@@ -920,9 +920,8 @@ typedef struct supermat__pw { /* a packed weight: y = x W^T + b, W [N][K] */
     int K, N, fmt; /* fmt: SUPERMAT_WEIGHTS_* (0 = f32) */
 } supermat__pw;
 
-/* micro-kernel over f16 / bf16 / int8 panels: c = init + bscale * sum (bscale NULL = 1) */
-typedef void (*supermat__ukrq_fn)(int kc, const float *const *a, const void *b, const float *bscale, float *c, size_t ldc, int mr,
-                                  int nr, const float *bias, const float *r, size_t ldr, int accumulate);
+/* f16 / bf16 / int8 panels are widened to f32 a K block of one panel at a time (once per MC rows) */
+typedef void (*supermat__widen_fn)(const void *src, int fmt, const float *scale, int kc, float *dst);
 
 typedef void (*supermat__ukr_fn)(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
                                  const float *bias, const float *r, size_t ldr, int accumulate);
@@ -954,34 +953,14 @@ static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, 
         for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = acc[i][j];
 }
 
-static float supermat__wload(const void *b, int fmt, size_t i) {
-    const uint16_t *h = (const uint16_t *)b;
-    switch (fmt) {
-    case 1: return supermat__f16_to_f32(h[i]);
-    case 2: return supermat__bf16_to_f32(h[i]);
-    default: return (float)((const signed char *)b)[i];
-    }
+
+static void supermat__widen_scalar(const void *src, int fmt, const float *scale, int kc, float *dst) {
+    size_t i, n = (size_t)kc * SUPERMAT__NR;
+    const uint16_t *h = (const uint16_t *)src;
+    const signed char *q = (const signed char *)src;
+    for (i = 0; i < n; i++)
+        dst[i] = fmt == 1 ? supermat__f16_to_f32(h[i]) : fmt == 2 ? supermat__bf16_to_f32(h[i]) : (float)q[i] * scale[i % SUPERMAT__NR];
 }
-#define SUPERMAT__UKRQ_SCALAR(NAME, FMT) \
-static void NAME(int kc, const float *const *a, const void *b, const float *bscale, float *c, size_t ldc, int mr, int nr, \
-                 const float *bias, const float *r, size_t ldr, int accumulate) { \
-    float acc[SUPERMAT__MR][SUPERMAT__NR]; \
-    int i, j, k; \
-    memset(acc, 0, sizeof acc); \
-    for (k = 0; k < kc; k++) \
-        for (i = 0; i < SUPERMAT__MR; i++) { \
-            float av = a[i][k]; \
-            for (j = 0; j < SUPERMAT__NR; j++) acc[i][j] += av * supermat__wload(b, FMT, (size_t)k * SUPERMAT__NR + j); \
-        } \
-    for (i = 0; i < mr; i++) \
-        for (j = 0; j < nr; j++) { \
-            float init = accumulate ? c[(size_t)i * ldc + j] : (bias ? bias[j] : 0.0f) + (r ? r[(size_t)i * ldr + j] : 0.0f); \
-            c[(size_t)i * ldc + j] = init + (bscale ? bscale[j] * acc[i][j] : acc[i][j]); \
-        } \
-}
-SUPERMAT__UKRQ_SCALAR(supermat__ukr_f16_scalar, 1)
-SUPERMAT__UKRQ_SCALAR(supermat__ukr_bf16_scalar, 2)
-SUPERMAT__UKRQ_SCALAR(supermat__ukr_i8_scalar, 3)
 
 #if SUPERMAT__HAS_AVX2
 SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
@@ -1049,46 +1028,27 @@ SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, con
     for (i = 0; i < mr; i++)
         for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = tile[i * SUPERMAT__NR + j];
 }
-/* f16 / bf16 / int8 panels: 16 values a k-step, widened to f32 in registers (F16C, shifts, cvt) */
-#define SUPERMAT__UKRQ_AVX2(NAME, LOADB) \
-SUPERMAT__AVX2 static void NAME(int kc, const float *const *a, const void *bv, const float *bscale, float *c, size_t ldc, int mr, int nr, \
-                                const float *bias, const float *r, size_t ldr, int accumulate) { \
-    __m256 acc[12], b0, b1, av, s0, s1; \
-    float tile[SUPERMAT__MR * SUPERMAT__NR]; \
-    const float *a0 = a[0], *a1 = a[1], *a2 = a[2], *a3 = a[3], *a4 = a[4], *a5 = a[5]; \
-    int k, i, j; \
-    for (i = 0; i < 12; i++) acc[i] = _mm256_setzero_ps(); \
-    for (k = 0; k < kc; k++) { \
-        LOADB \
-        av = _mm256_broadcast_ss(a0 + k); acc[0] = _mm256_fmadd_ps(av, b0, acc[0]); acc[1] = _mm256_fmadd_ps(av, b1, acc[1]); \
-        av = _mm256_broadcast_ss(a1 + k); acc[2] = _mm256_fmadd_ps(av, b0, acc[2]); acc[3] = _mm256_fmadd_ps(av, b1, acc[3]); \
-        av = _mm256_broadcast_ss(a2 + k); acc[4] = _mm256_fmadd_ps(av, b0, acc[4]); acc[5] = _mm256_fmadd_ps(av, b1, acc[5]); \
-        av = _mm256_broadcast_ss(a3 + k); acc[6] = _mm256_fmadd_ps(av, b0, acc[6]); acc[7] = _mm256_fmadd_ps(av, b1, acc[7]); \
-        av = _mm256_broadcast_ss(a4 + k); acc[8] = _mm256_fmadd_ps(av, b0, acc[8]); acc[9] = _mm256_fmadd_ps(av, b1, acc[9]); \
-        av = _mm256_broadcast_ss(a5 + k); acc[10] = _mm256_fmadd_ps(av, b0, acc[10]); acc[11] = _mm256_fmadd_ps(av, b1, acc[11]); \
-    } \
-    s0 = bscale ? _mm256_loadu_ps(bscale) : _mm256_set1_ps(1.0f); \
-    s1 = bscale ? _mm256_loadu_ps(bscale + 8) : _mm256_set1_ps(1.0f); \
-    for (i = 0; i < SUPERMAT__MR; i++) { \
-        _mm256_storeu_ps(tile + i * 16, _mm256_mul_ps(acc[2 * i], s0)); \
-        _mm256_storeu_ps(tile + i * 16 + 8, _mm256_mul_ps(acc[2 * i + 1], s1)); \
-    } \
-    for (i = 0; i < mr; i++) \
-        for (j = 0; j < nr; j++) { \
-            float init = accumulate ? c[(size_t)i * ldc + j] : (bias ? bias[j] : 0.0f) + (r ? r[(size_t)i * ldr + j] : 0.0f); \
-            c[(size_t)i * ldc + j] = init + tile[i * 16 + j]; \
-        } \
+/* widens kc rows of a 16-column f16 / bf16 / int8 panel slice to f32 (int8: times the column scales) */
+SUPERMAT__AVX2 static void supermat__widen_avx2(const void *src, int fmt, const float *scale, int kc, float *dst) {
+    int k;
+    if (fmt == 1) {
+        const __m128i *p = (const __m128i *)src;
+        for (k = 0; k < kc; k++) { _mm256_storeu_ps(dst + 16 * k, _mm256_cvtph_ps(_mm_loadu_si128(p + 2 * k))); _mm256_storeu_ps(dst + 16 * k + 8, _mm256_cvtph_ps(_mm_loadu_si128(p + 2 * k + 1))); }
+    } else if (fmt == 2) {
+        const __m128i *p = (const __m128i *)src;
+        for (k = 0; k < kc; k++) {
+            _mm256_storeu_ps(dst + 16 * k, _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(p + 2 * k)), 16)));
+            _mm256_storeu_ps(dst + 16 * k + 8, _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(p + 2 * k + 1)), 16)));
+        }
+    } else {
+        __m256 s0 = _mm256_loadu_ps(scale), s1 = _mm256_loadu_ps(scale + 8);
+        for (k = 0; k < kc; k++) {
+            __m128i q = _mm_loadu_si128((const __m128i *)((const signed char *)src + 16 * (size_t)k));
+            _mm256_storeu_ps(dst + 16 * k, _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(q)), s0));
+            _mm256_storeu_ps(dst + 16 * k + 8, _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(_mm_srli_si128(q, 8))), s1));
+        }
+    }
 }
-SUPERMAT__UKRQ_AVX2(supermat__ukr_f16_avx2,
-    { const __m128i *bp = (const __m128i *)bv + 2 * k; b0 = _mm256_cvtph_ps(_mm_loadu_si128(bp)); b1 = _mm256_cvtph_ps(_mm_loadu_si128(bp + 1)); })
-SUPERMAT__UKRQ_AVX2(supermat__ukr_bf16_avx2,
-    { const __m128i *bp = (const __m128i *)bv + 2 * k;
-      b0 = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(bp)), 16));
-      b1 = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128(bp + 1)), 16)); })
-SUPERMAT__UKRQ_AVX2(supermat__ukr_i8_avx2,
-    { __m128i q = _mm_loadu_si128((const __m128i *)((const signed char *)bv + 16 * (size_t)k));
-      b0 = _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(q));
-      b1 = _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(_mm_srli_si128(q, 8))); })
 #endif
 
 /* A operand of a GEMM */
@@ -1137,7 +1097,7 @@ static void supermat__gather(const supermat__asrc *s, int m0, int mr, int k0, in
 
 typedef struct supermat__gemm_args {
     supermat__ukr_fn ukr;
-    supermat__ukrq_fn ukrq;     /* for fmt != 0 */
+    supermat__widen_fn widen;   /* for fmt != 0 */
     const void *Bq;            /* f16 / bf16 / int8 panels */
     const float *qs;           /* int8 scales [K blocks][np * 16] */
     int fmt, np;
@@ -1172,19 +1132,19 @@ static void supermat__gemm_task(void *user, int index, int thread) {
         }
         for (p = p0; p < p1; p++) {
             size_t boff = ((size_t)p * g->K + k0) * SUPERMAT__NR;
-            const float *bp = g->fmt ? NULL : g->B + boff;
-            const void *bq = g->fmt ? (const void *)((const char *)g->Bq + boff * (g->fmt == 3 ? 1 : 2)) : NULL;
-            const float *bs = g->fmt == 3 ? g->qs + (size_t)(k0 / SUPERMAT__KC) * g->np * SUPERMAT__NR + (size_t)p * SUPERMAT__NR : NULL;
+            const float *bp = g->B + (g->fmt ? 0 : boff);
             int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+            if (g->fmt) { /* widen this panel's K block once for all the rows of the task */
+                float *wb = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC;
+                g->widen((const char *)g->Bq + boff * (g->fmt == 3 ? 1 : 2), g->fmt,
+                         g->fmt == 3 ? g->qs + (size_t)(k0 / SUPERMAT__KC) * g->np * SUPERMAT__NR + (size_t)p * SUPERMAT__NR : NULL, kc, wb);
+                bp = wb;
+            }
             for (m = m0; m < m1; m += SUPERMAT__MR) {
                 const float *rows[SUPERMAT__MR];
                 int mr = SUPERMAT__MIN(SUPERMAT__MR, m1 - m), i;
                 for (i = 0; i < SUPERMAT__MR; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
-                if (g->fmt)
-                    g->ukrq(kc, rows, bq, bs, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
-                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
-                else
-                    g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
+                g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
                            k0 > 0);
             }
@@ -1320,7 +1280,7 @@ typedef struct supermat__ctx {
     size_t boff[SUPERMAT__MAXBLK], bsize[SUPERMAT__MAXBLK];
     int nblk;
     supermat__ukr_fn ukr;
-    supermat__ukrq_fn ukrq[4];  /* [fmt]: f16, bf16, int8 panels */
+    supermat__widen_fn widen;   /* f16, bf16, int8 panels to f32 */
     int avx2;
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
@@ -1402,8 +1362,8 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     memset(&g, 0, sizeof g);
     g.ukr = X->ukr; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
-    if (W->fmt) g.ukrq = X->ukrq[W->fmt];
-    if (W->fmt && !g.ukrq) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    g.widen = X->widen;
+    if (W->fmt && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
     npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     tasks_m = (M + SUPERMAT__MC - 1) / SUPERMAT__MC;
@@ -2888,7 +2848,7 @@ static int supermat__branch_mask(const supermat_model *m, unsigned outputs) {
 }
 
 static size_t supermat__scratch_floats(const supermat_model *m) {
-    size_t s = (size_t)SUPERMAT__MC * SUPERMAT__KC, dmax = 16, cmax = 0;
+    size_t s = (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR, dmax = 16, cmax = 0;
     int l;
     for (l = 0; l < m->L; l++) {
         size_t d = (size_t)(m->boc[l] / m->heads[l] + 15) / 16 * 16;
@@ -3148,12 +3108,12 @@ static void supermat__select_kernels(supermat__ctx *X) {
 #if SUPERMAT__HAS_AVX2
     if (X->avx2) {
         X->ukr = supermat__ukr_avx2;
-        X->ukrq[1] = supermat__ukr_f16_avx2; X->ukrq[2] = supermat__ukr_bf16_avx2; X->ukrq[3] = supermat__ukr_i8_avx2;
+        X->widen = supermat__widen_avx2;
         return;
     }
 #endif
     X->ukr = supermat__ukr_scalar;
-    X->ukrq[1] = supermat__ukr_f16_scalar; X->ukrq[2] = supermat__ukr_bf16_scalar; X->ukrq[3] = supermat__ukr_i8_scalar;
+    X->widen = supermat__widen_scalar;
 }
 
 /* >>run */
