@@ -11,13 +11,13 @@ MODEL_PTH="${MODEL_PTH:-tests/data/tiny/supermat.pth}"
 BASE_DIR="${BASE_DIR:-tests/data/tiny/base}"
 IMAGE="${IMAGE:-tests/data/img/sphere_64.png}"
 need=()
-for p in cmake make gcc libstb-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+for p in cmake make gcc g++ libstb-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
   $SUDO apt-get update -qq
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
 fi
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
 cmake --build build -j"$(nproc 2>/dev/null || echo 2)" --target supermat
 mkdir -p out
 build/supermat convert --kind supermat --unet "$MODEL_PTH" --base "$BASE_DIR" --out out/model.safetensors
