@@ -228,6 +228,18 @@ typedef enum supermat_weights {
     SUPERMAT_WEIGHTS_COUNT
 } supermat_weights;
 
+/* How the 3x3 stride-1 convolutions are computed. Winograd transforms the weights once at model
+   creation (F2: 16/9 of their storage, F4: 36/9) and replaces 9 multiplies per output by 4 (F2) or
+   2.25 (F4), with more rounding. It is applied to the convolutions of at most 640 output channels
+   (the whole VAE, UNet levels of 320 and 640 channels); the 1280-channel ones run at 1/16 and 1/64 of
+   the pixels, where tiles are few, and stay direct. */
+typedef enum supermat_conv {
+    SUPERMAT_CONV_DIRECT = 0,  /* implicit GEMM: the reference */
+    SUPERMAT_CONV_WINOGRAD_F2, /* F(2x2, 3x3) */
+    SUPERMAT_CONV_WINOGRAD_F4, /* F(4x4, 3x3) */
+    SUPERMAT_CONV_COUNT
+} supermat_conv;
+
 typedef struct supermat_model_desc {
     const void *data;   /* the model file in memory (8-byte alignment recommended) */
     size_t size;
@@ -235,6 +247,7 @@ typedef struct supermat_model_desc {
     supermat_kernel kernel;
     supermat_weights weights; /* storage of the GEMM weights (convolutions, linears); activations,
                                  norms, biases and softmax stay float32 */
+    supermat_conv conv;       /* 3x3 convolution algorithm (DIRECT = the reference) */
     supermat_allocator allocator;
 } supermat_model_desc;
 
@@ -242,6 +255,7 @@ typedef struct supermat_model_info {
     supermat_model_kind kind;
     supermat_kernel kernel;        /* the kernel set chosen */
     supermat_weights weights;      /* DEFAULT resolved: the storage of the first GEMM weight */
+    supermat_conv conv;            /* the 3x3 convolution algorithm */
     int unet_in_channels, unet_out_channels, unet_levels, layers_per_block, norm_groups;
     int block_channels[8], num_heads[8];
     int cross_attention_dim, context_tokens, branches, class_embed_in;
@@ -270,6 +284,13 @@ enum {
     SUPERMAT_OUTPUT_ALL = 7
 };
 
+typedef enum supermat_mv_attention {
+    SUPERMAT_MV_ATTENTION_FULL = 0, /* every view attends to all views' keys (official) */
+    SUPERMAT_MV_ATTENTION_OWN_VIEW, /* highest resolution: each view attends to its own keys only */
+    SUPERMAT_MV_ATTENTION_STRIDED,  /* highest resolution: own keys + every mv_key_stride-th key of the others */
+    SUPERMAT_MV_ATTENTION_COUNT
+} supermat_mv_attention;
+
 typedef struct supermat_session_desc {
     const supermat_model *model;
     int width, height;           /* the image size processed: multiples of 8, >= 8 */
@@ -279,6 +300,23 @@ typedef struct supermat_session_desc {
     int threads;                 /* built-in pool: 0 = all cores, 1 = run on the calling thread */
     supermat_threading threading;/* a caller's parallel-for; overrides `threads` when set */
     supermat_allocator allocator;
+    /* ---- speed / memory levers; all zero = the official computation ---- */
+    /* Network size: the images (width x height) are resampled to work_width x work_height (multiples
+       of 8; 0 = width/height), the network runs there and the maps are resampled back (bilinear,
+       antialiased when reducing). Fewer pixels, less detail. */
+    int work_width, work_height;
+    /* VAE in tiles of vae_tile x vae_tile pixels (a multiple of 8, >= 32; 0 = the whole image at
+       once), laid out evenly with at least vae_overlap pixels of overlap (multiple of 8; 0 = 32),
+       blended linearly. Bounds the VAE's activation memory; GroupNorm statistics and the VAE's
+       attention become per tile, so the maps change slightly. */
+    int vae_tile, vae_overlap;
+    /* Decode only the tiles that hold foreground: a pixel with alpha > 0 (supermat, supermat-mv;
+       images without alpha are all foreground) or mask > 0 (uv-refine). Other pixels are written as
+       decoded 0 (0.5 gray). Needs vae_tile; foreground pixels get exactly the tiled result. */
+    int skip_background;
+    /* SuperMatMV only: approximate the multi-view attention at the highest resolution. */
+    supermat_mv_attention mv_attention;
+    int mv_key_stride;           /* SUPERMAT_MV_ATTENTION_STRIDED: keep every n-th key of the other views (1 = all) */
 } supermat_session_desc;
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -355,6 +393,9 @@ SUPERMAT_API int supermat_cpu_has_avx2(void);
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
 SUPERMAT_API void supermat_session_flops(const supermat_session *session, supermat_flops *out);
+/* FLOPs the last successful supermat_run performed (less than the session's when background tiles
+   were skipped); zeros before the first run. */
+SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, supermat_flops *out);
 
 /* ======================================== the API ends here ==================================== */
 #ifdef __cplusplus
@@ -1291,6 +1332,7 @@ typedef struct supermat__ctx {
     void *progress_user;
     double work_done, work_total;
     double flops;               /* FLOPs counted while planning */
+    int mv_att, mv_stride, mv_top; /* restricted multi-view attention in layers of mv_top tokens per view */
 } supermat__ctx;
 
 typedef struct supermat__t { float *d; int n, h, w, c; } supermat__t; /* NHWC */
@@ -1811,6 +1853,7 @@ typedef struct supermat__loader {
     uint64_t params;
     int avx2;
     int weights;            /* requested supermat_weights */
+    int conv;               /* requested supermat_conv */
 } supermat__loader;
 
 static void *supermat__mem(supermat__loader *L, size_t bytes) {
@@ -2389,6 +2432,7 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if (!desc || !out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and out must not be NULL");
     if (!desc->data) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc->data is NULL");
     if ((unsigned)desc->weights >= SUPERMAT_WEIGHTS_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown weight format %d", (int)desc->weights);
+    if ((unsigned)desc->conv >= SUPERMAT_CONV_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown convolution algorithm %d", (int)desc->conv);
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
     if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
@@ -2404,6 +2448,8 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     L.js = (const char *)desc->data + 8; L.meta = -1;
     L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
     L.weights = (int)desc->weights;
+    L.conv = (int)desc->conv;
+    m->info.conv = desc->conv;
     r = supermat__st_tokens(desc->data, desc->size, desc->size, &a, &L.toks, &ntok, err);
     if (r) { supermat__model_free(m); return r; }
     /* the tensor table */
@@ -2567,8 +2613,9 @@ static supermat__t supermat__resnet_fwd(supermat__ctx *X, const supermat__resnet
 static supermat__t supermat__xformer_fwd(supermat__ctx *X, const supermat__xformer *a, const supermat__t *x, int groups, int ctx_tokens) {
     supermat__t out = supermat__tensor(X, x->n, x->h, x->w, x->c);
     int C = x->c, T = x->h * x->w, M = x->n * T, kvg = a->mv ? 1 : x->n, mk = a->mv ? M : T;
+    int restrict_mv = a->mv && x->n > 1 && X->mv_att != SUPERMAT_MV_ATTENTION_FULL && T == X->mv_top;
     float scale = (float)(1.0 / sqrt((double)a->d));
-    float *t = supermat__get(X, (size_t)M * C), *hs = supermat__get(X, (size_t)M * C), *qkv, *kp, *vp, *q, *ff, *g;
+    float *t = supermat__get(X, (size_t)M * C), *hs = supermat__get(X, (size_t)M * C), *qkv, *kp, *vp, *q, *ff, *g, *kv = NULL;
     supermat__t tt = *x;
     tt.d = t;
     supermat__groupnorm(X, x, &tt, &a->gn, groups, 0);
@@ -2577,11 +2624,29 @@ static supermat__t supermat__xformer_fwd(supermat__ctx *X, const supermat__xform
     supermat__layernorm(X, hs, t, M, &a->ln1);
     qkv = supermat__get(X, (size_t)M * 3 * C);
     supermat__linear(X, t, (size_t)C, M, &a->qkv1, qkv, (size_t)3 * C, NULL, 0);
+    if (restrict_mv) { /* approximate modes: per-view key sets (own view, + strided keys of the others) */
+        int s = X->mv_att == SUPERMAT_MV_ATTENTION_OWN_VIEW ? 0 : X->mv_stride, per = s ? (T + s - 1) / s : 0;
+        kvg = x->n; mk = T + (x->n - 1) * per;
+        if (s) {
+            kv = supermat__get(X, (size_t)kvg * mk * 2 * C);
+            if (supermat__live(X)) {
+                int gv, ov, j;
+                for (gv = 0; gv < kvg; gv++) {
+                    float *dst = kv + (size_t)gv * mk * 2 * C;
+                    for (j = 0; j < T; j++, dst += 2 * C) memcpy(dst, qkv + ((size_t)gv * T + j) * 3 * C + C, sizeof(float) * 2 * (size_t)C);
+                    for (ov = 0; ov < x->n; ov++)
+                        if (ov != gv)
+                            for (j = 0; j < T; j += s, dst += 2 * C) memcpy(dst, qkv + ((size_t)ov * T + j) * 3 * C + C, sizeof(float) * 2 * (size_t)C);
+                }
+            }
+        }
+    }
     kp = supermat__get(X, (size_t)kvg * a->heads * supermat__attn_kp_floats(mk, a->d));
     vp = supermat__get(X, (size_t)kvg * a->heads * supermat__attn_vp_floats(mk, a->d));
-    supermat__attn_pack(X, qkv + C, (size_t)3 * C, qkv + 2 * C, (size_t)3 * C, mk, kvg, a->heads, a->d, kp, vp);
+    if (kv) supermat__attn_pack(X, kv, (size_t)2 * C, kv + C, (size_t)2 * C, mk, kvg, a->heads, a->d, kp, vp);
+    else supermat__attn_pack(X, qkv + C, (size_t)3 * C, qkv + 2 * C, (size_t)3 * C, mk, kvg, a->heads, a->d, kp, vp);
     supermat__attention(X, qkv, (size_t)3 * C, T, x->n, kp, vp, mk, kvg, a->heads, a->d, scale, t, (size_t)C);
-    supermat__put(X, vp); supermat__put(X, kp); supermat__put(X, qkv);
+    supermat__put(X, vp); supermat__put(X, kp); supermat__put(X, kv); supermat__put(X, qkv);
     supermat__linear(X, t, (size_t)C, M, &a->out1, hs, (size_t)C, hs, (size_t)C);
     /* cross-attention on the constant context */
     supermat__layernorm(X, hs, t, M, &a->ln2);
@@ -2830,10 +2895,21 @@ struct supermat_session {
     size_t scratch_floats;
     double *gn_stats;
     size_t gn_cap;
-    supermat_flops flops;
+    supermat_flops flops, last_flops;
     double work_total;          /* progress steps of one run */
     size_t total_bytes;
+    int ww, wh;                 /* the size the network runs at */
+    int tile, overlap, skip_bg; /* VAE tiles (pixels; 0 = whole image), background skipping */
+    int mv_att, mv_stride;
 };
+
+static void supermat__session_options(supermat_session *S, const supermat_session_desc *d) {
+    S->ww = d->work_width ? d->work_width : d->width;
+    S->wh = d->work_height ? d->work_height : d->height;
+    S->tile = d->vae_tile; S->overlap = d->vae_tile ? (d->vae_overlap ? d->vae_overlap : 32) : 0;
+    S->skip_bg = d->skip_background != 0;
+    S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
+}
 
 static int supermat__views(const supermat_session_desc *d) {
     return d->views ? d->views : d->model->info.kind == SUPERMAT_KIND_SUPERMAT_MV ? 6 : 1;
@@ -2900,45 +2976,186 @@ static void supermat__bilinear(const supermat_image *im, int c, int oh, int ow, 
     }
 }
 
+/* Separable resampling of an n x sh x sw x c tensor to dh x dw: a triangle filter (bilinear when
+   enlarging, its support widened by the factor when reducing, as PIL's BILINEAR), pixel centres
+   aligned (align_corners = False). */
+static void supermat__resample_axis(const float *src, int len_in, int len_out, size_t step_in, size_t step_out, int lines,
+                                    size_t line_in, size_t line_out, int c, float *dst) {
+    double scale = (double)len_in / len_out, support = scale > 1.0 ? scale : 1.0;
+    int o, l, ch;
+    for (o = 0; o < len_out; o++) {
+        double center = (o + 0.5) * scale, wsum = 0.0, wts[64];
+        int lo = (int)floor(center - support + 0.5), hi = (int)floor(center + support + 0.5), i, n;
+        if (lo < 0) lo = 0;
+        if (hi > len_in) hi = len_in;
+        if (hi - lo > 64) { double mid = center; lo = (int)mid - 32; if (lo < 0) lo = 0; hi = SUPERMAT__MIN(len_in, lo + 64); }
+        n = hi - lo;
+        for (i = 0; i < n; i++) {
+            double x = (lo + i + 0.5 - center) / support, w = 1.0 - fabs(x);
+            wts[i] = w > 0.0 ? w : 0.0;
+            wsum += wts[i];
+        }
+        for (i = 0; i < n; i++) wts[i] = wsum > 0.0 ? wts[i] / wsum : (i == 0);
+        for (l = 0; l < lines; l++)
+            for (ch = 0; ch < c; ch++) {
+                double acc = 0.0;
+                for (i = 0; i < n; i++) acc += wts[i] * src[(size_t)l * line_in + (size_t)(lo + i) * step_in + ch];
+                dst[(size_t)l * line_out + (size_t)o * step_out + ch] = (float)acc;
+            }
+    }
+}
+static void supermat__resample(supermat__ctx *X, const float *src, int sh, int sw, int c, float *dst, int dh, int dw) {
+    float *tmp = supermat__get(X, (size_t)sh * dw * c);
+    if (supermat__live(X)) {
+        /* rows: sh lines of sw -> dw; then columns: dw lines of sh -> dh */
+        supermat__resample_axis(src, sw, dw, (size_t)c, (size_t)c, sh, (size_t)sw * c, (size_t)dw * c, c, tmp);
+        supermat__resample_axis(tmp, sh, dh, (size_t)dw * c, (size_t)dw * c, dw, (size_t)c, (size_t)c, c, dst);
+    }
+    supermat__put(X, tmp);
+}
+
+/* Tile layout along one axis of `len` units: tiles of `t` starting at start[i], at least `ov` overlap. */
+static int supermat__tiles(int len, int t, int ov, int *start, int maxn) {
+    int n, i;
+    if (t >= len) { start[0] = 0; return 1; }
+    n = (len - ov + (t - ov) - 1) / (t - ov);
+    if (n < 2) n = 2;
+    if (n > maxn) n = maxn;
+    for (i = 0; i < n; i++) start[i] = (int)(((long long)i * (len - t) * 2 + (n - 1)) / (2 * (n - 1))); /* rounded even spread */
+    return n;
+}
+/* linear blend weight of position x in tile [s, s+t) whose neighbours start at `next` / end at `prev_end` */
+static float supermat__ramp(int x, int s, int t, int has_prev, int prev_end, int has_next, int next) {
+    float w = 1.0f;
+    if (has_prev && x < prev_end) w = SUPERMAT__MIN(w, ((float)(x - s) + 0.5f) / (float)(prev_end - s));
+    if (has_next && x >= next) w = SUPERMAT__MIN(w, ((float)(s + t - x) - 0.5f) / (float)(s + t - next));
+    return w;
+}
+
+#define SUPERMAT__MAXTILES 256
+/* One image through the VAE encoder (enc = 1: image -> latent) or decoder (latent -> image) in tiles
+   of `tile` output... pixels (`tile`/8 latents), blended linearly. fg (decoder): a map at the output
+   size; a tile without a pixel > 0 in it is not decoded. */
+static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m, const supermat__t *in, int enc, int tile, int overlap,
+                                       const float *fg) {
+    int f = enc ? 8 : 1;               /* input units per tile unit (tiles are laid out in latents) */
+    int lh = enc ? in->h / 8 : in->h, lw = enc ? in->w / 8 : in->w, tl = tile / 8, ol = overlap / 8;
+    int oh = enc ? lh : 8 * lh, ow = enc ? lw : 8 * lw, os = enc ? 1 : 8, oc = enc ? m->latent : m->vout;
+    int sy[SUPERMAT__MAXTILES], sx[SUPERMAT__MAXTILES], ny, nx, ty, tx, th, tw;
+    supermat__t out = supermat__tensor(X, 1, oh, ow, oc);
+    float *wsum = supermat__get(X, (size_t)oh * ow);
+    ny = supermat__tiles(lh, tl, ol, sy, SUPERMAT__MAXTILES);
+    nx = supermat__tiles(lw, tl, ol, sx, SUPERMAT__MAXTILES);
+    th = SUPERMAT__MIN(tl, lh); tw = SUPERMAT__MIN(tl, lw);
+    if (supermat__live(X)) { memset(out.d, 0, sizeof(float) * supermat__numel(&out)); memset(wsum, 0, sizeof(float) * (size_t)oh * ow); }
+    for (ty = 0; ty < ny; ty++)
+        for (tx = 0; tx < nx; tx++) {
+            int y0 = sy[ty] * os, x0 = sx[tx] * os, hh = th * os, wo = tw * os, x, y;
+            supermat__t crop, r;
+            if (fg && supermat__live(X)) { /* skip the tiles without foreground */
+                int any = 0;
+                for (y = y0; y < y0 + hh && !any; y++)
+                    for (x = x0; x < x0 + wo; x++) if (fg[(size_t)y * ow + x] > 0.0f) { any = 1; break; }
+                if (!any) continue;
+            }
+            crop = supermat__tensor(X, 1, th * f, tw * f, in->c);
+            if (supermat__live(X))
+                for (y = 0; y < crop.h; y++)
+                    memcpy(crop.d + (size_t)y * crop.w * crop.c, in->d + ((size_t)(sy[ty] * f + y) * in->w + (size_t)sx[tx] * f) * in->c,
+                           sizeof(float) * (size_t)crop.w * crop.c);
+            r = enc ? supermat__vae_encode(X, m, &crop) : supermat__vae_decode(X, m, &crop);
+            supermat__drop(X, &crop);
+            if (supermat__live(X)) {
+                int pe_y = ty > 0 ? (sy[ty - 1] + th) * os : 0, nb_y = ty + 1 < ny ? sy[ty + 1] * os : 0;
+                int pe_x = tx > 0 ? (sx[tx - 1] + tw) * os : 0, nb_x = tx + 1 < nx ? sx[tx + 1] * os : 0;
+                for (y = 0; y < hh; y++) {
+                    float wy = supermat__ramp(y0 + y, y0, hh, ty > 0, pe_y, ty + 1 < ny, nb_y);
+                    for (x = 0; x < wo; x++) {
+                        float w = wy * supermat__ramp(x0 + x, x0, wo, tx > 0, pe_x, tx + 1 < nx, nb_x);
+                        const float *src = r.d + ((size_t)y * wo + x) * oc;
+                        float *dst = out.d + ((size_t)(y0 + y) * ow + x0 + x) * oc;
+                        int c;
+                        for (c = 0; c < oc; c++) dst[c] += w * src[c];
+                        wsum[(size_t)(y0 + y) * ow + x0 + x] += w;
+                    }
+                }
+            }
+            supermat__drop(X, &r);
+        }
+    if (supermat__live(X)) {
+        size_t p, np = (size_t)oh * ow;
+        for (p = 0; p < np; p++) {
+            float inv = wsum[p] > 0.0f ? 1.0f / wsum[p] : 0.0f;
+            int c;
+            for (c = 0; c < oc; c++) out.d[p * oc + c] *= inv;
+        }
+    }
+    supermat__put(X, wsum);
+    return out;
+}
+
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
                               supermat_flops *fl) {
     const supermat_model *m = S->m;
     int V = S->views, uv = m->info.kind == SUPERMAT_KIND_UV_REFINE, mvk = m->info.kind == SUPERMAT_KIND_SUPERMAT_MV;
-    supermat__t img = supermat__tensor(X, V, S->h, S->w, 3), lat, v[SUPERMAT__MAXBRANCH];
+    int W = S->ww, H = S->wh, resize = W != S->w || H != S->h;
+    supermat__t img = supermat__tensor(X, V, H, W, 3), lat, v[SUPERMAT__MAXBRANCH];
     int want = supermat__branch_mask(m, S->outputs), b, i;
-    float *cams = NULL;
+    float *cams = NULL, *fg = NULL;
     double f0;
     memset(fl, 0, sizeof *fl);
-    if (supermat__live(X)) {
-        int x, y, c, k;
+    if (S->skip_bg) fg = supermat__get(X, (size_t)V * H * W); /* foreground: alpha (mask for UV) at the work size */
+    {
+        float *full = resize ? supermat__get(X, (size_t)S->h * S->w * 4) : NULL;
+        int k;
         for (k = 0; k < V; k++) {
-            const supermat_image *in = supermat__view_in(rd, k);
-            float *dst = img.d + (size_t)k * S->h * S->w * 3;
-            for (y = 0; y < S->h; y++)
-                for (x = 0; x < S->w; x++) {
-                    float px[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-                    for (c = 0; c < SUPERMAT__MIN(in->channels, 4); c++) px[c] = supermat__px(in, x, y, c);
-                    if (in->channels < 4 || uv) px[3] = 1.0f; /* UV maps: RGB as is (the official loader drops alpha) */
-                    for (c = 0; c < 3; c++) {
-                        float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
-                        dst[((size_t)y * S->w + x) * 3 + c] = comp * 2.0f - 1.0f;
+            float *dst = img.d + (size_t)k * H * W * 3, *fgk = fg ? fg + (size_t)k * H * W : NULL;
+            if (supermat__live(X)) {
+                const supermat_image *in = supermat__view_in(rd, k);
+                int x, y, c, ldo = resize ? 4 : 3;
+                float *o = resize ? full : dst;
+                for (y = 0; y < S->h; y++)
+                    for (x = 0; x < S->w; x++) {
+                        float px[4] = {0.0f, 0.0f, 0.0f, 1.0f}, *po = o + ((size_t)y * S->w + x) * ldo;
+                        for (c = 0; c < SUPERMAT__MIN(in->channels, 4); c++) px[c] = supermat__px(in, x, y, c);
+                        if (in->channels < 4 || uv) px[3] = 1.0f; /* UV maps: RGB as is (the official loader drops alpha) */
+                        for (c = 0; c < 3; c++) {
+                            float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
+                            po[c] = comp * 2.0f - 1.0f;
+                        }
+                        if (resize) po[3] = uv ? supermat__px(&rd->mask, x, y, 0) : px[3];
+                        else if (fgk) fgk[(size_t)y * S->w + x] = uv ? supermat__px(&rd->mask, x, y, 0) : px[3];
+                    }
+            }
+            if (resize) {
+                float *tmp = supermat__get(X, (size_t)H * W * 4);
+                supermat__resample(X, full, S->h, S->w, 4, tmp, H, W);
+                if (supermat__live(X)) {
+                    size_t p2, np = (size_t)H * W;
+                    for (p2 = 0; p2 < np; p2++) {
+                        memcpy(dst + p2 * 3, tmp + p2 * 4, sizeof(float) * 3);
+                        if (fgk) fgk[p2] = tmp[p2 * 4 + 3];
                     }
                 }
+                supermat__put(X, tmp);
+            }
         }
-        if (rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, V, img.h, img.w, 3);
+        supermat__put(X, full);
+        if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, V, img.h, img.w, 3);
     }
     /* the VAE works view by view (bounded memory for many views; the same numbers) */
     f0 = X->flops;
     {
-        int lh = S->h, lw = S->w, l;
+        int lh = H, lw = W, l;
         for (l = 0; l < m->vL - 1; l++) { lh = (lh - 2) / 2 + 1; lw = (lw - 2) / 2 + 1; }
         lat = supermat__tensor(X, V, lh, lw, m->latent);
+        X->mv_top = lh * lw;
         for (i = 0; i < V; i++) {
             supermat__t one = img, l1;
             one.n = 1;
-            if (one.d) one.d += (size_t)i * S->h * S->w * 3;
-            l1 = supermat__vae_encode(X, m, &one);
+            if (one.d) one.d += (size_t)i * H * W * 3;
+            l1 = S->tile ? supermat__vae_tiled(X, m, &one, 1, S->tile, S->overlap, NULL) : supermat__vae_encode(X, m, &one);
             if (supermat__live(X)) memcpy(lat.d + (size_t)i * supermat__numel(&l1), l1.d, sizeof(float) * supermat__numel(&l1));
             supermat__drop(X, &l1);
         }
@@ -2974,14 +3191,16 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
             supermat__t z = v[b], d1;
             z.n = 1;
             if (z.d) z.d += (size_t)i * z.h * z.w * z.c;
-            d1 = supermat__vae_decode(X, m, &z);
-            if (supermat__live(X)) memcpy(dec[b].d + (size_t)i * supermat__numel(&d1), d1.d, sizeof(float) * supermat__numel(&d1));
+            d1 = S->tile ? supermat__vae_tiled(X, m, &z, 0, S->tile, S->overlap, fg ? fg + (size_t)i * H * W : NULL) : supermat__vae_decode(X, m, &z);
+            if (resize) supermat__resample(X, d1.d, H, W, m->vout, dec[b].d + (size_t)i * S->h * S->w * m->vout, S->h, S->w);
+            else if (supermat__live(X)) memcpy(dec[b].d + (size_t)i * supermat__numel(&d1), d1.d, sizeof(float) * supermat__numel(&d1));
             supermat__drop(X, &d1);
         }
         fl->decode += X->flops - f0;
         if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_DECODED, b, dec[b].d, dec[b].n, dec[b].h, dec[b].w, dec[b].c);
     }
     for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
+    supermat__put(X, fg);
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -2995,6 +3214,30 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
     if (d->views < 0 || d->views > 64) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "views = %d: between 1 and 64 (0 = default)", d->views);
     if (d->views > 1 && d->model->info.kind != SUPERMAT_KIND_SUPERMAT_MV)
         return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%d views: only a SuperMatMV model takes several views", d->views);
+    {
+        int ww = d->work_width ? d->work_width : d->width, wh = d->work_height ? d->work_height : d->height, tl, ol, k;
+        if (ww < 8 || wh < 8 || ww % 8 || wh % 8 || ww > 16384 || wh > 16384)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "work size %dx%d: multiples of 8 in [8, 16384]", ww, wh);
+        if (d->vae_tile || d->vae_overlap) {
+            if (d->vae_tile < 32 || d->vae_tile % 8 || d->vae_overlap < 0 || d->vae_overlap % 8)
+                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "vae_tile %d / vae_overlap %d: a tile of at least 32 pixels, both multiples of 8", d->vae_tile, d->vae_overlap);
+            tl = d->vae_tile / 8; ol = (d->vae_overlap ? d->vae_overlap : 32) / 8;
+            if (ol >= tl) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "vae_overlap %d must be smaller than vae_tile %d", ol * 8, d->vae_tile);
+            for (k = 0; k < 2; k++) {
+                int len = (k ? wh : ww) / 8;
+                if (len > tl && (len - ol + (tl - ol) - 1) / (tl - ol) > SUPERMAT__MAXTILES)
+                    return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "vae_tile %d with overlap %d needs more than %d tiles across %d pixels", d->vae_tile, ol * 8, SUPERMAT__MAXTILES, len * 8);
+            }
+        }
+        if (d->skip_background && !d->vae_tile)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "skip_background works on VAE tiles: set vae_tile");
+        if ((unsigned)d->mv_attention >= SUPERMAT_MV_ATTENTION_COUNT)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown mv_attention %d", (int)d->mv_attention);
+        if (d->mv_attention != SUPERMAT_MV_ATTENTION_FULL && d->model->info.kind != SUPERMAT_KIND_SUPERMAT_MV)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_attention: only a SuperMatMV model has multi-view attention");
+        if (d->mv_attention == SUPERMAT_MV_ATTENTION_STRIDED && (d->mv_key_stride < 1 || d->mv_key_stride > 4096))
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_key_stride %d: 1 to 4096 with SUPERMAT_MV_ATTENTION_STRIDED", d->mv_key_stride);
+    }
     return SUPERMAT_SUCCESS;
 }
 
@@ -3017,6 +3260,7 @@ static supermat_result supermat__plan(supermat_session *S, int threads, supermat
     memset(&X, 0, sizeof X);
     X.plan = 1;
     X.err = err;
+    X.mv_att = S->mv_att; X.mv_stride = S->mv_stride;
     supermat__forward(&X, S, NULL, dec, &S->flops);
     for (b = m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
     S->work_total = X.work_total;
@@ -3036,6 +3280,7 @@ SUPERMAT__DEF supermat_result supermat_session_memory(const supermat_session_des
     if (!bytes) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bytes is NULL");
     memset(&S, 0, sizeof S);
     S.m = desc->model; S.w = desc->width; S.h = desc->height; S.views = supermat__views(desc); S.outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
+    supermat__session_options(&S, desc);
     r = supermat__plan(&S, supermat__threads_for(desc), err);
     if (r) return r;
     *bytes = S.total_bytes;
@@ -3074,6 +3319,7 @@ SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_des
     memset(S, 0, sizeof *S);
     S->alloc = a; S->m = desc->model; S->w = desc->width; S->h = desc->height; S->views = supermat__views(desc);
     S->outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
+    supermat__session_options(S, desc);
     if (desc->threading.parallel_for) S->thr = desc->threading;
 #if SUPERMAT__HAS_PTHREADS
     else if (supermat__threads_for(desc) > 1) {
@@ -3101,6 +3347,9 @@ SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_des
 
 SUPERMAT__DEF void supermat_session_flops(const supermat_session *s, supermat_flops *out) {
     if (s && out) *out = s->flops;
+}
+SUPERMAT__DEF void supermat_session_last_flops(const supermat_session *s, supermat_flops *out) {
+    if (s && out) *out = s->last_flops;
 }
 
 /* >>dispatch */
@@ -3220,8 +3469,10 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;
     X.progress = rd->progress; X.progress_user = rd->progress_user;
     X.work_total = S->work_total;
+    X.mv_att = S->mv_att; X.mv_stride = S->mv_stride;
     supermat__forward(&X, S, rd, dec, &fl);
     if (X.status == SUPERMAT_SUCCESS) { /* outputs are written only once everything succeeded */
+        S->last_flops = fl;
         size_t per = (size_t)S->w * S->h * 3;
         for (v = 0; v < S->views; v++)
             for (i = 0; i < 5; i++) {

@@ -1,0 +1,472 @@
+/* The speed / memory levers of a session against independent references (tiny official-architecture
+   models):
+   - VAE tiles: the tiled encode / decode equals, to float rounding, encoding / decoding every tile
+     alone in a session of the tile's size (the stage injected through the inspect hook) and blending
+     the tiles with this file's own float64 linear ramps; a tile larger than the image is bit-identical
+     to no tiling; the layout covers every size with the asked overlap.
+   - Background skipping: foreground pixels bit-identical to tiling without skipping, background
+     pixels of skipped tiles 0.5, decode FLOPs = the decoded tiles' share (counted here), all-alpha-0
+     decodes nothing, images without alpha skip nothing; the UV mask likewise.
+   - Work size: the network input equals this file's float64 triangle-filter resampling of the
+     composited image; the work size equal to the image size is bit-identical to the default.
+   - Restricted multi-view attention: a key stride of 1 (every key, gathered per view) equals the full
+     attention; own view and stride 2 change the maps, stay in range, and do not depend on threads.
+   - Invalid option combinations fail with clear errors.
+   usage: test_levers MODEL MV_MODEL UV_MODEL */
+#define SUPERMAT_IMPLEMENTATION
+#include "../supermat.h"
+#include "test_util.h"
+
+#define S 64 /* image size of the pipeline checks (latent 8x8) */
+
+static supermat_model *load(const char *path, unsigned char **data) {
+    size_t size = 0;
+    supermat_model_desc md;
+    supermat_model *m = NULL;
+    supermat_error err;
+    *data = tu_load(path, &size);
+    if (!*data) { TU_CHECK(0, "cannot read %s", path); return NULL; }
+    memset(&md, 0, sizeof md); md.data = *data; md.size = size;
+    if (supermat_model_create(&md, &m, &err)) { TU_CHECK(0, "%s: %s", path, err.message); return NULL; }
+    return m;
+}
+
+/* an RGBA test object: a shaded disc in the top-left quadrant (alpha 1 inside, a soft edge, 0 outside) */
+static void make_image(unsigned char *rgba, int w, int h, int cx, int cy, int r) {
+    int x, y;
+    for (y = 0; y < h; y++)
+        for (x = 0; x < w; x++) {
+            double d = sqrt((double)(x - cx) * (x - cx) + (double)(y - cy) * (y - cy)), a = r + 0.5 - d;
+            unsigned char *p = rgba + ((size_t)y * w + x) * 4;
+            p[0] = (unsigned char)(40 + (x * 197) % 200); p[1] = (unsigned char)(30 + (y * 89) % 210); p[2] = (unsigned char)((x * y) % 256);
+            p[3] = (unsigned char)(a >= 1.0 ? 255 : a <= 0.0 ? 0 : (int)(a * 255.0));
+        }
+}
+
+/* ---- stage capture / injection through the inspect hook ---- */
+typedef struct cap {
+    supermat_stage want;     /* captured */
+    float *got[2]; int n, h, w, c;
+    supermat_stage inject;   /* overwritten (COUNT = none) */
+    const float *src[2];
+} cap;
+static void cap_fn(void *user, supermat_stage st, int b, float *d, int n, int h, int w, int c) {
+    cap *k = (cap *)user;
+    size_t sz = (size_t)n * h * w * c;
+    if (b > 1) return;
+    if (st == k->inject && k->src[b]) memcpy(d, k->src[b], sizeof(float) * sz);
+    if (st == k->want) {
+        free(k->got[b]);
+        k->got[b] = (float *)malloc(sizeof(float) * sz);
+        memcpy(k->got[b], d, sizeof(float) * sz);
+        k->n = n; k->h = h; k->w = w; k->c = c;
+    }
+}
+
+typedef struct opts { int tile, overlap, skip, ww, wh, mv_att, stride, threads; unsigned outputs; } opts;
+
+/* one single-view run: fills albedo (RGB) / orm (RGB) float outputs and the capture */
+static int run1(supermat_model *m, const opts *o, int w, int h, const unsigned char *px, int ch, float *albedo, float *orm,
+                cap *k, supermat_flops *fl, supermat_flops *last) {
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_error err;
+    int r;
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = w; sd.height = h; sd.threads = o->threads ? o->threads : 2; sd.outputs = o->outputs;
+    sd.vae_tile = o->tile; sd.vae_overlap = o->overlap; sd.skip_background = o->skip; sd.work_width = o->ww; sd.work_height = o->wh;
+    if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "session: %s", err.message); return -1; }
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
+    if (albedo) { rd.albedo.pixels = albedo; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32; }
+    if (orm) { rd.orm.pixels = orm; rd.orm.channels = 3; rd.orm.format = SUPERMAT_FORMAT_F32; }
+    if (k) { rd.inspect = cap_fn; rd.inspect_user = k; }
+    r = supermat_run(s, &rd, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "run: %s", err.message);
+    if (fl) supermat_session_flops(s, fl);
+    if (last) supermat_session_last_flops(s, last);
+    supermat_session_destroy(s);
+    return r;
+}
+
+static int same(const float *a, const float *b, size_t n) { return memcmp(a, b, n * sizeof(float)) == 0; }
+
+/* ---- layout and blending, float64, written independently of the library ---- */
+static double ramp64(int x, const int *st, int n, int i, int t) {
+    double w = 1.0;
+    if (i > 0 && x < st[i - 1] + t) { double v = (x - st[i] + 0.5) / (st[i - 1] + t - st[i]); if (v < w) w = v; }
+    if (i + 1 < n && x >= st[i + 1]) { double v = (st[i] + t - x - 0.5) / (st[i] + t - st[i + 1]); if (v < w) w = v; }
+    return w;
+}
+
+static void test_layout(void) {
+    int len, t, ov, bad = 0, badsum = 0;
+    for (len = 1; len <= 90; len++)
+        for (t = 2; t <= 12; t++)
+            for (ov = 0; ov < t; ov++) {
+                int st[256], n = supermat__tiles(len, t, ov, st, 256), i, x;
+                if (t >= len) { if (n != 1 || st[0] != 0) bad++; continue; }
+                if (st[0] != 0 || st[n - 1] + t != len) bad++;
+                for (i = 1; i < n; i++) if (st[i] <= st[i - 1] || st[i - 1] + t - st[i] < ov || st[i] > st[i - 1] + t) bad++;
+                for (x = 0; x < len; x++) { /* where exactly two tiles meet, the ramps sum to 1 */
+                    int cover = 0, j;
+                    double sum = 0.0;
+                    for (j = 0; j < n; j++) if (x >= st[j] && x < st[j] + t) { cover++; sum += supermat__ramp(x, st[j], t, j > 0, j > 0 ? st[j - 1] + t : 0, j + 1 < n, j + 1 < n ? st[j + 1] : 0); }
+                    if (cover == 0 || sum <= 0.0 || (cover == 2 && fabs(sum - 1.0) > 1e-6)) badsum++;
+                }
+            }
+    TU_CHECK(bad == 0, "tile layout: %d bad layouts (coverage, order, overlap)", bad);
+    TU_CHECK(badsum == 0, "tile blend weights: %d positions uncovered or not summing to 1", badsum);
+}
+
+/* float64 triangle filter (PIL BILINEAR semantics) along both axes */
+static void resample64(const float *src, int sh, int sw, int c, double *dst, int dh, int dw) {
+    double *tmp = (double *)calloc((size_t)sh * dw * c, sizeof(double));
+    int pass;
+    for (pass = 0; pass < 2; pass++) {
+        int lin = pass ? sh : sw, lout = pass ? dh : dw, lines = pass ? dw : sh, o, l, ch, i;
+        double scale = (double)lin / lout, sup = scale > 1 ? scale : 1;
+        for (o = 0; o < lout; o++) {
+            double ctr = (o + 0.5) * scale, ws = 0;
+            for (i = 0; i < lin; i++) { double wt = 1 - fabs((i + 0.5 - ctr) / sup); if (wt > 0) ws += wt; }
+            for (l = 0; l < lines; l++)
+                for (ch = 0; ch < c; ch++) {
+                    double acc = 0;
+                    for (i = 0; i < lin; i++) {
+                        double wt = 1 - fabs((i + 0.5 - ctr) / sup), v;
+                        if (wt <= 0) continue;
+                        v = pass ? tmp[((size_t)i * dw + l) * c + ch] : (double)src[((size_t)l * sw + i) * c + ch];
+                        acc += wt * v;
+                    }
+                    if (pass) dst[((size_t)o * dw + l) * c + ch] = acc / ws;
+                    else tmp[((size_t)l * dw + o) * c + ch] = acc / ws;
+                }
+        }
+    }
+    free(tmp);
+}
+
+static void test_resample_props(void) {
+    supermat__ctx X;
+    float src[16 * 3], dst[8 * 3], up[32 * 3];
+    int i;
+    memset(&X, 0, sizeof X);
+    X.base = (char *)malloc(1 << 16); X.cap = 1 << 16;
+    for (i = 0; i < 16 * 3; i++) src[i] = 0.25f;
+    supermat__resample(&X, src, 1, 16, 3, dst, 1, 8);
+    for (i = 0; i < 8 * 3; i++) TU_CHECK(fabsf(dst[i] - 0.25f) < 1e-7f, "constant through a 2x reduction: %g", (double)dst[i]);
+    for (i = 0; i < 16; i++) src[i * 3] = src[i * 3 + 1] = src[i * 3 + 2] = (float)(i * i % 7);
+    supermat__resample(&X, src, 1, 16, 3, dst, 1, 8); /* interior taps 1/8, 3/8, 3/8, 1/8 */
+    for (i = 1; i < 7; i++) {
+        double want = (src[(2 * i - 1) * 3] + 3.0 * src[2 * i * 3] + 3.0 * src[(2 * i + 1) * 3] + src[(2 * i + 2) * 3]) / 8.0;
+        TU_CHECK(fabs(dst[i * 3] - want) < 1e-5, "2x reduction tap weights at %d: %g vs %g", i, (double)dst[i * 3], want);
+    }
+    supermat__resample(&X, src, 1, 16, 3, up, 1, 32); /* bilinear enlargement: 0.75 / 0.25 */
+    for (i = 1; i < 31; i++) {
+        int a = (i - 1) / 2, b = a + 1;
+        double want = (i % 2) ? 0.75 * src[a * 3] + 0.25 * src[b * 3] : 0.25 * src[a * 3] + 0.75 * src[b * 3];
+        if (i % 2 == 0) { a = i / 2 - 1; b = i / 2; want = 0.25 * src[a * 3] + 0.75 * src[b * 3]; }
+        TU_CHECK(fabs(up[i * 3] - want) < 1e-5, "2x enlargement at %d: %g vs %g", i, (double)up[i * 3], want);
+    }
+    free(X.base);
+}
+
+/* ---- tiled VAE vs tiles run alone ---- */
+static void test_tiles(supermat_model *m, const unsigned char *img) {
+    static float a0[S * S * 3], a1[S * S * 3], o0[S * S * 3], o1[S * S * 3];
+    opts o;
+    cap full, ref;
+    int tl = 40, ov = 16, st[8], n, ty, tx, b, y, x, c, enc;
+    double *acc[2], *wsum;
+    /* a tile larger than the image: no tiling at all, bit for bit */
+    memset(&o, 0, sizeof o);
+    run1(m, &o, S, S, img, 4, a0, o0, NULL, NULL, NULL);
+    o.tile = 128; o.overlap = 16;
+    run1(m, &o, S, S, img, 4, a1, o1, NULL, NULL, NULL);
+    TU_CHECK(same(a0, a1, S * S * 3) && same(o0, o1, S * S * 3), "a tile covering the image changed the maps");
+    /* 2x2 tiles of 40 pixels (5 latents) */
+    n = supermat__tiles(S / 8, tl / 8, ov / 8, st, 8);
+    TU_CHECK(n == 2 && st[1] == 3, "layout of 64 px in 40 px tiles: n %d, start %d", n, st[1]);
+    for (enc = 0; enc < 2; enc++) {
+        int lat = !enc, unit = enc ? 1 : 8, big = enc ? S / 8 : S, oc;
+        memset(&full, 0, sizeof full);
+        full.want = enc ? SUPERMAT_STAGE_LATENT : SUPERMAT_STAGE_DECODED; full.inject = SUPERMAT_STAGE_COUNT;
+        o.tile = tl; o.overlap = ov;
+        /* the tiled run, also capturing the stage input the reference needs */
+        {
+            cap in;
+            memset(&in, 0, sizeof in);
+            in.want = enc ? SUPERMAT_STAGE_INPUT : SUPERMAT_STAGE_X0; in.inject = SUPERMAT_STAGE_COUNT;
+            run1(m, &o, S, S, img, 4, a1, o1, &in, NULL, NULL);
+            memset(&o, 0, sizeof o); o.tile = tl; o.overlap = ov;
+            run1(m, &o, S, S, img, 4, a1, o1, &full, NULL, NULL);
+            oc = full.c;
+            acc[0] = (double *)calloc((size_t)big * big * oc, sizeof(double));
+            acc[1] = (double *)calloc((size_t)big * big * oc, sizeof(double));
+            wsum = (double *)calloc((size_t)big * big, sizeof(double));
+            for (ty = 0; ty < n; ty++)
+                for (tx = 0; tx < n; tx++) {
+                    /* the tile alone: a session of the tile's size with the stage input injected */
+                    int ih = enc ? tl : tl / 8, ic = in.c, bb;
+                    float *crop[2];
+                    memset(&ref, 0, sizeof ref);
+                    ref.want = full.want; ref.inject = in.want;
+                    for (bb = 0; bb < (enc ? 1 : 2); bb++) {
+                        int f = enc ? 8 : 1;
+                        crop[bb] = (float *)malloc(sizeof(float) * (size_t)ih * ih * ic);
+                        for (y = 0; y < ih; y++)
+                            memcpy(crop[bb] + (size_t)y * ih * ic, in.got[bb] + ((size_t)(st[ty] * f + y) * in.w + (size_t)st[tx] * f) * ic, sizeof(float) * (size_t)ih * ic);
+                        ref.src[bb] = crop[bb];
+                    }
+                    memset(&o, 0, sizeof o);
+                    run1(m, &o, tl, tl, img, 4, NULL, NULL, &ref, NULL, NULL);
+                    for (b = 0; b < (enc ? 1 : 2); b++) {
+                        int th = tl / 8 * (lat ? 8 : 1);
+                        for (y = 0; y < th; y++)
+                            for (x = 0; x < th; x++) {
+                                int gy = st[ty] * unit + y, gx = st[tx] * unit + x;
+                                int sts[8], k;
+                                double w;
+                                for (k = 0; k < n; k++) sts[k] = st[k] * unit;
+                                w = ramp64(gy, sts, n, ty, th) * ramp64(gx, sts, n, tx, th);
+                                for (c = 0; c < oc; c++) acc[b][((size_t)gy * big + gx) * oc + c] += w * ref.got[b][((size_t)y * th + x) * oc + c];
+                                if (b == 0) wsum[(size_t)gy * big + gx] += w;
+                            }
+                    }
+                    for (bb = 0; bb < (enc ? 1 : 2); bb++) { free(crop[bb]); free(ref.got[bb]); }
+                }
+            for (b = 0; b < (enc ? 1 : 2); b++) {
+                size_t i, np = (size_t)big * big * oc;
+                float *r = (float *)malloc(sizeof(float) * np);
+                for (i = 0; i < np; i++) r[i] = (float)(acc[b][i] / wsum[i / oc]);
+                {
+                    double e = tu_rel_l2(full.got[b], r, np);
+                    printf("tiled %s branch %d vs tiles alone + float64 blend: rel L2 %.3g\n", enc ? "encode" : "decode", b, e);
+                    TU_CHECK(e < 1e-5, "tiled %s branch %d: rel L2 %g vs the tiles alone", enc ? "encode" : "decode", b, e);
+                }
+                free(r);
+            }
+            for (b = 0; b < 2; b++) { free(acc[b]); free(in.got[b]); free(full.got[b]); }
+            free(wsum);
+            memset(&o, 0, sizeof o);
+        }
+    }
+}
+
+/* ---- background skipping ---- */
+static void test_skip(supermat_model *m, const unsigned char *img) {
+    static float a0[S * S * 3], a1[S * S * 3], o0[S * S * 3], o1[S * S * 3];
+    static unsigned char rgb[S * S * 3], clear[S * S * 4];
+    opts o;
+    supermat_flops fl, last;
+    static unsigned char covered[S * S];
+    int tile = 32, ov = 16, st[16], n, ty, tx, k = 0, x, y, i, fgdiff = 0, bgbad = 0;
+    n = supermat__tiles(S / 8, tile / 8, ov / 8, st, 16);
+    memset(covered, 0, sizeof covered);
+    for (ty = 0; ty < n; ty++)
+        for (tx = 0; tx < n; tx++) {
+            int any = 0;
+            for (y = st[ty] * 8; y < st[ty] * 8 + tile; y++)
+                for (x = st[tx] * 8; x < st[tx] * 8 + tile; x++) any |= img[((size_t)y * S + x) * 4 + 3] > 0;
+            k += any;
+            if (any)
+                for (y = st[ty] * 8; y < st[ty] * 8 + tile; y++)
+                    for (x = st[tx] * 8; x < st[tx] * 8 + tile; x++) covered[y * S + x] = 1;
+        }
+    memset(&o, 0, sizeof o); o.tile = tile; o.overlap = ov;
+    run1(m, &o, S, S, img, 4, a0, o0, NULL, NULL, NULL);
+    o.skip = 1;
+    run1(m, &o, S, S, img, 4, a1, o1, NULL, &fl, &last);
+    for (i = 0; i < S * S; i++) {
+        int c;
+        for (c = 0; c < 3; c++) {
+            if (img[i * 4 + 3] > 0 && (a0[i * 3 + c] != a1[i * 3 + c] || o0[i * 3 + c] != o1[i * 3 + c])) fgdiff++;
+            if (!covered[i] && (a1[i * 3 + c] != 0.5f || o1[i * 3 + c] != 0.5f)) bgbad++;
+        }
+    }
+    TU_CHECK(k > 0 && k < n * n, "test image: %d of %d tiles hold foreground", k, n * n);
+    TU_CHECK(fgdiff == 0, "skipping changed %d foreground values", fgdiff);
+    TU_CHECK(bgbad == 0, "%d values outside every decoded tile are not 0.5", bgbad);
+    printf("skip: %d of %d decode tiles, decode GFLOP %.4f of %.4f\n", k, n * n, last.decode / 1e9, fl.decode / 1e9);
+    TU_CHECK(fabs(last.decode - fl.decode * k / (n * n)) <= 1e-9 * fl.decode, "decode FLOPs %g, expected %g (%d of %d tiles)", last.decode, fl.decode * k / (n * n), k, n * n);
+    TU_CHECK(last.encode == fl.encode && last.trunk == fl.trunk, "encode / UNet FLOPs changed by skipping");
+    /* nothing visible: nothing decoded, every value 0.5 */
+    for (i = 0; i < S * S * 4; i++) clear[i] = (unsigned char)(i % 4 == 3 ? 0 : i * 7);
+    run1(m, &o, S, S, clear, 4, a1, o1, NULL, NULL, &last);
+    TU_CHECK(last.decode == 0.0, "alpha 0 everywhere: %g decode FLOPs", last.decode);
+    for (i = 0; i < S * S * 3; i++) if (a1[i] != 0.5f || (i % 3 && o1[i] != 0.5f)) { TU_CHECK(0, "alpha 0 everywhere: value %g at %d", (double)a1[i], i); break; }
+    /* no alpha channel: everything is foreground */
+    for (i = 0; i < S * S; i++) memcpy(rgb + i * 3, img + i * 4, 3);
+    o.skip = 0;
+    run1(m, &o, S, S, rgb, 3, a0, o0, NULL, NULL, NULL);
+    o.skip = 1;
+    run1(m, &o, S, S, rgb, 3, a1, o1, NULL, &fl, &last);
+    TU_CHECK(same(a0, a1, S * S * 3) && same(o0, o1, S * S * 3) && last.decode == fl.decode, "RGB input: skipping changed something");
+}
+
+static void test_skip_uv(supermat_model *m) {
+    enum { U = 128 };
+    static float map[U * U * 3], mask[U * U], pos[U * U * 3], r0[U * U * 3], r1[U * U * 3];
+    supermat_session_desc sd;
+    supermat_session *s;
+    supermat_run_desc rd;
+    supermat_error err;
+    supermat_flops fl, last;
+    int i, pass, diff = 0;
+    for (i = 0; i < U * U; i++) {
+        int x = i % U, y = i / U;
+        mask[i] = (x < 40 && y < 50) ? 1.0f : 0.0f;
+        map[i * 3] = (float)(x % 17) / 16.0f; map[i * 3 + 1] = (float)(y % 13) / 12.0f; map[i * 3 + 2] = 0.5f;
+        pos[i * 3] = (float)x / U; pos[i * 3 + 1] = (float)y / U; pos[i * 3 + 2] = 0.25f;
+    }
+    for (pass = 0; pass < 2; pass++) {
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = U; sd.height = U; sd.threads = 2; sd.vae_tile = 48; sd.vae_overlap = 16; sd.skip_background = pass;
+        if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "UV session: %s", err.message); return; }
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = map; rd.input.width = U; rd.input.height = U; rd.input.channels = 3; rd.input.format = SUPERMAT_FORMAT_F32;
+        rd.mask = rd.input; rd.mask.pixels = mask; rd.mask.channels = 1;
+        rd.position = rd.input; rd.position.pixels = pos;
+        rd.refined.pixels = pass ? r1 : r0; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+        TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "UV run: %s", err.message);
+        supermat_session_flops(s, &fl); supermat_session_last_flops(s, &last);
+        supermat_session_destroy(s);
+    }
+    for (i = 0; i < U * U * 3; i++) if (mask[i / 3] > 0.0f && r0[i] != r1[i]) diff++;
+    TU_CHECK(diff == 0, "UV: skipping changed %d chart values", diff);
+    printf("UV skip: decode GFLOP %.4f of %.4f\n", last.decode / 1e9, fl.decode / 1e9);
+    TU_CHECK(last.decode > 0.0 && last.decode < 0.6 * fl.decode, "UV: decode FLOPs %g of %g", last.decode, fl.decode);
+}
+
+/* ---- work size ---- */
+static void test_work_size(supermat_model *m, const unsigned char *img) {
+    static float a0[S * S * 3], a1[S * S * 3], o0[S * S * 3], o1[S * S * 3], comp[S * S * 3];
+    double ref[32 * 32 * 3];
+    opts o;
+    cap k;
+    int i, c;
+    memset(&o, 0, sizeof o);
+    run1(m, &o, S, S, img, 4, a0, o0, NULL, NULL, NULL);
+    o.ww = S; o.wh = S;
+    run1(m, &o, S, S, img, 4, a1, o1, NULL, NULL, NULL);
+    TU_CHECK(same(a0, a1, S * S * 3) && same(o0, o1, S * S * 3), "work size = image size changed the maps");
+    for (i = 0; i < S * S; i++)
+        for (c = 0; c < 3; c++) {
+            double a = img[i * 4 + 3] / 255.0, v = img[i * 4 + c] / 255.0;
+            comp[i * 3 + c] = (float)((v * a + 0.5 * (1.0 - a)) * 2.0 - 1.0);
+        }
+    resample64(comp, S, S, 3, ref, 32, 32);
+    memset(&k, 0, sizeof k); k.want = SUPERMAT_STAGE_INPUT; k.inject = SUPERMAT_STAGE_COUNT;
+    o.ww = 32; o.wh = 32;
+    run1(m, &o, S, S, img, 4, a1, o1, &k, NULL, NULL);
+    TU_CHECK(k.got[0] && k.h == 32 && k.w == 32, "work size 32: the network input is %dx%d", k.w, k.h);
+    if (k.got[0]) {
+        double e = 0;
+        for (i = 0; i < 32 * 32 * 3; i++) if (fabs(k.got[0][i] - ref[i]) > e) e = fabs(k.got[0][i] - ref[i]);
+        printf("work size 32 of 64: input vs float64 resampling max abs %.3g; albedo vs full size rel L2 %.3g\n", e, tu_rel_l2(a1, a0, S * S * 3));
+        TU_CHECK(e < 1e-5, "work size input vs float64 resampling: max abs %g", e);
+    }
+    for (i = 0; i < S * S * 3; i++) if (!(a1[i] >= 0.0f && a1[i] <= 1.0f && o1[i] >= 0.0f && o1[i] <= 1.0f)) { TU_CHECK(0, "work size: output %d out of [0,1]", i); break; }
+    free(k.got[0]);
+    o.ww = 40; o.wh = 24; /* a non-uniform scale works too */
+    TU_CHECK(run1(m, &o, S, S, img, 4, a1, o1, NULL, NULL, NULL) == SUPERMAT_SUCCESS, "work size 40x24");
+}
+
+/* ---- restricted multi-view attention ---- */
+static int run_mv(supermat_model *m, int att, int stride, int threads, float *out) {
+    enum { V = 3, M = 32 };
+    static unsigned char px[V][M * M * 4];
+    supermat_image in[V], ov[V];
+    float cams[V * 16];
+    supermat_session_desc sd;
+    supermat_session *s;
+    supermat_run_desc rd;
+    supermat_error err;
+    int v, i, r;
+    for (v = 0; v < V; v++) {
+        make_image(px[v], M, M, 10 + 4 * v, 14, 9);
+        memset(&in[v], 0, sizeof in[v]); in[v].pixels = px[v]; in[v].width = M; in[v].height = M; in[v].channels = 4;
+        memset(&ov[v], 0, sizeof ov[v]); ov[v].pixels = out + (size_t)v * M * M * 3; ov[v].channels = 3; ov[v].format = SUPERMAT_FORMAT_F32;
+        for (i = 0; i < 16; i++) cams[v * 16 + i] = (i % 5 == 0) ? 1.0f : 0.0f;
+        cams[v * 16 + 3] = (float)v * 0.7f; cams[v * 16 + 11] = 1.5f - (float)v;
+    }
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = M; sd.height = M; sd.views = V; sd.threads = threads; sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
+    sd.mv_attention = (supermat_mv_attention)att; sd.mv_key_stride = stride;
+    if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "MV session: %s", err.message); return -1; }
+    memset(&rd, 0, sizeof rd);
+    rd.input_views = in; rd.albedo_views = ov; rd.cameras = cams;
+    r = supermat_run(s, &rd, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "MV run: %s", err.message);
+    supermat_session_destroy(s);
+    return r;
+}
+
+static void test_mv_window(supermat_model *m) {
+    enum { N = 3 * 32 * 32 * 3 };
+    static float full[N], own[N], st2[N], st2b[N], st1[N];
+    double e_own, e_st, e1;
+    int i, s;
+    run_mv(m, SUPERMAT_MV_ATTENTION_FULL, 0, 2, full);
+    run_mv(m, SUPERMAT_MV_ATTENTION_STRIDED, 1, 2, st1); /* every key, gathered per view: the full attention */
+    e1 = tu_rel_l2(st1, full, N);
+    TU_CHECK(e1 < 1e-5, "stride 1 vs the full attention: rel L2 %g", e1);
+    for (s = 2; s <= 16; s *= 2) { run_mv(m, SUPERMAT_MV_ATTENTION_STRIDED, s, 2, st2); printf("  stride %d: rel L2 %.3g\n", s, tu_rel_l2(st2, full, N)); }
+    run_mv(m, SUPERMAT_MV_ATTENTION_OWN_VIEW, 0, 2, own);
+    run_mv(m, SUPERMAT_MV_ATTENTION_STRIDED, 2, 2, st2);
+    run_mv(m, SUPERMAT_MV_ATTENTION_STRIDED, 2, 3, st2b);
+    e_own = tu_rel_l2(own, full, N); e_st = tu_rel_l2(st2, full, N);
+    printf("MV window: own view rel L2 %.3g, key stride 2 %.3g (vs full attention)\n", e_own, e_st);
+    for (i = 0; i < N; i++) if (!(own[i] >= 0.0f && own[i] <= 1.0f && st2[i] >= 0.0f && st2[i] <= 1.0f)) { TU_CHECK(0, "MV window: value out of [0,1]"); break; }
+    TU_CHECK(e_own > 0.0 && e_st > 0.0, "restricted attention changed nothing (own %g, strided %g)", e_own, e_st);
+    TU_CHECK(same(st2, st2b, N), "strided attention differs between 2 and 3 threads");
+}
+
+static void test_errors(supermat_model *m, supermat_model *mv) {
+    supermat_session_desc sd;
+    size_t bytes;
+    supermat_error err;
+    int i;
+    struct { int tile, overlap, skip, ww, wh, att, stride; supermat_model *mm; const char *what; } bad[] = {
+        {20, 0, 0, 0, 0, 0, 0, NULL, "tile 20"}, {36, 0, 0, 0, 0, 0, 0, NULL, "tile not a multiple of 8"},
+        {64, 64, 0, 0, 0, 0, 0, NULL, "overlap = tile"}, {64, 12, 0, 0, 0, 0, 0, NULL, "overlap not a multiple of 8"},
+        {0, 0, 1, 0, 0, 0, 0, NULL, "skip without tiles"}, {0, 0, 0, 30, 32, 0, 0, NULL, "work width 30"},
+        {0, 0, 0, 32, 20000, 0, 0, NULL, "work height 20000"}, {0, 0, 0, 0, 0, 1, 0, NULL, "mv_attention on a single-view model"},
+        {0, 0, 0, 0, 0, 2, 0, (supermat_model *)1, "stride 0"}, {0, 0, 0, 0, 0, 7, 0, (supermat_model *)1, "unknown mv_attention"},
+        {32, 24, 0, 0, 0, 0, 0, NULL, "too many tiles"}};
+    for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++) {
+        memset(&sd, 0, sizeof sd);
+        sd.model = bad[i].mm ? mv : m; sd.width = i == 10 ? 16384 : 64; sd.height = 64; sd.threads = 1;
+        sd.vae_tile = bad[i].tile; sd.vae_overlap = bad[i].overlap; sd.skip_background = bad[i].skip;
+        sd.work_width = bad[i].ww; sd.work_height = bad[i].wh; sd.mv_attention = (supermat_mv_attention)bad[i].att; sd.mv_key_stride = bad[i].stride;
+        TU_CHECK(supermat_session_memory(&sd, &bytes, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && err.message[0], "%s accepted", bad[i].what);
+    }
+    {   /* tiles bound the VAE's memory */
+        size_t whole, tiled;
+        memset(&sd, 0, sizeof sd); sd.model = m; sd.width = 1024; sd.height = 1024; sd.threads = 1;
+        supermat_session_memory(&sd, &whole, &err);
+        sd.vae_tile = 256; sd.vae_overlap = 32;
+        supermat_session_memory(&sd, &tiled, &err);
+        printf("1024x1024 session: %.1f MB whole, %.1f MB with 256-pixel VAE tiles\n", whole / 1e6, tiled / 1e6);
+        TU_CHECK(tiled < whole, "tiles did not reduce memory: %zu vs %zu", tiled, whole);
+    }
+}
+
+int main(int argc, char **argv) {
+    static unsigned char img[S * S * 4];
+    unsigned char *d0 = NULL, *d1 = NULL, *d2 = NULL;
+    supermat_model *m, *mv, *uv;
+    if (argc < 4) { fprintf(stderr, "usage: %s MODEL MV_MODEL UV_MODEL\n", argv[0]); return 2; }
+    m = load(argv[1], &d0); mv = load(argv[2], &d1); uv = load(argv[3], &d2);
+    test_layout();
+    test_resample_props();
+    make_image(img, S, S, 18, 20, 13);
+    if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); }
+    if (uv) test_skip_uv(uv);
+    if (mv) test_mv_window(mv);
+    if (m && mv) test_errors(m, mv);
+    supermat_model_destroy(m); supermat_model_destroy(mv); supermat_model_destroy(uv);
+    free(d0); free(d1); free(d2);
+    return tu_finish("levers");
+}
