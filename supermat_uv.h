@@ -295,7 +295,6 @@ SUPERMAT_API supermat_result supermat_uv_bake(const supermat_uv_bake_desc *desc,
 #define SUPERMAT_UV__NONE 0xFFFFFFFFu
 #define SUPERMAT_UV__MAXBLOCKS 640
 #define SUPERMAT_UV__MIN_COS 0.02     /* ~88.85 degrees */
-#define SUPERMAT_UV__EPS 1e-8f
 #define SUPERMAT_UV__OFF_CHART (127.0f / 255.0f)
 #define SUPERMAT_UV__SLOPE_CAP 4.0    /* the slope-scaled depth bias, at most this many pixel sizes */
 #define SUPERMAT_UV__BAND 16          /* texture rows per back-projection task */
@@ -753,6 +752,7 @@ static void supermat_uv__gather(const supermat_uv__bp *B, const double q[3], con
             double c = nrm ? nrm[0] * V->Z[0] + nrm[1] * V->Z[1] + nrm[2] * V->Z[2] : fabs(cosg[v]);
             if (c < 0.0) c = 0.0;
             M = pow(c, C->d.cos_power);
+            if (M < 1e-30) M = 1e-30; /* a large power must not underflow the blend to zero (black) */
         } else M = 1.0;
         for (k = 0; k < 5; k++) acc[k] += (float)(M * s[k] / wsum);
         acc[5] += (float)M;
@@ -1317,7 +1317,7 @@ static supermat_result supermat_uv__bake_output(supermat_uv__ctx *C, int o, floa
             if (B.layers[i]) C->st.texels_chart++;
             if (B.layers[i] > 1) C->st.texels_overlap++;
             if (nseen) {
-                float inv = 1.0f / (a[5] + SUPERMAT_UV__EPS);
+                float inv = a[5] > 0.0f ? 1.0f / a[5] : 0.0f; /* >= 1e-30 when seen */
                 C->st.texels_seen++;
                 for (c = 0; c < 3; c++) partial_a[i * 3 + c] = a[c] * inv;
                 partial_rm[i * 3] = 0.0f; partial_rm[i * 3 + 1] = a[3] * inv; partial_rm[i * 3 + 2] = a[4] * inv;

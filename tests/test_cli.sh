@@ -13,7 +13,9 @@
 # official goldens (max abs error 1e-4, tests/pfm_npy_diff.c built with ${CC:-cc}), checks the camera
 # file errors (missing index, malformed JSON, duplicate index, short / non-numeric / non-finite /
 # missing matrix), size mismatches, a model of the wrong kind for each command, and `bench` on all
-# three kinds. Needs bash, coreutils, od and a C compiler (without one the golden comparison is skipped).
+# three kinds; `bench --image` (the speed / accuracy table: its JSON parsed by a small awk parser, the
+# f32 reference at 200 dB, f16 finite and below, a map a mode does not compute as null) and its usage
+# errors. Needs bash, coreutils, od, awk and a C compiler (without one the golden comparison is skipped).
 set -eu
 
 if [ $# -ne 2 ]; then
@@ -447,6 +449,128 @@ check "bench uv: the unet input row" grep -q '^unet input (mask, position)' "$T/
 run bench --model "$MODEL" --size 64 --pipeline-only --views 2
 check "bench --views 2 with the single-view model exits 1" [ $RC -eq 1 ]
 check "bench --views 2 with the single-view model explains" grep -q 'supermat-mv' "$T/err"
+
+# bench --image: the speed / accuracy table (f32 reference, f16 weights, the albedo branch alone)
+# json_ok FILE: FILE is one valid JSON value (a small recursive-descent parser in awk)
+json_ok() {
+    awk '
+    function ws() { while (pos <= n && index(" \t\r\n", substr(s, pos, 1))) pos++ }
+    function str(   c) {
+        if (substr(s, pos, 1) != "\"") return 0
+        for (pos++; pos <= n; pos++) {
+            c = substr(s, pos, 1)
+            if (c == "\\") pos++
+            else if (c == "\"") { pos++; return 1 }
+        }
+        return 0
+    }
+    function val(   c) {
+        ws(); c = substr(s, pos, 1)
+        if (c == "{") return obj()
+        if (c == "[") return arr()
+        if (c == "\"") return str()
+        if (substr(s, pos, 4) == "null" || substr(s, pos, 4) == "true") { pos += 4; return 1 }
+        if (substr(s, pos, 5) == "false") { pos += 5; return 1 }
+        if (match(substr(s, pos), /^-?(0|[1-9][0-9]*)(\.[0-9]+)?([eE][-+]?[0-9]+)?/)) { pos += RLENGTH; return RLENGTH > 0 }
+        return 0
+    }
+    function arr(   c) {
+        pos++; ws()
+        if (substr(s, pos, 1) == "]") { pos++; return 1 }
+        for (;;) {
+            if (!val()) return 0
+            ws(); c = substr(s, pos++, 1)
+            if (c == "]") return 1
+            if (c != ",") return 0
+        }
+    }
+    function obj(   c) {
+        pos++; ws()
+        if (substr(s, pos, 1) == "}") { pos++; return 1 }
+        for (;;) {
+            ws()
+            if (!str()) return 0
+            ws()
+            if (substr(s, pos++, 1) != ":") return 0
+            if (!val()) return 0
+            ws(); c = substr(s, pos++, 1)
+            if (c == "}") return 1
+            if (c != ",") return 0
+        }
+    }
+    { s = s $0 "\n" }
+    END { n = length(s); pos = 1; ok = val(); ws(); exit !(ok && pos > n) }' "$1"
+}
+# jfield FILE MODE KEY [MAP]: a value from the line of MODE in bench --image's JSON (one object per line)
+jfield() {
+    local line
+    line=$(grep "\"mode\": \"$2\"" "$1") || { echo missing; return; }
+    if [ $# -eq 4 ]; then sed -n "s/.*\"$3\": {[^}]*\"$4\": \([^,}]*\).*/\1/p" <<<"$line"
+    else sed -n "s/.*\"$3\": \([^,}]*\).*/\1/p" <<<"$line"; fi
+}
+# num_in X LO HI: X is a finite JSON number with LO < X < HI
+num_in() { awk -v x="$1" -v lo="$2" -v hi="$3" 'BEGIN { exit !(x ~ /^-?[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?$/ && x + 0 > lo + 0 && x + 0 < hi + 0) }'; }
+BJ=$T/bench_modes.json
+run bench --model "$MODEL" --image "$SPHERE" --modes f16,branch_albedo --json "$BJ"
+check "bench --image exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench --image: the table header" grep -q '^mode .* seconds .* speedup .* psnr_fg' "$T/out"
+check "bench --image: machine info" grep -q '^machine .*thread' "$T/out"
+check "bench --image: f32 row first" [ "$(grep -E '^(f32|f16|branch_albedo) ' "$T/out" | head -n 1 | cut -d' ' -f1)" = f32 ]
+check "bench --image: branch_albedo row with - for roughness" grep -Eq '^branch_albedo .*\| +[0-9.]+ +[0-9.]+ +[0-9.e+-]+ \| +- +- +- \| +- +- +-$' "$T/out"
+check "bench --image: the JSON parses" json_ok "$BJ"
+check "bench --image: the JSON is a list" [ "$(head -c 1 "$BJ")" = "[" ]
+check "bench --image: 3 modes (f32 added)" [ "$(grep -c '"mode": ' "$BJ")" -eq 3 ]
+for mode in f32 f16 branch_albedo; do
+    check "bench --image JSON: mode $mode" grep -q "\"mode\": \"$mode\"" "$BJ"
+    v=$(jfield "$BJ" $mode seconds)
+    check "bench --image JSON: $mode seconds $v > 0" num_in "$v" 0 1e9
+    v=$(jfield "$BJ" $mode flops)
+    check "bench --image JSON: $mode flops $v > 0" num_in "$v" 0 1e30
+    v=$(jfield "$BJ" $mode peak_bytes)
+    check "bench --image JSON: $mode peak_bytes $v > 0" num_in "$v" 0 1e30
+done
+for map in albedo roughness metallic; do
+    v=$(jfield "$BJ" f32 psnr $map)
+    check "bench --image JSON: f32 psnr $map is 200 ($v)" [ "$v" = 200 ]
+    v=$(jfield "$BJ" f32 max_abs $map)
+    check "bench --image JSON: f32 max_abs $map is 0 ($v)" [ "$v" = 0 ]
+    v=$(jfield "$BJ" f16 psnr $map)
+    check "bench --image JSON: f16 psnr $map finite, in (20, 200) ($v)" num_in "$v" 20 200
+    v=$(jfield "$BJ" f16 psnr_fg $map)
+    check "bench --image JSON: f16 psnr_fg $map finite, in (20, 200) ($v)" num_in "$v" 20 200
+done
+v=$(jfield "$BJ" branch_albedo psnr albedo)
+check "bench --image JSON: branch_albedo psnr albedo is 200 ($v)" [ "$v" = 200 ]
+for key in psnr psnr_fg max_abs; do
+    v=$(jfield "$BJ" branch_albedo $key roughness)
+    check "bench --image JSON: branch_albedo $key roughness is null ($v)" [ "$v" = null ]
+    v=$(jfield "$BJ" branch_albedo $key metallic)
+    check "bench --image JSON: branch_albedo $key metallic is null ($v)" [ "$v" = null ]
+done
+run bench --model "$MV" --image "$MVIMG/color_0000.png" --views 2 --modes f32,mv_window_own --json "$T/bench_mv.json"
+check "bench --image supermat-mv (one image, 2 views) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench --image supermat-mv: the JSON parses" json_ok "$T/bench_mv.json"
+check "bench --image supermat-mv: an mv_window_own row" grep -q '^mv_window_own ' "$T/out"
+run bench --model "$UV" --image "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --modes int8 --json "$T/bench_uv.json"
+check "bench --image uv-refine exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench --image uv-refine: the JSON parses" json_ok "$T/bench_uv.json"
+v=$(jfield "$T/bench_uv.json" int8 psnr refined)
+check "bench --image uv-refine: int8 psnr refined finite, in (20, 200) ($v)" num_in "$v" 20 200
+run bench --model "$MODEL" --image "$SPHERE" --modes f32,warp9
+check "bench --modes with an unknown mode exits 2" [ $RC -eq 2 ]
+check "bench --modes with an unknown mode: the message names it" grep -q "unknown mode 'warp9'" "$T/err"
+run bench --model "$MODEL" --modes f16
+check "bench --modes without --image exits 2" [ $RC -eq 2 ]
+run bench --model "$UV" --image "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --modes branch_rm --json "$T/bench_never.json"
+check "bench --modes branch_rm with a uv-refine model exits 1" [ $RC -eq 1 ]
+check "bench --modes branch_rm with a uv-refine model explains" grep -q "does not apply" "$T/err"
+absent "$T/bench_never.json"
+run bench --model "$MODEL" --image "$BAD"
+check "bench --image of 30x30 exits 1" [ $RC -eq 1 ]
+check "bench --image of 30x30: multiples of 8" grep -q 'multiples of 8' "$T/err"
 
 echo "$PASS passed, $FAIL failed"
 [ "$FAIL" -eq 0 ]

@@ -1,7 +1,9 @@
 /* Stability at the extremes (tiny official-architecture model): every intermediate tensor and output
    must be finite, outputs in [0, 1], for all-black, all-white and saturated images, alpha 0 and alpha 1
    everywhere, a one-pixel object, the smallest input (8x8), denormal inputs, degenerate cameras; the
-   memory plan of a 2048x2048 session; softmax with logits of +-1e4 against a float64 reference.
+   memory plan of a 2048x2048 session and (--large) a 2048x2048 run with VAE tiles; the same images with
+   f16 weights, and an f16-weight GEMM whose outputs (1e9) overflow f16 against float64; softmax with
+   logits of +-1e4 against a float64 reference.
    Denormals: the library never changes the FPU mode (no flush-to-zero) on any path.
    usage: test_extremes MODEL MV_MODEL */
 #define SUPERMAT_IMPLEMENTATION
@@ -17,6 +19,7 @@ static void check_finite(void *user, supermat_stage stage, int branch, float *d,
     for (i = 0; i < total; i++) if (!(d[i] - d[i] == 0.0f)) { if (!f->bad) f->where = stage; f->bad++; break; }
 }
 
+static int large_tile; /* vae_tile of run_image */
 static int run_image(supermat_model *m, int W, int H, const void *px, int channels, supermat_format fmt, const char *what) {
     supermat_session_desc sd;
     supermat_session *s = NULL;
@@ -26,7 +29,7 @@ static int run_image(supermat_model *m, int W, int H, const void *px, int channe
     float *alb = (float *)malloc(sizeof(float) * 3 * W * H), *rou = (float *)malloc(sizeof(float) * W * H);
     int i, ok = 1;
     memset(&sd, 0, sizeof sd);
-    sd.model = m; sd.width = W; sd.height = H; sd.threads = 2;
+    sd.model = m; sd.width = W; sd.height = H; sd.threads = 2; sd.vae_tile = large_tile; sd.vae_overlap = large_tile ? 64 : 0;
     if (supermat_session_create(&sd, &s, &err) != SUPERMAT_SUCCESS) { TU_CHECK(0, "%s: session: %s", what, err.message); free(alb); free(rou); return 0; }
     memset(&rd, 0, sizeof rd);
     memset(&f, 0, sizeof f);
@@ -175,19 +178,99 @@ static void test_cameras(const char *mv_path) {
     free(data);
 }
 
+/* f16 weights with activations whose products and sums overflow f16 (|y| ~ 1e9): weights are widened to
+   f32 before the multiply, so the GEMM matches a float64 reference on the dequantized weights */
+static void test_f16_overflow(void) {
+    enum { M = 13, K = 300, N = 37 };
+    supermat__ctx X;
+    supermat__pw W;
+    supermat__asrc A;
+    static float a[M * K], w[N * K], p[3 * K * 16], y[M * N], scale[2 * 3 * 16];
+    static uint16_t q[3 * K * 16];
+    float *scratch;
+    size_t bad = 0;
+    int i, j, k, avx2;
+    for (i = 0; i < M * K; i++) a[i] = (float)((i * 7919) % 2001 - 1000) * 100.0f;  /* up to 1e5 */
+    for (i = 0; i < N * K; i++) w[i] = (float)((i * 104729) % 2001 - 1000) * 60.0f;   /* up to 6e4, f16 range */
+    memset(p, 0, sizeof p);
+    for (j = 0; j < N; j++) for (k = 0; k < K; k++) p[((size_t)(j / 16) * K + k) * 16 + j % 16] = w[j * K + k];
+    TU_CHECK(supermat__quantize_panels(p, sizeof p / sizeof p[0], K, N, 1, q, scale, &bad) == 0, "f16 panels");
+    for (avx2 = 0; avx2 <= supermat_cpu_has_avx2(); avx2++) {
+        double worst = 0.0, ymax = 0.0;
+        memset(&X, 0, sizeof X);
+        X.avx2 = avx2;
+        supermat__select_kernels(&X);
+        X.scratch_floats = SUPERMAT__MC * SUPERMAT__KC + SUPERMAT__KC * SUPERMAT__NR;
+        scratch = (float *)malloc(sizeof(float) * X.scratch_floats);
+        X.scratch = &scratch;
+        memset(&W, 0, sizeof W); W.q = q; W.K = K; W.N = N; W.fmt = 1;
+        memset(&A, 0, sizeof A); A.a = a; A.lda = K;
+        supermat__gemm(&X, &A, M, &W, y, N, NULL, NULL, 0);
+        for (i = 0; i < M; i++)
+            for (j = 0; j < N; j++) {
+                double ref = 0.0;
+                for (k = 0; k < K; k++) ref += (double)a[i * K + k] * supermat__f16_to_f32(q[((size_t)(j / 16) * K + k) * 16 + j % 16]);
+                if (fabs(ref) > ymax) ymax = fabs(ref);
+                if (!(y[i * N + j] - y[i * N + j] == 0.0f)) worst = HUGE_VAL;
+                else if (fabs(y[i * N + j] - ref) > worst) worst = fabs(y[i * N + j] - ref);
+            }
+        printf("f16 weights, outputs up to %.3g (f16 max 65504): %s max error %.3g relative to the largest\n", ymax, avx2 ? "avx2" : "scalar", worst / ymax);
+        TU_CHECK(ymax > 1e8 && worst <= 1e-5 * ymax, "f16 weights with overflowing activations (%s): error %g of %g", avx2 ? "avx2" : "scalar", worst, ymax);
+        free(scratch);
+    }
+}
+
+/* a 2048x2048 run of the tiny model (VAE in 512-pixel tiles): finite, in [0, 1], and the tiled VAE
+   bounds the arena */
+static void test_large_run(supermat_model *m) {
+    enum { W = 2048 };
+    unsigned char *px = (unsigned char *)malloc((size_t)W * W * 4);
+    size_t i, whole = 0, tiled = 0;
+    supermat_session_desc sd;
+    supermat_error err;
+    for (i = 0; i < (size_t)W * W; i++) {
+        int x = (int)(i % W), y = (int)(i / W), dx = x - W / 2, dy = y - W / 2;
+        px[i * 4] = (unsigned char)(x * 255 / W); px[i * 4 + 1] = (unsigned char)(y * 255 / W); px[i * 4 + 2] = (unsigned char)((x ^ y) & 255);
+        px[i * 4 + 3] = (unsigned char)((long)dx * dx + (long)dy * dy < (long)(W / 3) * (W / 3) ? 255 : 0);
+    }
+    memset(&sd, 0, sizeof sd); sd.model = m; sd.width = W; sd.height = W; sd.threads = 2;
+    supermat_session_memory(&sd, &whole, &err);
+    sd.vae_tile = 512; sd.vae_overlap = 64;
+    supermat_session_memory(&sd, &tiled, &err);
+    printf("2048x2048 session: %.1f MiB whole, %.1f MiB with 512-pixel VAE tiles\n", whole / 1048576.0, tiled / 1048576.0);
+    TU_CHECK(tiled < whole / 2, "2048 tiled plan %zu vs whole %zu", tiled, whole);
+    large_tile = 512;
+    run_image(m, W, W, px, 4, SUPERMAT_FORMAT_U8, "2048x2048, VAE tiles of 512");
+    large_tile = 0;
+    free(px);
+}
+
 int main(int argc, char **argv) {
     size_t size = 0;
     unsigned char *data;
     supermat_model_desc md;
     supermat_model *m = NULL;
     supermat_error err;
-    if (argc < 3) { fprintf(stderr, "usage: %s MODEL MV_MODEL\n", argv[0]); return 2; }
+    if (argc < 3) { fprintf(stderr, "usage: %s MODEL MV_MODEL [--large]\n", argv[0]); return 2; }
     data = tu_load(argv[1], &size);
     if (!data) { printf("cannot read %s\n", argv[1]); return 1; }
     memset(&md, 0, sizeof md); md.data = data; md.size = size;
     TU_CHECK(supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, "model: %s", err.message);
+    if (argc > 3 && !strcmp(argv[3], "--large")) { /* its own ctest: 2-5 minutes on 2 cores */
+        if (m) test_large_run(m);
+        supermat_model_destroy(m);
+        free(data);
+        return tu_finish("extremes 2048");
+    }
     if (m) { test_images(m); test_large_plan(m); }
     supermat_model_destroy(m);
+    /* the same images with f16 weights */
+    md.weights = SUPERMAT_WEIGHTS_F16;
+    m = NULL;
+    TU_CHECK(supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, "f16 model: %s", err.message);
+    if (m) { printf("f16 weights:\n"); test_images(m); }
+    supermat_model_destroy(m);
+    test_f16_overflow();
     test_softmax_extremes();
     test_cameras(argv[2]);
     free(data);

@@ -6,6 +6,7 @@
  *     supermat refine --model uv_refine_bc.safetensors --map uv_bc.png --mask uv_mask.png --position uv_position.png --out maps/
  *     supermat info supermat.safetensors
  *     supermat bench --model supermat.safetensors --size 512
+ *     supermat bench --model supermat.safetensors --image photo.png --modes all --json table.json
  *
  * One translation unit: it defines SUPERMAT_IMPLEMENTATION (and so may use the header's private
  * `supermat__*` GEMM for the benchmark) and links with tools/sm_convert.c. Images are read and written
@@ -23,6 +24,8 @@
  *   >>refine     `supermat refine`
  *   >>info       `supermat info`
  *   >>bench      `supermat bench`: FMA peak, the pipeline per stage, AVX2 vs scalar GEMM
+ *   >>benchimage `supermat bench --image`: the speed / memory levers (modes) on a real input, a table
+ *                of seconds, speed-up, memory, FLOPs and PSNR / max error against the f32 mode
  *   >>main
  *
  * Exit status: 0 ok, 1 runtime error, 2 usage error.
@@ -166,7 +169,8 @@ static const char cli_usage_main[] =
     "  refine    complete a partial UV texture map (a uv-refine model)\n"
     "  info      describe a model file: architecture, parameters, dtypes, memory\n"
     "  mesh      a textured glTF mesh -> complete albedo + metallicRoughness UV textures (supermat_uv.h)\n"
-    "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM\n"
+    "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM; with --image\n"
+    "            a speed / accuracy table of the speed and memory levers on a real input\n"
     "\n"
     "  supermat COMMAND --help   the options of a command\n"
     "  supermat --version        the version\n"
@@ -299,10 +303,11 @@ static const char cli_usage_info[] =
 
 static const char cli_usage_bench[] =
     "usage: supermat bench --model FILE [options]\n"
+    "       supermat bench --model FILE --image IMAGE [--modes all|LIST] [--json FILE] [options]\n"
     "\n"
-    "Measures, in one run: (a) this machine's AVX2 FMA peak on every thread; (b) the full pipeline on\n"
-    "synthetic input, seconds / GFLOP / GFLOP/s / % of the peak per stage (VAE encode, UNet trunk,\n"
-    "each branch tail, each VAE decode), model creation time and peak memory; (c) one 3x3\n"
+    "Without --image, measures in one run: (a) this machine's AVX2 FMA peak on every thread; (b) the\n"
+    "full pipeline on synthetic input, seconds / GFLOP / GFLOP/s / % of the peak per stage (VAE encode,\n"
+    "UNet trunk, each branch tail, each VAE decode), model creation time and peak memory; (c) one 3x3\n"
     "convolution GEMM (M=4096, K=9*320, N=320, the first UNet level at 512x512) with the AVX2 and\n"
     "the scalar micro-kernel, and their ratio.\n"
     "\n"
@@ -321,6 +326,57 @@ static const char cli_usage_bench[] =
     "  --kernel K        auto | scalar | avx2: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --json FILE       also write the numbers as JSON\n";
+
+/* (the rest of `bench --help`: one string literal would be longer than C99 promises) */
+static const char cli_usage_bench_image[] =
+    "\n"
+    "SPEED / ACCURACY TABLE (--image)\n"
+    "With --image, runs each selected mode (a speed or memory lever) on that real input and prints one\n"
+    "row per mode: seconds (supermat_run only, best of --repeats; model and session creation are not\n"
+    "timed), speed-up over the f32 mode, peak MiB (the model's memory + the session's planned arena),\n"
+    "the FLOPs the run performed and GFLOP/s, and per map (albedo, roughness, metallic; uv-refine: the\n"
+    "refined map) against the f32 mode's float outputs: psnr = 10 log10(1 / MSE) in dB over all\n"
+    "pixels and channels (200 = identical, the cap), psnr_fg the same over the foreground pixels only\n"
+    "(input alpha > 0; uv-refine: mask > 0.5), and max_abs, the largest absolute difference (maps in\n"
+    "[0, 1]). A map a mode does not compute is shown as - (null in JSON).\n"
+    "  supermat      --image IMAGE (RGBA, straight alpha)\n"
+    "  supermat-mv   --image VIEW once per view with --cameras meta.json (as `supermat views` matches\n"
+    "                them), or one --image and no cameras: that image as every one of --views N views\n"
+    "                (default 6) with cameras on a circle\n"
+    "  uv-refine     --image MAP --mask MASK --position POS\n"
+    "Images are not resized: width and height must be multiples of 8.\n"
+    "\n"
+    "modes (--modes all: every mode that applies to the model; or a comma list; f32, the reference,\n"
+    "always runs first):\n"
+    "  f32                 f32 weights, direct convolutions, the official computation (the reference)\n"
+    "  f16, bf16, int8     the GEMM weights stored as f16 / bf16 / int8 (a model of its own)\n"
+    "  winograd_f2, winograd_f4\n"
+    "                      3x3 convolutions by Winograd F(2x2,3x3) / F(4x4,3x3) (a model of its own)\n"
+    "  tiled_vae           the VAE in 2x2 tiles: vae_tile ((S/8 + 4) / 2) * 8, overlap 32, where\n"
+    "                      S = max(width, height) (272 at 512)\n"
+    "  foreground          vae_tile S/4 + 16 rounded up to a multiple of 8 (144 at 512), overlap 16,\n"
+    "                      background tiles not decoded (skip_background)\n"
+    "  branch_albedo       supermat, supermat-mv: the albedo map only\n"
+    "  branch_rm           supermat, supermat-mv: the roughness and metallic maps only\n"
+    "  res256, res384      supermat, supermat-mv: the network at 256 / 384 pixels on the longer side\n"
+    "                      (work_width x work_height, proportional, multiples of 8), maps resampled\n"
+    "                      back; skipped when the image is not larger\n"
+    "  res512, res768      uv-refine: the same at 512 / 768\n"
+    "  mv_window_own       supermat-mv: highest-resolution attention within each view only\n"
+    "  mv_window_stride4   supermat-mv: own view + every 4th key of the other views\n"
+    "\n"
+    "options with --image (besides --model, --threads, --repeats, --kernel, --views above):\n"
+    "  --image FILE      the input (see above; repeated for the views of a supermat-mv model)\n"
+    "  --mask FILE       uv-refine: the mask (8-bit gray; colour is converted)\n"
+    "  --position FILE   uv-refine: the position map\n"
+    "  --cameras FILE    supermat-mv: the meta.json with the views' cameras\n"
+    "  --modes LIST      all, or a comma list of the modes above (default all)\n"
+    "  --json FILE       also write the table as a JSON list, one object per mode:\n"
+    "                    {\"mode\", \"seconds\", \"speedup\", \"peak_bytes\", \"flops\", \"psnr\": {\"albedo\",\n"
+    "                    \"roughness\", \"metallic\"}, \"psnr_fg\": {...}, \"max_abs\": {...}} (uv-refine:\n"
+    "                    the key \"refined\"); skipped and failed modes are left out\n"
+    "--size, --outputs, --weights and --pipeline-only do not apply with --image. A mode that fails is\n"
+    "reported and the others still run; the exit status is then 1.\n";
 
 static int cli_usage_error(const char *cmd, const char *fmt, ...) CLI_PRINTF(2, 3);
 static int cli_usage_error(const char *cmd, const char *fmt, ...) {
@@ -1823,6 +1879,629 @@ static size_t cli_peak_rss(void) {
 #endif
 }
 
+/* >>benchimage */
+/* `supermat bench --image`: each mode (one speed / memory lever) runs on the same real input; the f32
+   mode is the reference every other mode's float maps are compared with. */
+enum {
+    CLI_MODE_F32, CLI_MODE_F16, CLI_MODE_BF16, CLI_MODE_INT8, CLI_MODE_WINOGRAD_F2, CLI_MODE_WINOGRAD_F4,
+    CLI_MODE_TILED_VAE, CLI_MODE_FOREGROUND, CLI_MODE_BRANCH_ALBEDO, CLI_MODE_BRANCH_RM, CLI_MODE_RES256,
+    CLI_MODE_RES384, CLI_MODE_RES512, CLI_MODE_RES768, CLI_MODE_MV_WINDOW_OWN, CLI_MODE_MV_WINDOW_STRIDE4,
+    CLI_MODE_COUNT
+};
+/* the model kinds a mode applies to */
+#define CLI_KS 1u  /* supermat */
+#define CLI_KMV 2u /* supermat-mv */
+#define CLI_KUV 4u /* uv-refine */
+static const struct { const char *name; unsigned kinds; } cli_modes[CLI_MODE_COUNT] = {
+    {"f32", CLI_KS | CLI_KMV | CLI_KUV},         {"f16", CLI_KS | CLI_KMV | CLI_KUV},
+    {"bf16", CLI_KS | CLI_KMV | CLI_KUV},        {"int8", CLI_KS | CLI_KMV | CLI_KUV},
+    {"winograd_f2", CLI_KS | CLI_KMV | CLI_KUV}, {"winograd_f4", CLI_KS | CLI_KMV | CLI_KUV},
+    {"tiled_vae", CLI_KS | CLI_KMV | CLI_KUV},   {"foreground", CLI_KS | CLI_KMV | CLI_KUV},
+    {"branch_albedo", CLI_KS | CLI_KMV},         {"branch_rm", CLI_KS | CLI_KMV},
+    {"res256", CLI_KS | CLI_KMV},                {"res384", CLI_KS | CLI_KMV},
+    {"res512", CLI_KUV},                         {"res768", CLI_KUV},
+    {"mv_window_own", CLI_KMV},                  {"mv_window_stride4", CLI_KMV},
+};
+
+static unsigned cli_kind_bit(supermat_model_kind k) {
+    return k == SUPERMAT_KIND_SUPERMAT ? CLI_KS : k == SUPERMAT_KIND_SUPERMAT_MV ? CLI_KMV : k == SUPERMAT_KIND_UV_REFINE ? CLI_KUV : 0u;
+}
+
+/* --modes: "all" (*n = 0 and *all = 1) or a comma list of names, in the order given, without repeats */
+static int cli_parse_modes(const char *cmd, const char *s, int *list, int *n, int *all) {
+    const char *p = s;
+    int seen[CLI_MODE_COUNT], k;
+    memset(seen, 0, sizeof seen);
+    *n = 0; *all = 0;
+    while (*p) {
+        const char *e = strchr(p, ',');
+        size_t len = e ? (size_t)(e - p) : strlen(p);
+        if (len == 3 && !strncmp(p, "all", 3)) *all = 1;
+        else if (len != 0) {
+            for (k = 0; k < CLI_MODE_COUNT; k++)
+                if (strlen(cli_modes[k].name) == len && !strncmp(p, cli_modes[k].name, len)) break;
+            if (k == CLI_MODE_COUNT) {
+                char names[400];
+                size_t used = 0;
+                int j;
+                names[0] = 0;
+                for (j = 0; j < CLI_MODE_COUNT; j++)
+                    used += (size_t)snprintf(names + used, sizeof names - used, "%s%s", j ? ", " : "", cli_modes[j].name);
+                cli_usage_error(cmd, "--modes: unknown mode '%.*s' (all, or a comma list of: %s)", (int)len, p, names);
+                return -1;
+            }
+            if (!seen[k]) { seen[k] = 1; list[(*n)++] = k; }
+        }
+        p += len;
+        if (*p == ',') p++;
+    }
+    if (!*all && !*n) { cli_usage_error(cmd, "--modes: empty list"); return -1; }
+    return 0;
+}
+
+/* what one mode changes: the model (weights, conv), the outputs and the session levers. Returns 0,
+   or 1 if the mode does not apply to this image (a resolution not below the image's), with `why`. */
+static int cli_mode_setup(int mode, int w, int h, supermat_weights *weights, supermat_conv *conv, unsigned *outputs,
+                          supermat_session_desc *sd, char *why, size_t why_cap) {
+    int S = w > h ? w : h, t, R = 0;
+    *weights = SUPERMAT_WEIGHTS_F32;
+    *conv = SUPERMAT_CONV_DIRECT;
+    *outputs = SUPERMAT_OUTPUT_ALL;
+    switch (mode) {
+    case CLI_MODE_F16: *weights = SUPERMAT_WEIGHTS_F16; break;
+    case CLI_MODE_BF16: *weights = SUPERMAT_WEIGHTS_BF16; break;
+    case CLI_MODE_INT8: *weights = SUPERMAT_WEIGHTS_I8; break;
+    case CLI_MODE_WINOGRAD_F2: *conv = SUPERMAT_CONV_WINOGRAD_F2; break;
+    case CLI_MODE_WINOGRAD_F4: *conv = SUPERMAT_CONV_WINOGRAD_F4; break;
+    case CLI_MODE_TILED_VAE: /* 2x2 tiles */
+        t = ((S / 8 + 4) / 2) * 8;
+        sd->vae_tile = t < 40 ? 40 : t; /* larger than the overlap */
+        sd->vae_overlap = 32;
+        break;
+    case CLI_MODE_FOREGROUND:
+        t = (S / 4 + 16 + 7) / 8 * 8;
+        sd->vae_tile = t < 32 ? 32 : t;
+        sd->vae_overlap = 16;
+        sd->skip_background = 1;
+        break;
+    case CLI_MODE_BRANCH_ALBEDO: *outputs = SUPERMAT_OUTPUT_ALBEDO; break;
+    case CLI_MODE_BRANCH_RM: *outputs = SUPERMAT_OUTPUT_ROUGHNESS | SUPERMAT_OUTPUT_METALLIC; break;
+    case CLI_MODE_RES256: R = 256; break;
+    case CLI_MODE_RES384: R = 384; break;
+    case CLI_MODE_RES512: R = 512; break;
+    case CLI_MODE_RES768: R = 768; break;
+    case CLI_MODE_MV_WINDOW_OWN: sd->mv_attention = SUPERMAT_MV_ATTENTION_OWN_VIEW; break;
+    case CLI_MODE_MV_WINDOW_STRIDE4: sd->mv_attention = SUPERMAT_MV_ATTENTION_STRIDED; sd->mv_key_stride = 4; break;
+    default: break;
+    }
+    if (R) {
+        int ww, hh;
+        if (R >= S) {
+            snprintf(why, why_cap, "the network size %d is not below the image's %dx%d", R, w, h);
+            return 1;
+        }
+        /* the longer side R, the other in proportion, both multiples of 8 */
+        ww = (int)floor((double)w * R / S / 8.0 + 0.5) * 8;
+        hh = (int)floor((double)h * R / S / 8.0 + 0.5) * 8;
+        sd->work_width = ww < 8 ? 8 : ww;
+        sd->work_height = hh < 8 ? 8 : hh;
+    }
+    return 0;
+}
+
+/* this machine's CPU name (Linux /proc/cpuinfo), or "" */
+static void cli_cpu_name(char *buf, size_t cap) {
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    char line[512];
+    buf[0] = 0;
+    if (!f) return;
+    while (fgets(line, sizeof line, f)) {
+        if (!strncmp(line, "model name", 10)) {
+            char *c = strchr(line, ':'), *e;
+            if (c) {
+                c++;
+                while (*c == ' ' || *c == '\t') c++;
+                e = c + strlen(c);
+                while (e > c && (e[-1] == '\n' || e[-1] == '\r' || e[-1] == ' ')) *--e = 0;
+                snprintf(buf, cap, "%s", c);
+            }
+            break;
+        }
+    }
+    fclose(f);
+}
+
+/* the input of every mode */
+typedef struct cli_bi_input {
+    supermat_model_kind kind;
+    int w, h, nviews, nmaps;         /* nmaps: 3 (albedo, roughness, metallic) or 1 (refined) */
+    size_t np;                       /* pixels per view */
+    supermat_image *in;              /* nviews inputs (one buffer repeated for synthetic views) */
+    const float *c2w;                /* supermat-mv: nviews x 16 */
+    unsigned char *mask, *pos;       /* uv-refine */
+    unsigned char *fg;               /* nviews x np: 1 = foreground (alpha > 0; uv-refine: mask > 0.5) */
+    supermat_image *ov[3];           /* supermat-mv: per-view output images, pointed at the buffers per run */
+} cli_bi_input;
+
+static const char *const cli_bi_map_names[3] = {"albedo", "roughness", "metallic"};
+static int cli_bi_channels(const cli_bi_input *in, int k) { return in->nmaps == 1 ? 3 : cli_map_channels[k]; }
+static const char *cli_bi_map_name(const cli_bi_input *in, int k) { return in->nmaps == 1 ? "refined" : cli_bi_map_names[k]; }
+static int cli_bi_wants(const cli_bi_input *in, unsigned outputs, int k) {
+    return in->nmaps == 1 ? 1 : (outputs & (1u << k)) != 0; /* SUPERMAT_OUTPUT_ALBEDO = 1, ROUGHNESS = 2, METALLIC = 4 */
+}
+
+/* one run into maps[k] (float32, views one after the other), maps[k] NULL = not wanted */
+static supermat_result cli_bi_run(supermat_session *s, const cli_bi_input *in, float *const *maps, supermat_error *err) {
+    supermat_run_desc rd;
+    int k, v;
+    memset(&rd, 0, sizeof rd);
+    rd.input = in->in[0];
+    if (in->kind == SUPERMAT_KIND_UV_REFINE) {
+        rd.mask.pixels = in->mask; rd.mask.width = in->w; rd.mask.height = in->h; rd.mask.channels = 1;
+        rd.position.pixels = in->pos; rd.position.width = in->w; rd.position.height = in->h; rd.position.channels = 3;
+        rd.refined.pixels = maps[0]; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+    } else if (in->kind == SUPERMAT_KIND_SUPERMAT_MV) {
+        rd.input_views = in->in;
+        rd.cameras = in->c2w;
+        for (k = 0; k < 3; k++) {
+            if (!maps[k]) continue;
+            for (v = 0; v < in->nviews; v++) {
+                supermat_image *o = &in->ov[k][v];
+                memset(o, 0, sizeof *o);
+                o->pixels = maps[k] + in->np * (size_t)cli_map_channels[k] * (size_t)v;
+                o->channels = cli_map_channels[k];
+                o->format = SUPERMAT_FORMAT_F32;
+            }
+        }
+        rd.albedo_views = maps[0] ? in->ov[0] : NULL;
+        rd.roughness_views = maps[1] ? in->ov[1] : NULL;
+        rd.metallic_views = maps[2] ? in->ov[2] : NULL;
+    } else {
+        supermat_image *o[3];
+        o[0] = &rd.albedo; o[1] = &rd.roughness; o[2] = &rd.metallic;
+        for (k = 0; k < 3; k++) {
+            if (!maps[k]) continue;
+            o[k]->pixels = maps[k]; o[k]->channels = cli_map_channels[k]; o[k]->format = SUPERMAT_FORMAT_F32;
+        }
+    }
+    return supermat_run(s, &rd, err);
+}
+
+#define CLI_PSNR_CAP 200.0
+typedef struct cli_bi_row {
+    int mode, done;
+    double seconds, speedup, flops;
+    size_t peak_bytes;
+    int has[3], has_fg[3];
+    double psnr[3], psnr_fg[3], max_abs[3];
+} cli_bi_row;
+
+static double cli_psnr(double sse, double n) {
+    double mse = sse / n, p;
+    if (mse != mse) return mse; /* NaN: shown as nan, written as null */
+    if (!(mse > 0.0)) return CLI_PSNR_CAP;
+    p = 10.0 * log10(1.0 / mse);
+    return p > CLI_PSNR_CAP ? CLI_PSNR_CAP : p;
+}
+
+/* PSNR (all pixels, foreground pixels) and max abs error of map k against the reference */
+static void cli_bi_compare(const cli_bi_input *in, int k, const float *ref, const float *got, cli_bi_row *row) {
+    int c = cli_bi_channels(in, k), j;
+    size_t n = in->np * (size_t)in->nviews, p, nfg = 0;
+    double sse = 0.0, sse_fg = 0.0, mx = 0.0;
+    for (p = 0; p < n; p++) {
+        double s = 0.0;
+        for (j = 0; j < c; j++) {
+            double d = (double)got[p * (size_t)c + (size_t)j] - (double)ref[p * (size_t)c + (size_t)j], a = fabs(d);
+            s += d * d;
+            if (a > mx || a != a) mx = a; /* a NaN shows */
+        }
+        sse += s;
+        if (in->fg[p]) { sse_fg += s; nfg++; }
+    }
+    row->has[k] = 1;
+    row->psnr[k] = cli_psnr(sse, (double)n * c);
+    row->max_abs[k] = mx;
+    row->has_fg[k] = nfg > 0;
+    row->psnr_fg[k] = nfg ? cli_psnr(sse_fg, (double)nfg * c) : 0.0;
+}
+
+static void cli_bi_print_header(const cli_bi_input *in) {
+    int k;
+    printf("%-18s %9s %8s %9s %9s %8s", "", "", "", "", "", "");
+    for (k = 0; k < in->nmaps; k++) printf(" | %-25s", cli_bi_map_name(in, k));
+    printf("\n%-18s %9s %8s %9s %9s %8s", "mode", "seconds", "speedup", "peak MiB", "GFLOP", "GFLOP/s");
+    for (k = 0; k < in->nmaps; k++) printf(" | %7s %7s %9s", "psnr", "psnr_fg", "max_abs");
+    printf("\n");
+}
+
+static void cli_bi_print_row(const cli_bi_input *in, const cli_bi_row *r) {
+    int k;
+    printf("%-18s %9.4f %7.2fx %9.1f %9.3f %8.2f", cli_modes[r->mode].name, r->seconds, r->speedup, cli_mib((double)r->peak_bytes),
+           r->flops / 1e9, r->seconds > 0 ? r->flops / r->seconds / 1e9 : 0.0);
+    for (k = 0; k < in->nmaps; k++) {
+        if (!r->has[k]) { printf(" | %7s %7s %9s", "-", "-", "-"); continue; }
+        printf(" | %7.2f", r->psnr[k]);
+        if (r->has_fg[k]) printf(" %7.2f", r->psnr_fg[k]);
+        else printf(" %7s", "-");
+        printf(" %9.3e", r->max_abs[k]);
+    }
+    printf("\n");
+    fflush(stdout);
+}
+
+static void cli_json_number_or_null(FILE *f, int has, double v) {
+    if (has && v == v && v - v == 0.0) fprintf(f, "%.6g", v);
+    else fputs("null", f);
+}
+
+/* writes and closes f (opened before the runs, so that a bad path fails at once) */
+static int cli_bi_write_json(FILE *f, const char *path, const cli_bi_input *in, const cli_bi_row *rows, int nrows) {
+    int i, k, q, first = 1;
+    static const char *const groups[3] = {"psnr", "psnr_fg", "max_abs"};
+    fputs("[\n", f);
+    for (i = 0; i < nrows; i++) {
+        const cli_bi_row *r = &rows[i];
+        if (!r->done) continue;
+        fprintf(f, "%s  {\"mode\": \"%s\", \"seconds\": %.6g, \"speedup\": %.6g, \"peak_bytes\": %llu, \"flops\": %.6g", first ? "" : ",\n",
+                cli_modes[r->mode].name, r->seconds, r->speedup, (unsigned long long)r->peak_bytes, r->flops);
+        first = 0;
+        for (q = 0; q < 3; q++) {
+            fprintf(f, ", \"%s\": {", groups[q]);
+            for (k = 0; k < in->nmaps; k++) {
+                fprintf(f, "%s\"%s\": ", k ? ", " : "", cli_bi_map_name(in, k));
+                if (q == 0) cli_json_number_or_null(f, r->has[k], r->psnr[k]);
+                else if (q == 1) cli_json_number_or_null(f, r->has[k] && r->has_fg[k], r->psnr_fg[k]);
+                else cli_json_number_or_null(f, r->has[k], r->max_abs[k]);
+            }
+            fputc('}', f);
+        }
+        fputc('}', f);
+    }
+    fputs(first ? "]\n" : "\n]\n", f);
+    if (ferror(f) | (fclose(f) != 0)) { cli_error("cannot write '%s'", path); return CLI_FAIL; }
+    return CLI_OK;
+}
+
+typedef struct cli_bench_opts {
+    const char *model_path, *json_path, *mask_path, *pos_path, *cam_path;
+    const char *images[CLI_MAX_VIEWS];
+    int nimg, views, threads, repeats, nmodes, modes_all;
+    int modes[CLI_MODE_COUNT];
+    supermat_kernel kernel;
+} cli_bench_opts;
+
+static supermat_result cli_bi_model(const unsigned char *buf, size_t size, supermat_kernel kernel, supermat_weights weights,
+                                    supermat_conv conv, supermat_model **model, supermat_error *err) {
+    supermat_model_desc md;
+    memset(&md, 0, sizeof md);
+    md.data = buf; md.size = size; md.kernel = kernel; md.weights = weights; md.conv = conv;
+    return supermat_model_create(&md, model, err);
+}
+
+static int cli_bench_image(const cli_bench_opts *o) {
+    const char *path0 = o->images[0];
+    int i, k, v, rc = CLI_OK, w = 0, h = 0, nviews = 1, ncam = 0, nrows = 0, failed = 0, order[CLI_MODE_COUNT], norder = 0;
+    unsigned char *file = NULL, *px[CLI_MAX_VIEWS];
+    size_t file_size = 0, nout[3] = {0, 0, 0};
+    supermat_model *base = NULL;
+    supermat_model_info mi;
+    supermat_error err;
+    supermat_result r;
+    supermat_pool *pool = NULL;
+    supermat_threading hook;
+    cli_bi_input in;
+    cli_camera *cams = NULL;
+    float *c2w = NULL, *ref[3] = {NULL, NULL, NULL}, *cur[3] = {NULL, NULL, NULL};
+    cli_bi_row rows[CLI_MODE_COUNT];
+    char skipped[CLI_MODE_COUNT][160], cpu[256];
+    int nskipped = 0, skipped_mode[CLI_MODE_COUNT];
+    double f32_seconds = 0.0;
+    FILE *jf = NULL;
+
+    memset(px, 0, sizeof px);
+    memset(&in, 0, sizeof in);
+    memset(&mi, 0, sizeof mi);
+    memset(rows, 0, sizeof rows);
+    memset(&hook, 0, sizeof hook);
+
+    /* the images' sizes before the (slow) model load */
+    for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
+        int iw, ih, c;
+        if (!stbi_info(o->images[i], &iw, &ih, &c)) { cli_error("cannot read image '%s': %s", o->images[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (i == 0) { w = iw; h = ih; }
+        if (iw != w || ih != h) {
+            cli_error("image '%s' is %dx%d but image '%s' is %dx%d: all views must have the same size (supermat does not resize)",
+                      o->images[i], iw, ih, path0, w, h);
+            rc = CLI_FAIL;
+        } else if (w % 8 || h % 8) {
+            cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
+                      "resize it first, e.g. to 512x512)", o->images[i], w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    for (i = 0; i < 2 && rc == CLI_OK; i++) {
+        const char *p = i ? o->pos_path : o->mask_path, *what = i ? "the position map" : "the mask";
+        int iw, ih, c;
+        if (!p) continue;
+        if (!stbi_info(p, &iw, &ih, &c)) { cli_error("cannot read %s '%s': %s", what, p, stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (iw != w || ih != h) {
+            cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
+                      "size (supermat does not resize)", what, p, iw, ih, path0, w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK && o->json_path) {
+        jf = fopen(o->json_path, "w");
+        if (!jf) { cli_error("cannot write '%s': %s", o->json_path, strerror(errno)); rc = CLI_FAIL; }
+    }
+
+    /* the reference model, and what the inputs must be for its kind */
+    if (rc == CLI_OK) rc = cli_read_file(o->model_path, &file, &file_size);
+    if (rc == CLI_OK) {
+        r = cli_bi_model(file, file_size, o->kernel, SUPERMAT_WEIGHTS_F32, SUPERMAT_CONV_DIRECT, &base, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char what[600];
+            snprintf(what, sizeof what, "model '%s'", o->model_path);
+            cli_lib_error(what, r, &err);
+            rc = CLI_FAIL;
+        } else supermat_model_get_info(base, &mi);
+    }
+    if (rc == CLI_OK) {
+        const char *kn = cli_kind_name(mi.kind);
+        in.kind = mi.kind;
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE) {
+            if (o->nimg != 1 || !o->mask_path || !o->pos_path) {
+                cli_error("model '%s' is a uv-refine model: give one --image MAP with --mask MASK and --position POS", o->model_path);
+                rc = CLI_FAIL;
+            }
+        } else if (o->mask_path || o->pos_path) {
+            cli_error("--mask and --position are for a uv-refine model; model '%s' is a %s model", o->model_path, kn);
+            rc = CLI_FAIL;
+        }
+        if (rc == CLI_OK && mi.kind == SUPERMAT_KIND_SUPERMAT_MV) {
+            if (o->nimg > 1 && !o->cam_path) {
+                cli_error("%d views: give their cameras with --cameras meta.json (one --image without cameras is repeated as "
+                          "--views views on a circle of cameras)", o->nimg);
+                rc = CLI_FAIL;
+            } else if (o->cam_path && o->views && o->views != o->nimg) {
+                cli_error("--views %d with %d --image view%s and --cameras: the views are the images", o->views, o->nimg, o->nimg == 1 ? "" : "s");
+                rc = CLI_FAIL;
+            } else if (o->cam_path && mi.class_embed_in != 16) {
+                cli_error("model '%s' takes %d camera numbers per view; a meta.json camera is a 4x4 matrix (16)", o->model_path, mi.class_embed_in);
+                rc = CLI_FAIL;
+            }
+            nviews = o->cam_path ? o->nimg : o->views ? o->views : 6;
+        } else if (rc == CLI_OK) {
+            if (o->nimg > 1) {
+                cli_error("%d --image inputs: model '%s' is a %s model, which takes one (only a supermat-mv model takes several views)",
+                          o->nimg, o->model_path, kn);
+                rc = CLI_FAIL;
+            } else if (o->cam_path || o->views > 1) {
+                cli_error("%s: model '%s' is a %s model, only a supermat-mv model takes views and cameras",
+                          o->cam_path ? "--cameras" : "--views", o->model_path, kn);
+                rc = CLI_FAIL;
+            }
+        }
+    }
+    /* the views' cameras (a supermat-mv model) */
+    if (rc == CLI_OK && o->cam_path) {
+        c2w = (float *)calloc((size_t)o->nimg * 16, sizeof(float));
+        if (!c2w) { cli_error("out of memory"); rc = CLI_FAIL; }
+        if (rc == CLI_OK) rc = cli_read_cameras(o->cam_path, &cams, &ncam);
+        for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
+            char *stem = cli_stem(o->images[i]);
+            long index;
+            const cli_camera *c;
+            if (!stem) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+            index = cli_stem_index(stem);
+            free(stem);
+            if (index < 0) {
+                cli_error("view '%s': its file name does not end with a number (up to 9 digits; e.g. color_0003.png -> 3), "
+                          "so it has no camera index in the meta.json", o->images[i]);
+                rc = CLI_FAIL;
+                break;
+            }
+            c = cli_find_camera(cams, ncam, index, o->images[i], o->cam_path);
+            if (!c) rc = CLI_FAIL;
+            else memcpy(c2w + 16 * i, c->m, sizeof c->m);
+        }
+    }
+
+    /* the modes, f32 first */
+    if (rc == CLI_OK) {
+        unsigned kb = cli_kind_bit(mi.kind);
+        order[norder++] = CLI_MODE_F32;
+        if (o->modes_all) {
+            for (k = 1; k < CLI_MODE_COUNT; k++) if (cli_modes[k].kinds & kb) order[norder++] = k;
+        }
+        for (i = 0; i < o->nmodes && rc == CLI_OK; i++) {
+            int m = o->modes[i], j, dup = 0;
+            if (!(cli_modes[m].kinds & kb)) {
+                cli_error("--modes: mode '%s' does not apply to model '%s', a %s model", cli_modes[m].name, o->model_path,
+                          cli_kind_name(mi.kind));
+                rc = CLI_FAIL;
+            }
+            for (j = 0; j < norder; j++) dup |= order[j] == m;
+            if (!dup) order[norder++] = m;
+        }
+    }
+
+    /* the input pixels */
+    if (rc == CLI_OK) {
+        in.w = w; in.h = h; in.nviews = nviews; in.np = (size_t)w * (size_t)h;
+        in.nmaps = mi.kind == SUPERMAT_KIND_UV_REFINE ? 1 : 3;
+        in.in = (supermat_image *)calloc((size_t)nviews, sizeof *in.in);
+        in.fg = (unsigned char *)malloc(in.np * (size_t)nviews);
+        if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) {
+            for (k = 0; k < 3; k++) in.ov[k] = (supermat_image *)calloc((size_t)nviews, sizeof(supermat_image));
+            if (!c2w) {
+                c2w = (float *)calloc((size_t)nviews * 16, sizeof(float));
+                if (c2w) cli_ring_cameras(nviews, c2w);
+            }
+            in.c2w = c2w;
+        }
+        if (!in.in || !in.fg || (mi.kind == SUPERMAT_KIND_SUPERMAT_MV && (!in.ov[0] || !in.ov[1] || !in.ov[2] || !c2w))) {
+            cli_error("out of memory");
+            rc = CLI_FAIL;
+        }
+    }
+    for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
+        int iw = 0, ih = 0, c = 0, uv = mi.kind == SUPERMAT_KIND_UV_REFINE;
+        px[i] = stbi_load(o->images[i], &iw, &ih, &c, uv ? 3 : 4);
+        if (!px[i]) { cli_error("cannot read image '%s': %s", o->images[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (iw != w || ih != h) { cli_error("image '%s' is %dx%d, not %dx%d as before (did it change?)", o->images[i], iw, ih, w, h); rc = CLI_FAIL; break; }
+    }
+    if (rc == CLI_OK && mi.kind == SUPERMAT_KIND_UV_REFINE) {
+        int iw = 0, ih = 0, c = 0;
+        in.mask = cli_load_gray(o->mask_path, &iw, &ih);
+        if (!in.mask) { cli_error("cannot read the mask '%s': %s", o->mask_path, stbi_failure_reason()); rc = CLI_FAIL; }
+        else if (iw != w || ih != h) { cli_error("the mask '%s' is %dx%d, not %dx%d as before (did it change?)", o->mask_path, iw, ih, w, h); rc = CLI_FAIL; }
+        if (rc == CLI_OK) {
+            in.pos = stbi_load(o->pos_path, &iw, &ih, &c, 3);
+            if (!in.pos) { cli_error("cannot read the position map '%s': %s", o->pos_path, stbi_failure_reason()); rc = CLI_FAIL; }
+            else if (iw != w || ih != h) { cli_error("the position map '%s' is %dx%d, not %dx%d as before (did it change?)", o->pos_path, iw, ih, w, h); rc = CLI_FAIL; }
+        }
+    }
+    if (rc == CLI_OK) {
+        int uv = mi.kind == SUPERMAT_KIND_UV_REFINE;
+        size_t p;
+        for (v = 0; v < nviews; v++) {
+            unsigned char *src = px[v < o->nimg ? v : 0];
+            unsigned char *fg = in.fg + in.np * (size_t)v;
+            in.in[v].pixels = src; in.in[v].width = w; in.in[v].height = h; in.in[v].channels = uv ? 3 : 4;
+            in.in[v].format = SUPERMAT_FORMAT_U8;
+            for (p = 0; p < in.np; p++) fg[p] = uv ? in.mask[p] >= 128 /* > 0.5 */ : src[p * 4 + 3] > 0;
+        }
+        for (k = 0; k < in.nmaps; k++) {
+            nout[k] = in.np * (size_t)nviews * (size_t)cli_bi_channels(&in, k);
+            ref[k] = (float *)malloc(nout[k] * sizeof(float));
+            cur[k] = (float *)malloc(nout[k] * sizeof(float));
+            if (!ref[k] || !cur[k]) { cli_error("out of memory for the maps (%d view%s of %dx%d)", nviews, nviews == 1 ? "" : "s", w, h); rc = CLI_FAIL; break; }
+        }
+    }
+
+    /* one pool for every session */
+    if (rc == CLI_OK) {
+#if SUPERMAT__HAS_PTHREADS
+        if (supermat_pool_create(o->threads, NULL, &pool, &hook) != SUPERMAT_SUCCESS) { cli_error("cannot create the thread pool"); rc = CLI_FAIL; }
+#else
+        hook.parallel_for = cli_serial_for; hook.user = NULL; hook.max_threads = 1;
+#endif
+    }
+
+    if (rc == CLI_OK) {
+        char vs[48], ins[64];
+        vs[0] = 0;
+        if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV)
+            snprintf(vs, sizeof vs, " x %d view%s%s", nviews, nviews == 1 ? "" : "s", o->cam_path ? "" : " (one image, cameras on a circle)");
+        snprintf(ins, sizeof ins, "%s", mi.kind == SUPERMAT_KIND_UV_REFINE ? "map" : o->nimg > 1 ? "views" : "image");
+        cli_cpu_name(cpu, sizeof cpu);
+        printf("supermat bench: %s (%s, kernel %s)\n", o->model_path, cli_kind_name(mi.kind), cli_kernel_name(mi.kernel));
+        printf("%-8s %s%s, %dx%d%s\n", ins, path0, o->nimg > 1 ? ", ..." : "", w, h, vs);
+        printf("machine  %s%s%d thread%s, seconds = best of %d run%s\n", cpu, cpu[0] ? ", " : "", hook.max_threads,
+               hook.max_threads == 1 ? "" : "s", o->repeats, o->repeats == 1 ? "" : "s");
+        printf("\n");
+        cli_bi_print_header(&in);
+        fflush(stdout);
+    }
+
+    for (i = 0; i < norder && rc == CLI_OK; i++) {
+        int mode = order[i], rep, skip;
+        supermat_weights wt;
+        supermat_conv conv;
+        unsigned outputs;
+        supermat_session_desc sd;
+        supermat_model *model = base, *extra = NULL;
+        supermat_session *sess = NULL;
+        supermat_model_info emi;
+        supermat_flops fl;
+        size_t sbytes = 0;
+        float *maps[3];
+        double best = 1e30;
+        char what[80];
+        cli_bi_row *row = &rows[nrows];
+        memset(&sd, 0, sizeof sd);
+        skip = cli_mode_setup(mode, w, h, &wt, &conv, &outputs, &sd, skipped[nskipped], sizeof skipped[nskipped]);
+        if (skip) { skipped_mode[nskipped++] = mode; continue; }
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE) outputs = SUPERMAT_OUTPUT_ALL;
+        row->mode = mode;
+        nrows++;
+        snprintf(what, sizeof what, "mode %s", cli_modes[mode].name);
+        r = SUPERMAT_SUCCESS;
+        if (wt != SUPERMAT_WEIGHTS_F32 || conv != SUPERMAT_CONV_DIRECT) {
+            r = cli_bi_model(file, file_size, o->kernel, wt, conv, &extra, &err);
+            model = extra;
+        }
+        memset(&emi, 0, sizeof emi);
+        if (r == SUPERMAT_SUCCESS) {
+            supermat_model_get_info(model, &emi);
+            sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nviews; sd.threading = hook;
+            r = supermat_session_memory(&sd, &sbytes, &err);
+        }
+        if (r == SUPERMAT_SUCCESS) r = supermat_session_create(&sd, &sess, &err);
+        for (k = 0; k < 3; k++) maps[k] = k < in.nmaps && cli_bi_wants(&in, outputs, k) ? (mode == CLI_MODE_F32 ? ref[k] : cur[k]) : NULL;
+        for (rep = 0; rep < o->repeats && r == SUPERMAT_SUCCESS; rep++) {
+            double t0 = cli_now(), t;
+            r = cli_bi_run(sess, &in, maps, &err);
+            t = cli_now() - t0;
+            if (t < best) best = t;
+        }
+        if (r == SUPERMAT_SUCCESS) {
+            memset(&fl, 0, sizeof fl);
+            supermat_session_last_flops(sess, &fl);
+            row->done = 1;
+            row->seconds = best;
+            if (mode == CLI_MODE_F32) f32_seconds = best;
+            row->speedup = best > 0 ? f32_seconds / best : 0.0;
+            row->peak_bytes = emi.model_bytes + sbytes;
+            row->flops = fl.total;
+            for (k = 0; k < in.nmaps; k++) if (maps[k]) cli_bi_compare(&in, k, ref[k], maps[k], row);
+            cli_bi_print_row(&in, row);
+        } else {
+            fflush(stdout);
+            cli_lib_error(what, r, &err);
+            printf("%-18s failed: %s\n", cli_modes[mode].name, err.message[0] ? err.message : supermat_result_string(r));
+            fflush(stdout);
+            failed++;
+            if (mode == CLI_MODE_F32) rc = CLI_FAIL; /* no reference: nothing to compare with */
+        }
+        supermat_session_destroy(sess);
+        supermat_model_destroy(extra);
+    }
+
+    if (rc == CLI_OK) {
+        for (i = 0; i < nskipped; i++) printf("%-18s skipped: %s\n", cli_modes[skipped_mode[i]].name, skipped[i]);
+        printf("\nseconds: supermat_run only; speedup: f32 seconds / seconds; peak MiB: model + session arena (supermat_session_memory);\n"
+               "psnr, psnr_fg (dB, capped at %.0f), max_abs: against the f32 maps (float, [0, 1]), all pixels and the foreground (%s)\n",
+               CLI_PSNR_CAP, mi.kind == SUPERMAT_KIND_UV_REFINE ? "mask > 0.5" : "input alpha > 0");
+        if (jf) {
+            FILE *f = jf;
+            jf = NULL;
+            if (cli_bi_write_json(f, o->json_path, &in, rows, nrows) != CLI_OK) rc = CLI_FAIL;
+        }
+        if (failed) {
+            cli_error("%d mode%s failed (see above)", failed, failed == 1 ? "" : "s");
+            rc = CLI_FAIL;
+        }
+    }
+
+    if (jf) { fclose(jf); remove(o->json_path); } /* nothing measured: no file */
+    for (k = 0; k < 3; k++) { free(ref[k]); free(cur[k]); free(in.ov[k]); }
+    for (i = 0; i < o->nimg; i++) if (px[i]) stbi_image_free(px[i]);
+    if (in.mask) stbi_image_free(in.mask);
+    if (in.pos) stbi_image_free(in.pos);
+    free(in.in); free(in.fg); free(c2w); free(cams);
+    supermat_model_destroy(base);
+    cli_free_file(file);
+#if SUPERMAT__HAS_PTHREADS
+    supermat_pool_destroy(pool);
+#endif
+    (void)pool;
+    return rc;
+}
+
+/* `supermat bench`: the options, then (a), (b), (c) above, or with --image cli_bench_image() */
 static int cli_bench(int argc, char **argv) {
     const char *cmd = "bench", *v, *model_path = NULL, *json_path = NULL;
     int w = 512, h = 512, threads = 0, repeats = 1, i, m, rc = CLI_OK, nrows = 0, rep, x, y, k;
@@ -1849,15 +2528,21 @@ static int cli_bench(int argc, char **argv) {
     cli_row rows[CLI_MAX_ROWS];
     cli_events ev;
     char outs_s[64];
+    cli_bench_opts bo;
+    int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0;
+
+    memset(&bo, 0, sizeof bo);
+    bo.modes_all = 1;
 
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); return CLI_OK; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); return CLI_OK; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             model_path = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--size", &v)) != 0) {
             if (m < 0 || cli_parse_size(cmd, v, &w, &h)) return CLI_USAGE;
+            size_given = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 64, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--repeats", &v)) != 0) {
@@ -1868,13 +2553,31 @@ static int cli_bench(int argc, char **argv) {
             pipeline_only = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
+            outputs_given = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
             if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
+            weights_given = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             json_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--image", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (bo.nimg == CLI_MAX_VIEWS) return cli_usage_error(cmd, "more than %d --image views: at most %d are processed together", CLI_MAX_VIEWS, CLI_MAX_VIEWS);
+            bo.images[bo.nimg++] = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--mask", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            bo.mask_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--position", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            bo.pos_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cameras", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            bo.cam_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--modes", &v)) != 0) {
+            if (m < 0 || cli_parse_modes(cmd, v, bo.modes, &bo.nmodes, &bo.modes_all)) return CLI_USAGE;
+            modes_given = 1;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else {
@@ -1882,6 +2585,17 @@ static int cli_bench(int argc, char **argv) {
         }
     }
     if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
+    if (bo.nimg) {
+        if (size_given) return cli_usage_error(cmd, "--size does not apply with --image (the image's own size is used)");
+        if (outputs_given) return cli_usage_error(cmd, "--outputs does not apply with --image (the modes choose the outputs)");
+        if (weights_given) return cli_usage_error(cmd, "--weights does not apply with --image (use --modes f16,bf16,int8)");
+        if (pipeline_only) return cli_usage_error(cmd, "--pipeline-only does not apply with --image");
+        bo.model_path = model_path; bo.json_path = json_path; bo.views = views; bo.threads = threads; bo.repeats = repeats;
+        bo.kernel = kernel;
+        return cli_bench_image(&bo);
+    }
+    if (modes_given || bo.mask_path || bo.pos_path || bo.cam_path)
+        return cli_usage_error(cmd, "%s needs --image", modes_given ? "--modes" : bo.mask_path ? "--mask" : bo.pos_path ? "--position" : "--cameras");
     memset(&mi, 0, sizeof mi);
     memset(&fl, 0, sizeof fl);
 
