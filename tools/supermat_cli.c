@@ -190,7 +190,9 @@ static const char cli_usage_convert[] =
     "  --base DIR        the Stable Diffusion 2.1 folder (required)\n"
     "  --out FILE        the model file to write (required)\n"
     "  --dtype D         f32 | f16 | bf16: convert the weights (round to nearest even);\n"
-    "                    default: keep every tensor's stored dtype\n"
+    "  --precision D     (the same option) default: keep every tensor's stored dtype. int8 is made\n"
+    "                    at load (--weights int8 on the other commands): its per-block scales follow\n"
+    "                    the runtime's packing\n"
     "  --threads N       text encoder threads (default 0 = 2, 1 = none)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
@@ -728,12 +730,14 @@ static int cli_convert(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             d.output = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0) {
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0 || (m = cli_opt(cmd, argc, argv, &i, "--precision", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
             else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
             else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
-            else return cli_usage_error(cmd, "--dtype: '%s' is not f32, f16 or bf16", v);
+            else if (!strcmp(v, "int8"))
+                return cli_usage_error(cmd, "int8: its scales follow the runtime's weight packing, so int8 is made at load: write f16 here and load with --weights int8");
+            else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16 or bf16", v);
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
         } else if (a[0] == '-') {
