@@ -229,10 +229,12 @@ typedef enum supermat_weights {
 } supermat_weights;
 
 /* How the 3x3 stride-1 convolutions are computed. Winograd transforms the weights once at model
-   creation (F2: 16/9 of their storage, F4: 36/9) and replaces 9 multiplies per output by 4 (F2) or
-   2.25 (F4), with more rounding. It is applied to the convolutions of at most 640 output channels
-   (the whole VAE, UNet levels of 320 and 640 channels); the 1280-channel ones run at 1/16 and 1/64 of
-   the pixels, where tiles are few, and stay direct. */
+   creation and replaces 9 multiply-adds per output by 4 (F2) or 2.25 (F4), with more rounding. It is
+   applied to the convolutions of at most 640 output channels (the whole VAE, the UNet levels of 320
+   and 640 channels); the 1280-channel ones run at 1/16 and 1/64 of the pixels, where tiles are few,
+   and stay direct. The transformed weights are kept in f32 whatever `weights` says (F2: 16/9 of the
+   f32 weights they replace, F4: 36/9): quantizing F4's transformed weights multiplies the error by
+   20-40. */
 typedef enum supermat_conv {
     SUPERMAT_CONV_DIRECT = 0,  /* implicit GEMM: the reference */
     SUPERMAT_CONV_WINOGRAD_F2, /* F(2x2, 3x3) */
@@ -1431,7 +1433,222 @@ static void supermat__linear(supermat__ctx *X, const float *x, size_t ldx, int M
     supermat__gemm(X, &A, M, W, y, ldy, W->bias, R, ldr);
 }
 
-typedef struct supermat__conv { supermat__pw w; int k, stride, cin, cout; } supermat__conv;
+/* >>winograd : F(2x2,3x3) and F(4x4,3x3) for the 3x3 stride-1 pad-1 convolutions (Lavin & Gray).
+   The kernel is transformed once (U = G g G^T, in float64) into a*a packed weights of K = Cin. Per chunk
+   of tiles (over all images): V = B^T d B of the zero-padded input tiles, a*a GEMMs M[xi] = V[xi] U[xi]^T,
+   then Y = A^T M A + bias (+ R). Each tile is transformed by one task: the bits do not depend on threads. */
+typedef struct supermat__wino { int m, a; supermat__pw u[36]; } supermat__wino; /* a = m + 2 */
+
+/* direct f32 panels (K = 9*cin, k = (ky*3 + kx)*cin + ci) -> a*a f32 panel arrays dst[xi] (K = cin) */
+static int supermat__wino_transform(const float *p, int cin, int cout, int m, float *const *dst) {
+    static const double G2[4][3] = {{1, 0, 0}, {.5, .5, .5}, {.5, -.5, .5}, {0, 0, 1}};
+    static const double G4[6][3] = {{1.0 / 4, 0, 0}, {-1.0 / 6, -1.0 / 6, -1.0 / 6}, {-1.0 / 6, 1.0 / 6, -1.0 / 6},
+                                    {1.0 / 24, 1.0 / 12, 1.0 / 6}, {1.0 / 24, -1.0 / 12, 1.0 / 6}, {0, 0, 1}};
+    int a = m + 2, np = (cout + SUPERMAT__NR - 1) / SUPERMAT__NR, co, ci, i, j, k;
+    size_t K = (size_t)9 * cin;
+    if ((m != 2 && m != 4) || cin <= 0 || cout <= 0) return -1;
+    for (co = 0; co < np * SUPERMAT__NR; co++)
+        for (ci = 0; ci < cin; ci++) {
+            double g[9], t[6][3];
+            size_t pn = (size_t)(co / SUPERMAT__NR), o = (pn * cin + ci) * SUPERMAT__NR + co % SUPERMAT__NR;
+            for (k = 0; k < 9; k++) g[k] = co < cout ? p[(pn * K + (size_t)k * cin + ci) * SUPERMAT__NR + co % SUPERMAT__NR] : 0.0;
+            for (i = 0; i < a; i++) { /* t = G g */
+                const double *G = m == 2 ? G2[i] : G4[i];
+                for (j = 0; j < 3; j++) t[i][j] = G[0] * g[j] + G[1] * g[3 + j] + G[2] * g[6 + j];
+            }
+            for (i = 0; i < a; i++) /* U = t G^T */
+                for (j = 0; j < a; j++) {
+                    const double *G = m == 2 ? G2[j] : G4[j];
+                    dst[i * a + j][o] = (float)(t[i][0] * G[0] + t[i][1] * G[1] + t[i][2] * G[2]);
+                }
+        }
+    return 0;
+}
+
+/* tiles per chunk: V + Mo about SUPERMAT__WINO_CHUNK floats (cache-sized), but at least MINTILES tiles
+   (GEMM rows per pass over the a*a weights, which matters with many channels) and at most 8M floats */
+#ifndef SUPERMAT__WINO_CHUNK
+#define SUPERMAT__WINO_CHUNK (1 << 20)
+#endif
+#ifndef SUPERMAT__WINO_MINTILES
+#define SUPERMAT__WINO_MINTILES 144
+#endif
+typedef struct supermat__wino_job {
+    const float *x; int h, w, c, uh, uw;    /* input, read as if resized to uh x uw (nearest) */
+    float *y; const float *bias, *R; int oc; /* output n x uh x uw x oc */
+    int m, tx, ty, t0, tb, TB, per;          /* tiles per image tx x ty; chunk [t0, t0 + tb); tiles per task */
+    float *V, *Mo;                           /* [a*a][TB][c], [a*a][TB][oc] */
+    int avx2;
+} supermat__wino_job;
+
+#if defined(__GNUC__) || defined(__clang__)
+#define SUPERMAT__WINO_INLINE __attribute__((always_inline)) inline
+#else
+#define SUPERMAT__WINO_INLINE inline
+#endif
+/* 1-D transforms on 8 channels at once: o[k*os][j] from s[k*ss][j], k along the transformed axis */
+#define SUPERMAT__WINO_BT(o, os, s, ss) for (j = 0; j < 8; j++) { \
+    if (m == 4) { \
+        float d0 = s[0][j], d1 = s[ss][j], d2 = s[2 * ss][j], d3 = s[3 * ss][j], d4 = s[4 * ss][j], d5 = s[5 * ss][j]; \
+        float t1 = d4 - 4.0f * d2, t2 = d3 - 4.0f * d1, t3 = d4 - d2, t4 = 2.0f * (d3 - d1); \
+        o[0][j] = 4.0f * d0 - 5.0f * d2 + d4; o[os][j] = t1 + t2; o[2 * os][j] = t1 - t2; \
+        o[3 * os][j] = t3 + t4; o[4 * os][j] = t3 - t4; o[5 * os][j] = 4.0f * d1 - 5.0f * d3 + d5; \
+    } else { \
+        float d0 = s[0][j], d1 = s[ss][j], d2 = s[2 * ss][j], d3 = s[3 * ss][j]; \
+        o[0][j] = d0 - d2; o[os][j] = d1 + d2; o[2 * os][j] = d2 - d1; o[3 * os][j] = d1 - d3; \
+    } }
+#define SUPERMAT__WINO_AT(o, os, s, ss) for (j = 0; j < 8; j++) { \
+    if (m == 4) { \
+        float s12 = s[ss][j] + s[2 * ss][j], d12 = s[ss][j] - s[2 * ss][j]; \
+        float s34 = s[3 * ss][j] + s[4 * ss][j], d34 = s[3 * ss][j] - s[4 * ss][j]; \
+        o[0][j] = s[0][j] + s12 + s34; o[os][j] = d12 + 2.0f * d34; o[2 * os][j] = s12 + 4.0f * s34; \
+        o[3 * os][j] = d12 + 8.0f * d34 + s[5 * ss][j]; \
+    } else { \
+        o[0][j] = s[0][j] + s[ss][j] + s[2 * ss][j]; o[os][j] = s[ss][j] - s[2 * ss][j] - s[3 * ss][j]; \
+    } }
+
+/* input tile t of the chunk -> V[xi][t][:]. The column pass reads memory directly (a copy to a local array
+   first costs store-forwarding stalls), the row pass writes a local array (stores through several
+   pointers that might overlap would not vectorise); partial channel blocks go through tmp. */
+static SUPERMAT__WINO_INLINE void supermat__wino_in_tile(const supermat__wino_job *J, int t, int m) {
+    static const float zero[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int a = m + 2, T = J->t0 + t, img = T / (J->tx * J->ty), by = T / J->tx % J->ty, bx = T % J->tx, i, j, xi, c0;
+    const float *src[36], *p[36];
+    float *q[36], d[36][8], e[36][8], tmp[36][8];
+    for (i = 0; i < a; i++) {
+        int vy = by * m - 1 + i, sy = vy >= 0 && vy < J->uh ? supermat__nearest(vy, J->h, J->uh) : -1;
+        for (j = 0; j < a; j++) {
+            int vx = bx * m - 1 + j;
+            src[i * a + j] = sy >= 0 && vx >= 0 && vx < J->uw
+                                 ? J->x + (((size_t)img * J->h + sy) * J->w + supermat__nearest(vx, J->w, J->uw)) * J->c : NULL;
+        }
+    }
+    for (c0 = 0; c0 < J->c; c0 += 8) {
+        int cb = SUPERMAT__MIN(8, J->c - c0);
+        for (xi = 0; xi < a * a; xi++) {
+            p[xi] = src[xi] ? src[xi] + c0 : zero;
+            q[xi] = J->V + ((size_t)xi * J->TB + t) * J->c + c0;
+        }
+        if (cb < 8)
+            for (xi = 0; xi < a * a; xi++) {
+                for (j = 0; j < 8; j++) tmp[xi][j] = j < cb ? p[xi][j] : 0.0f;
+                p[xi] = tmp[xi];
+            }
+        for (i = 0; i < a; i++) SUPERMAT__WINO_BT((e + i), a, (p + i), a)         /* columns */
+        for (i = 0; i < a; i++) SUPERMAT__WINO_BT((d + i * a), 1, (e + i * a), 1) /* rows */
+        for (xi = 0; xi < a * a; xi++) {
+            if (cb == 8) for (j = 0; j < 8; j++) q[xi][j] = d[xi][j];
+            else for (j = 0; j < cb; j++) q[xi][j] = d[xi][j];
+        }
+    }
+}
+
+/* Mo[xi][t][:] -> the valid outputs of tile t, + bias (+ R; R may be the output itself) */
+static SUPERMAT__WINO_INLINE void supermat__wino_out_tile(const supermat__wino_job *J, int t, int m) {
+    int a = m + 2, T = J->t0 + t, img = T / (J->tx * J->ty), by = T / J->tx % J->ty, bx = T % J->tx, i, j, xi, c0, oc = J->oc;
+    const float *p[36];
+    float e[24][8], r[16][8], tmp[36][8], o[8];
+    for (c0 = 0; c0 < oc; c0 += 8) {
+        int cb = SUPERMAT__MIN(8, oc - c0);
+        for (xi = 0; xi < a * a; xi++) p[xi] = J->Mo + ((size_t)xi * J->TB + t) * oc + c0;
+        if (cb < 8)
+            for (xi = 0; xi < a * a; xi++) {
+                for (j = 0; j < 8; j++) tmp[xi][j] = j < cb ? p[xi][j] : 0.0f;
+                p[xi] = tmp[xi];
+            }
+        for (i = 0; i < a; i++) SUPERMAT__WINO_AT((e + i), a, (p + i), a)         /* columns: e[y*a + i], y < m */
+        for (i = 0; i < m; i++) SUPERMAT__WINO_AT((r + i * m), 1, (e + i * a), 1) /* rows: r[y*m + x] */
+        for (xi = 0; xi < m * m; xi++) {
+            int oy = by * m + xi / m, ox = bx * m + xi % m;
+            size_t off;
+            if (oy >= J->uh || ox >= J->uw) continue;
+            off = (((size_t)img * J->uh + oy) * J->uw + ox) * oc + c0;
+            if (J->bias) for (j = 0; j < 8; j++) o[j] = r[xi][j] + J->bias[c0 + j]; /* bias is padded to 16 */
+            else for (j = 0; j < 8; j++) o[j] = r[xi][j];
+            if (cb == 8) {
+                if (J->R) for (j = 0; j < 8; j++) o[j] += J->R[off + j];
+                for (j = 0; j < 8; j++) J->y[off + j] = o[j];
+            } else {
+                if (J->R) for (j = 0; j < cb; j++) o[j] += J->R[off + j];
+                for (j = 0; j < cb; j++) J->y[off + j] = o[j];
+            }
+        }
+    }
+}
+#undef SUPERMAT__WINO_BT
+#undef SUPERMAT__WINO_AT
+
+/* the same bodies compiled for the baseline ISA and for AVX2 (the 8-channel loops vectorise) */
+static void supermat__wino_tiles_scalar(const supermat__wino_job *J, int t0, int t1, int out) {
+    int t;
+    for (t = t0; t < t1; t++) {
+        if (out) { if (J->m == 4) supermat__wino_out_tile(J, t, 4); else supermat__wino_out_tile(J, t, 2); }
+        else { if (J->m == 4) supermat__wino_in_tile(J, t, 4); else supermat__wino_in_tile(J, t, 2); }
+    }
+}
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static void supermat__wino_tiles_avx2(const supermat__wino_job *J, int t0, int t1, int out) {
+    int t;
+    for (t = t0; t < t1; t++) {
+        if (out) { if (J->m == 4) supermat__wino_out_tile(J, t, 4); else supermat__wino_out_tile(J, t, 2); }
+        else { if (J->m == 4) supermat__wino_in_tile(J, t, 4); else supermat__wino_in_tile(J, t, 2); }
+    }
+}
+#endif
+static void supermat__wino_task(const supermat__wino_job *J, int index, int out) {
+    int t0 = index * J->per, t1 = SUPERMAT__MIN(J->tb, t0 + J->per);
+#if SUPERMAT__HAS_AVX2
+    if (J->avx2) { supermat__wino_tiles_avx2(J, t0, t1, out); return; }
+#endif
+    supermat__wino_tiles_scalar(J, t0, t1, out);
+}
+static void supermat__wino_in_task(void *user, int index, int thread) { (void)thread; supermat__wino_task((const supermat__wino_job *)user, index, 0); }
+static void supermat__wino_out_task(void *user, int index, int thread) { (void)thread; supermat__wino_task((const supermat__wino_job *)user, index, 1); }
+
+/* out = conv3x3(in resized to (uh, uw) by nearest, padding 1) + bias (padded, or NULL) (+ R) */
+static void supermat__conv3x3_wino(supermat__ctx *X, const supermat__t *in, int uh, int uw, const supermat__wino *wg,
+                                   supermat__t *out, const float *bias, const float *R) {
+    supermat__wino_job J;
+    supermat__asrc A;
+    int m = wg->m, aa = (m + 2) * (m + 2), cin = in->c, cout = wg->u[0].N, T, nch, ch, xi, ntask;
+    size_t cap, per_tile;
+    if ((m != 2 && m != 4) || wg->a != m + 2 || wg->u[0].K != cin || out->c != cout || out->h != uh || out->w != uw || out->n != in->n) {
+        X->status = SUPERMAT_ERROR_INTERNAL;
+        return;
+    }
+    memset(&J, 0, sizeof J);
+    J.x = in->d; J.h = in->h; J.w = in->w; J.c = cin; J.uh = uh; J.uw = uw;
+    J.y = out->d; J.bias = bias; J.R = R; J.oc = cout; J.m = m; J.avx2 = X->avx2;
+    J.tx = (uw + m - 1) / m; J.ty = (uh + m - 1) / m;
+    T = in->n * J.tx * J.ty;
+    if (T <= 0) return;
+    /* chunk size (see SUPERMAT__WINO_CHUNK; at least 6 tiles), evened out over the chunks */
+    per_tile = (size_t)aa * (size_t)(cin + cout);
+    cap = SUPERMAT__MAX((size_t)SUPERMAT__WINO_CHUNK / per_tile, (size_t)SUPERMAT__WINO_MINTILES);
+    cap = SUPERMAT__MAX(SUPERMAT__MIN(cap, ((size_t)8 << 20) / per_tile), (size_t)6);
+    J.TB = (int)SUPERMAT__MIN((size_t)T, cap);
+    nch = (T + J.TB - 1) / J.TB;
+    J.TB = (T + nch - 1) / nch;
+    J.per = SUPERMAT__MAX(1, 16384 / (aa * SUPERMAT__MAX(cin, cout)));
+    J.V = supermat__get(X, (size_t)aa * J.TB * cin);
+    J.Mo = supermat__get(X, (size_t)aa * J.TB * cout);
+    memset(&A, 0, sizeof A);
+    A.lda = (size_t)cin;
+    for (ch = 0; ch < nch; ch++) {
+        J.t0 = ch * J.TB; J.tb = SUPERMAT__MIN(J.TB, T - J.t0);
+        ntask = (J.tb + J.per - 1) / J.per;
+        if (supermat__live(X)) supermat__par(X, ntask, supermat__wino_in_task, &J);
+        for (xi = 0; xi < aa; xi++) { /* planning: counts the FLOPs only */
+            A.a = J.V ? J.V + (size_t)xi * J.TB * cin : NULL;
+            supermat__gemm(X, &A, J.tb, &wg->u[xi], J.Mo ? J.Mo + (size_t)xi * J.TB * cout : NULL, (size_t)cout, NULL, NULL, 0);
+        }
+        if (supermat__live(X)) supermat__par(X, ntask, supermat__wino_out_task, &J);
+    }
+    supermat__put(X, J.Mo);
+    supermat__put(X, J.V);
+}
+
+typedef struct supermat__conv { supermat__pw w; int k, stride, cin, cout; const supermat__wino *wino; /* or NULL */ } supermat__conv;
 
 /* out = conv(in resized to (uh, uw) by nearest) + bias (+ R); pad: k/2 on all sides, or (0,1,0,1) with pad_mode 1 */
 static void supermat__conv2d(supermat__ctx *X, const supermat__t *in, int uh, int uw, const supermat__conv *cv, int pad_mode,
@@ -1447,6 +1664,10 @@ static void supermat__conv2d(supermat__ctx *X, const supermat__t *in, int uh, in
     A.ow = (uw + pl + pr - cv->k) / cv->stride + 1;
     A.a = in->d; A.lda = (size_t)in->c;
     if (out->h != A.oh || out->w != A.ow || out->c != cv->cout || in->c != cv->cin) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (cv->wino && pad_mode == 0) { /* set on 3x3 stride-1 convolutions only */
+        supermat__conv3x3_wino(X, in, uh, uw, cv->wino, out, bias ? bias : cv->w.bias, R);
+        return;
+    }
     supermat__gemm(X, &A, in->n * A.oh * A.ow, &cv->w, out->d, (size_t)out->c, bias ? bias : cv->w.bias, R, (size_t)out->c);
 }
 
@@ -1854,6 +2075,7 @@ typedef struct supermat__loader {
     int avx2;
     int weights;            /* requested supermat_weights */
     int conv;               /* requested supermat_conv */
+    int keep_f32;           /* supermat__pack leaves the f32 panels (they are transformed next) */
 } supermat__loader;
 
 static void *supermat__mem(supermat__loader *L, size_t bytes) {
@@ -2129,7 +2351,7 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
             fmt = t0 < 0 ? 0 : L->ti[t0].dtype == SUPERMAT_DTYPE_F16 ? 1 : L->ti[t0].dtype == SUPERMAT_DTYPE_BF16 ? 2 : 0;
         }
         if (!L->m->info.weights) L->m->info.weights = (supermat_weights)(fmt + 1);
-        if (fmt) supermat__quantize(L, pw, fmt, total, parts[0].name);
+        if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
     }
 }
 
@@ -2141,14 +2363,48 @@ static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const c
     part.name = wn; part.bias = bias ? bn : NULL; part.rows_total = out; part.first = 0; part.count = out;
     supermat__pack(L, pw, &part, 1, in, 1, 0, bias);
 }
+/* frees one of the model's blocks */
+static void supermat__release(supermat__loader *L, const void *p) {
+    supermat_model *m = L->m;
+    int i;
+    for (i = m->nblocks - 1; i >= 0; i--)
+        if (m->blocks[i] == p) {
+            supermat__free(&m->alloc, m->blocks[i], m->block_sizes[i]);
+            m->info.model_bytes -= m->block_sizes[i];
+            m->blocks[i] = NULL; m->block_sizes[i] = 0;
+            return;
+        }
+}
 static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const char *prefix, int cin, int cout, int k, int stride) {
     char wn[200], bn[200];
     supermat__wpart part;
+    int wino = L->conv != SUPERMAT_CONV_DIRECT && k == 3 && stride == 1 && cout <= 640;
     supermat__name(wn, sizeof wn, "%s.weight", prefix);
     supermat__name(bn, sizeof bn, "%s.bias", prefix);
     part.name = wn; part.bias = bn; part.rows_total = cout; part.first = 0; part.count = cout;
-    cv->k = k; cv->stride = stride; cv->cin = cin; cv->cout = cout;
+    cv->k = k; cv->stride = stride; cv->cin = cin; cv->cout = cout; cv->wino = NULL;
+    L->keep_f32 = wino;
     supermat__pack(L, &cv->w, &part, 1, cin, k, 1, 1);
+    L->keep_f32 = 0;
+    if (wino && !L->r && cv->w.p) { /* Winograd: the transformed weights replace the direct ones, in f32
+                                        (quantizing F4's transformed weights costs 20-40x the error) */
+        int m = L->conv == SUPERMAT_CONV_WINOGRAD_F2 ? 2 : 4, xi;
+        size_t total = (size_t)((cout + 15) / 16) * 16 * cin;
+        supermat__wino *wg = (supermat__wino *)supermat__mem(L, sizeof *wg);
+        float *dst[36];
+        if (!wg) return;
+        memset(wg, 0, sizeof *wg);
+        wg->m = m; wg->a = m + 2;
+        for (xi = 0; xi < wg->a * wg->a; xi++) {
+            wg->u[xi].K = cin; wg->u[xi].N = cout;
+            wg->u[xi].p = dst[xi] = (float *)supermat__mem(L, total * sizeof(float));
+            if (!dst[xi]) return;
+        }
+        supermat__wino_transform(cv->w.p, cin, cout, m, dst);
+        supermat__release(L, cv->w.p);
+        cv->w.p = NULL;
+        cv->wino = wg;
+    }
 }
 static void supermat__bind_norm(supermat__loader *L, supermat__norm *nm, const char *prefix, int c, float eps) {
     char n[200];

@@ -226,6 +226,8 @@ int main(int argc, char **argv) {
     if (strstr(kern, ":f16")) md.weights = SUPERMAT_WEIGHTS_F16;
     if (strstr(kern, ":bf16")) md.weights = SUPERMAT_WEIGHTS_BF16;
     if (strstr(kern, ":i8")) md.weights = SUPERMAT_WEIGHTS_I8;
+    if (strstr(kern, ":wf2")) md.conv = SUPERMAT_CONV_WINOGRAD_F2;
+    if (strstr(kern, ":wf4")) md.conv = SUPERMAT_CONV_WINOGRAD_F4;
     if (!strncmp(kern, "avx2", 4)) {
         if (!supermat_cpu_has_avx2()) { printf("no AVX2 on this CPU: skipped\n0 passed, 0 failed\n"); free(file); return 0; }
         md.kernel = SUPERMAT_KERNEL_AVX2;
