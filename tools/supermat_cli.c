@@ -374,7 +374,8 @@ static const char cli_usage_bench_image[] =
     "  --cameras FILE    supermat-mv: the meta.json with the views' cameras\n"
     "  --modes LIST      all, or a comma list of the modes above (default all)\n"
     "  --json FILE       also write the table as a JSON list, one object per mode:\n"
-    "                    {\"mode\", \"seconds\", \"speedup\", \"peak_bytes\", \"flops\", \"psnr\": {\"albedo\",\n"
+    "                    {\"mode\", \"seconds\", \"speedup\", \"peak_bytes\", \"flops\", \"fma_peak_gflops\",\n"
+    "                    \"fraction_of_peak\" (FLOPs performed / s / the FMA peak measured first), \"psnr\": {\"albedo\",\n"
     "                    \"roughness\", \"metallic\"}, \"psnr_fg\": {...}, \"max_abs\": {...}} (uv-refine:\n"
     "                    the key \"refined\"); skipped and failed modes are left out\n"
     "--size, --outputs, --weights and --pipeline-only do not apply with --image. A mode that fails is\n"
@@ -2110,19 +2111,23 @@ static void cli_bi_compare(const cli_bi_input *in, int k, const float *ref, cons
     row->psnr_fg[k] = nfg ? cli_psnr(sse_fg, (double)nfg * c) : 0.0;
 }
 
+static double cli_bi_peak; /* this machine's FMA peak (GFLOP/s) measured at the start, 0 = unknown */
 static void cli_bi_print_header(const cli_bi_input *in) {
     int k;
-    printf("%-18s %9s %8s %9s %9s %8s", "", "", "", "", "", "");
+    printf("%-18s %9s %8s %9s %9s %8s %6s", "", "", "", "", "", "", "");
     for (k = 0; k < in->nmaps; k++) printf(" | %-25s", cli_bi_map_name(in, k));
-    printf("\n%-18s %9s %8s %9s %9s %8s", "mode", "seconds", "speedup", "peak MiB", "GFLOP", "GFLOP/s");
+    printf("\n%-18s %9s %8s %9s %9s %8s %6s", "mode", "seconds", "speedup", "peak MiB", "GFLOP", "GFLOP/s", "%peak");
     for (k = 0; k < in->nmaps; k++) printf(" | %7s %7s %9s", "psnr", "psnr_fg", "max_abs");
     printf("\n");
 }
 
 static void cli_bi_print_row(const cli_bi_input *in, const cli_bi_row *r) {
     int k;
+    double gf = r->seconds > 0 ? r->flops / r->seconds / 1e9 : 0.0;
     printf("%-18s %9.4f %7.2fx %9.1f %9.3f %8.2f", cli_modes[r->mode].name, r->seconds, r->speedup, cli_mib((double)r->peak_bytes),
-           r->flops / 1e9, r->seconds > 0 ? r->flops / r->seconds / 1e9 : 0.0);
+           r->flops / 1e9, gf);
+    if (cli_bi_peak > 0) printf(" %5.1f%%", 100.0 * gf / cli_bi_peak);
+    else printf(" %6s", "-");
     for (k = 0; k < in->nmaps; k++) {
         if (!r->has[k]) { printf(" | %7s %7s %9s", "-", "-", "-"); continue; }
         printf(" | %7.2f", r->psnr[k]);
@@ -2149,6 +2154,10 @@ static int cli_bi_write_json(FILE *f, const char *path, const cli_bi_input *in, 
         if (!r->done) continue;
         fprintf(f, "%s  {\"mode\": \"%s\", \"seconds\": %.6g, \"speedup\": %.6g, \"peak_bytes\": %llu, \"flops\": %.6g", first ? "" : ",\n",
                 cli_modes[r->mode].name, r->seconds, r->speedup, (unsigned long long)r->peak_bytes, r->flops);
+        fputs(", \"fma_peak_gflops\": ", f);
+        cli_json_number_or_null(f, cli_bi_peak > 0, cli_bi_peak);
+        fputs(", \"fraction_of_peak\": ", f);
+        cli_json_number_or_null(f, cli_bi_peak > 0 && r->seconds > 0, r->seconds > 0 ? r->flops / r->seconds / 1e9 / cli_bi_peak : 0.0);
         first = 0;
         for (q = 0; q < 3; q++) {
             fprintf(f, ", \"%s\": {", groups[q]);
@@ -2405,6 +2414,11 @@ static int cli_bench_image(const cli_bench_opts *o) {
         printf("%-8s %s%s, %dx%d%s\n", ins, path0, o->nimg > 1 ? ", ..." : "", w, h, vs);
         printf("machine  %s%s%d thread%s, seconds = best of %d run%s\n", cpu, cpu[0] ? ", " : "", hook.max_threads,
                hook.max_threads == 1 ? "" : "s", o->repeats, o->repeats == 1 ? "" : "s");
+        {
+            long fma_iters = 0;
+            cli_bi_peak = mi.kernel == SUPERMAT_KERNEL_AVX2 ? cli_fma_peak(&hook, 3, &fma_iters) : 0.0;
+            if (cli_bi_peak > 0) printf("FMA peak %.1f GFLOP/s on %d thread%s (measured now; %%peak = GFLOP/s / this)\n", cli_bi_peak, hook.max_threads, hook.max_threads == 1 ? "" : "s");
+        }
         printf("\n");
         cli_bi_print_header(&in);
         fflush(stdout);
