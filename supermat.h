@@ -313,8 +313,9 @@ typedef struct supermat_session_desc {
        attention become per tile, so the maps change slightly. */
     int vae_tile, vae_overlap;
     /* Decode only the tiles that hold foreground: a pixel with alpha > 0 (supermat, supermat-mv;
-       images without alpha are all foreground) or mask > 0 (uv-refine). Other pixels are written as
-       decoded 0 (0.5 gray). Needs vae_tile; foreground pixels get exactly the tiled result. */
+       images without alpha are all foreground) or a texel in a UV chart (uv-refine, see
+       supermat_run_desc.chart). Pixels no decoded tile covers are written as decoded 0 (0.5 gray).
+       Needs vae_tile; foreground pixels get exactly the tiled result. */
     int skip_background;
     /* SuperMatMV only: approximate the multi-view attention at the highest resolution. */
     supermat_mv_attention mv_attention;
@@ -370,6 +371,11 @@ typedef struct supermat_run_desc {
        (1 channel; of more, the first is used) and `position` (RGB) are at the same size; the refined
        map is written to `refined` (3 or 4 channels, alpha 1, or 1 channel = the first). */
     supermat_image mask, position, refined;
+    /* UV refine with skip_background: the texels that belong to a UV chart (1 channel, > 0 = in a
+       chart; optional). Without it, a texel is in a chart when its mask is > 0 or its position is not
+       the official off-chart gray (127/255 in all three channels): charts' unseen texels (mask 0) are
+       what the network fills in, so they are decoded. */
+    supermat_image chart;
     /* Progress between layers: return nonzero to cancel (the run then fails with CANCELLED). */
     int (*progress)(void *user, float fraction, const char *what);
     void *progress_user;
@@ -3232,6 +3238,15 @@ static void supermat__bilinear(const supermat_image *im, int c, int oh, int ow, 
     }
 }
 
+/* UV refine: 1 if texel (x, y) belongs to a UV chart (see supermat_run_desc.chart), else 0 */
+static float supermat__in_chart(const supermat_run_desc *rd, int x, int y) {
+    int c;
+    if (rd->chart.pixels) return supermat__px(&rd->chart, x, y, 0) > 0.0f ? 1.0f : 0.0f;
+    if (supermat__px(&rd->mask, x, y, 0) > 0.0f) return 1.0f;
+    for (c = 0; c < 3; c++) if (fabsf(supermat__px(&rd->position, x, y, c) - 127.0f / 255.0f) > 0.25f / 255.0f) return 1.0f;
+    return 0.0f;
+}
+
 /* Separable resampling of an n x sh x sw x c tensor to dh x dw: a triangle filter (bilinear when
    enlarging, its support widened by the factor when reducing, as PIL's BILINEAR), pixel centres
    aligned (align_corners = False). */
@@ -3380,8 +3395,11 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
                             float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
                             po[c] = comp * 2.0f - 1.0f;
                         }
-                        if (resize) po[3] = uv ? supermat__px(&rd->mask, x, y, 0) : px[3];
-                        else if (fgk) fgk[(size_t)y * S->w + x] = uv ? supermat__px(&rd->mask, x, y, 0) : px[3];
+                        if (resize || fgk) {
+                            float f = uv ? supermat__in_chart(rd, x, y) : px[3];
+                            if (resize) po[3] = f;
+                            else fgk[(size_t)y * S->w + x] = f;
+                        }
                     }
             }
             if (resize) {
@@ -3704,6 +3722,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
         if (!rd->mask.pixels || !rd->position.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "a UV-refine model needs the mask and the position map");
         r = supermat__check_image(&rd->mask, "the mask", S->w, S->h, 1, 1, err);
         if (!r) r = supermat__check_image(&rd->position, "the position map", S->w, S->h, 1, 3, err);
+        if (!r && rd->chart.pixels) r = supermat__check_image(&rd->chart, "the chart mask", S->w, S->h, 1, 1, err);
         if (r) return r;
     }
     for (i = 0; i < 5; i++)

@@ -6,7 +6,8 @@
      to no tiling; the layout covers every size with the asked overlap.
    - Background skipping: foreground pixels bit-identical to tiling without skipping, background
      pixels of skipped tiles 0.5, decode FLOPs = the decoded tiles' share (counted here), all-alpha-0
-     decodes nothing, images without alpha skip nothing; the UV mask likewise.
+     decodes nothing, images without alpha skip nothing; UV charts (given, or from the mask and the
+     off-chart position gray) keep every chart texel, seen or not.
    - Work size: the network input equals this file's float64 triangle-filter resampling of the
      composited image; the work size equal to the image size is bit-identical to the default.
    - Restricted multi-view attention: a key stride of 1 (every key, gathered per view) equals the full
@@ -307,36 +308,44 @@ static void test_skip(supermat_model *m, const unsigned char *img) {
 
 static void test_skip_uv(supermat_model *m) {
     enum { U = 128 };
-    static float map[U * U * 3], mask[U * U], pos[U * U * 3], r0[U * U * 3], r1[U * U * 3];
+    static float map[U * U * 3], mask[U * U], pos[U * U * 3], chart[U * U], r0[U * U * 3], r1[U * U * 3], r2[U * U * 3];
     supermat_session_desc sd;
     supermat_session *s;
     supermat_run_desc rd;
     supermat_error err;
     supermat_flops fl, last;
-    int i, pass, diff = 0;
+    double dec[3] = {0, 0, 0};
+    int i, pass, diff = 0, diff2 = 0;
+    memset(&fl, 0, sizeof fl); memset(&last, 0, sizeof last);
+    /* a chart in x < 40, y < 60 (position != the off-chart gray), seen (mask > 0) only where y < 30:
+       the unseen chart texels must be decoded too */
     for (i = 0; i < U * U; i++) {
-        int x = i % U, y = i / U;
-        mask[i] = (x < 40 && y < 50) ? 1.0f : 0.0f;
+        int x = i % U, y = i / U, in = x < 40 && y < 60;
+        mask[i] = (in && y < 30) ? 1.0f : 0.0f;
+        chart[i] = in ? 1.0f : 0.0f;
         map[i * 3] = (float)(x % 17) / 16.0f; map[i * 3 + 1] = (float)(y % 13) / 12.0f; map[i * 3 + 2] = 0.5f;
-        pos[i * 3] = (float)x / U; pos[i * 3 + 1] = (float)y / U; pos[i * 3 + 2] = 0.25f;
+        pos[i * 3] = in ? (float)x / U : 127.0f / 255.0f; pos[i * 3 + 1] = in ? (float)y / U : 127.0f / 255.0f; pos[i * 3 + 2] = in ? 0.25f : 127.0f / 255.0f;
     }
-    for (pass = 0; pass < 2; pass++) {
+    for (pass = 0; pass < 3; pass++) { /* 0 tiles, 1 skipping (chart from mask + position), 2 skipping with `chart` */
         memset(&sd, 0, sizeof sd);
-        sd.model = m; sd.width = U; sd.height = U; sd.threads = 2; sd.vae_tile = 48; sd.vae_overlap = 16; sd.skip_background = pass;
+        sd.model = m; sd.width = U; sd.height = U; sd.threads = 2; sd.vae_tile = 48; sd.vae_overlap = 16; sd.skip_background = pass > 0;
         if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "UV session: %s", err.message); return; }
         memset(&rd, 0, sizeof rd);
         rd.input.pixels = map; rd.input.width = U; rd.input.height = U; rd.input.channels = 3; rd.input.format = SUPERMAT_FORMAT_F32;
         rd.mask = rd.input; rd.mask.pixels = mask; rd.mask.channels = 1;
         rd.position = rd.input; rd.position.pixels = pos;
-        rd.refined.pixels = pass ? r1 : r0; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+        if (pass == 2) { rd.chart = rd.mask; rd.chart.pixels = chart; }
+        rd.refined.pixels = pass == 0 ? r0 : pass == 1 ? r1 : r2; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
         TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "UV run: %s", err.message);
         supermat_session_flops(s, &fl); supermat_session_last_flops(s, &last);
+        dec[pass] = last.decode;
         supermat_session_destroy(s);
     }
-    for (i = 0; i < U * U * 3; i++) if (mask[i / 3] > 0.0f && r0[i] != r1[i]) diff++;
-    TU_CHECK(diff == 0, "UV: skipping changed %d chart values", diff);
-    printf("UV skip: decode GFLOP %.4f of %.4f\n", last.decode / 1e9, fl.decode / 1e9);
-    TU_CHECK(last.decode > 0.0 && last.decode < 0.6 * fl.decode, "UV: decode FLOPs %g of %g", last.decode, fl.decode);
+    for (i = 0; i < U * U * 3; i++) if (chart[i / 3] > 0.0f && r0[i] != r1[i]) diff++;
+    for (i = 0; i < U * U * 3; i++) if (chart[i / 3] > 0.0f && r0[i] != r2[i]) diff2++;
+    TU_CHECK(diff == 0 && diff2 == 0, "UV: skipping changed %d / %d chart values (seen or not)", diff, diff2);
+    printf("UV skip: decode GFLOP %.4f (chart from mask + position), %.4f (chart given) of %.4f\n", dec[1] / 1e9, dec[2] / 1e9, dec[0] / 1e9);
+    TU_CHECK(dec[1] > 0.0 && dec[1] < 0.6 * dec[0] && dec[2] == dec[1], "UV: decode FLOPs %g / %g of %g", dec[1], dec[2], dec[0]);
 }
 
 /* ---- work size ---- */
