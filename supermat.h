@@ -3255,23 +3255,20 @@ static void supermat__resample_axis(const float *src, int len_in, int len_out, s
     double scale = (double)len_in / len_out, support = scale > 1.0 ? scale : 1.0;
     int o, l, ch;
     for (o = 0; o < len_out; o++) {
-        double center = (o + 0.5) * scale, wsum = 0.0, wts[64];
-        int lo = (int)floor(center - support + 0.5), hi = (int)floor(center + support + 0.5), i, n;
+        double center = (o + 0.5) * scale, wsum = 0.0, inv;
+        int lo = (int)floor(center - support + 0.5), hi = (int)floor(center + support + 0.5), i;
         if (lo < 0) lo = 0;
         if (hi > len_in) hi = len_in;
-        if (hi - lo > 64) { double mid = center; lo = (int)mid - 32; if (lo < 0) lo = 0; hi = SUPERMAT__MIN(len_in, lo + 64); }
-        n = hi - lo;
-        for (i = 0; i < n; i++) {
-            double x = (lo + i + 0.5 - center) / support, w = 1.0 - fabs(x);
-            wts[i] = w > 0.0 ? w : 0.0;
-            wsum += wts[i];
-        }
-        for (i = 0; i < n; i++) wts[i] = wsum > 0.0 ? wts[i] / wsum : (i == 0);
+        for (i = lo; i < hi; i++) { double w = 1.0 - fabs((i + 0.5 - center) / support); if (w > 0.0) wsum += w; }
+        inv = wsum > 0.0 ? 1.0 / wsum : 0.0;
         for (l = 0; l < lines; l++)
             for (ch = 0; ch < c; ch++) {
                 double acc = 0.0;
-                for (i = 0; i < n; i++) acc += wts[i] * src[(size_t)l * line_in + (size_t)(lo + i) * step_in + ch];
-                dst[(size_t)l * line_out + (size_t)o * step_out + ch] = (float)acc;
+                for (i = lo; i < hi; i++) {
+                    double w = 1.0 - fabs((i + 0.5 - center) / support);
+                    if (w > 0.0) acc += w * src[(size_t)l * line_in + (size_t)i * step_in + ch];
+                }
+                dst[(size_t)l * line_out + (size_t)o * step_out + ch] = (float)(acc * inv);
             }
     }
 }

@@ -378,6 +378,16 @@ static void test_work_size(supermat_model *m, const unsigned char *img) {
     }
     for (i = 0; i < S * S * 3; i++) if (!(a1[i] >= 0.0f && a1[i] <= 1.0f && o1[i] >= 0.0f && o1[i] <= 1.0f)) { TU_CHECK(0, "work size: output %d out of [0,1]", i); break; }
     free(k.got[0]);
+    {   /* a reduction by 8 (17-tap filters) against float64 */
+        double r8[8 * 8 * 3], e = 0;
+        memset(&k, 0, sizeof k); k.want = SUPERMAT_STAGE_INPUT; k.inject = SUPERMAT_STAGE_COUNT;
+        o.ww = 8; o.wh = 8;
+        run1(m, &o, S, S, img, 4, a1, o1, &k, NULL, NULL);
+        resample64(comp, S, S, 3, r8, 8, 8);
+        for (i = 0; k.got[0] && i < 8 * 8 * 3; i++) if (fabs(k.got[0][i] - r8[i]) > e) e = fabs(k.got[0][i] - r8[i]);
+        TU_CHECK(k.got[0] && e < 1e-5, "work size 8 of 64: input vs float64 resampling max abs %g", e);
+        free(k.got[0]);
+    }
     o.ww = 40; o.wh = 24; /* a non-uniform scale works too */
     TU_CHECK(run1(m, &o, S, S, img, 4, a1, o1, NULL, NULL, NULL) == SUPERMAT_SUCCESS, "work size 40x24");
 }
