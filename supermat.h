@@ -43,9 +43,19 @@
  *     each upsampler resizes to its skip tensor's size (nearest), exactly as diffusers does.
  *   - Computes only what was asked: a branch nobody wants is neither run nor decoded.
  *
+ * SPEED <-> ACCURACY LEVERS (all off by default = the official computation; `supermat bench --image`
+ * measures each against the f32 maps on your input)
+ *   model_desc.weights      f32 | f16 | bf16 | int8 GEMM weights (memory /2, /2, /4)
+ *   model_desc.conv         Winograd F(2x2,3x3) / F(4x4,3x3) for the 3x3 convolutions (<= 640 channels)
+ *   session_desc.outputs    only the maps you need (a branch and its decode are skipped)
+ *   session_desc.work_*     run the network smaller, resample in and out
+ *   session_desc.vae_tile   VAE in blended tiles (bounded memory); skip_background: decode only the
+ *                           tiles with foreground / UV charts (supermat_session_last_flops tells the work)
+ *   session_desc.mv_attention  own-view or strided keys at the highest resolution (SuperMatMV)
+ *
  * WHAT IT DOES NOT DO
- *   - No file I/O, no image decoding or resizing: give it pixels at the size you want processed
- *     (the official scripts resize to 512x512 first).
+ *   - No file I/O, no image decoding: give it pixels at the size you want processed (the official
+ *     scripts resize to 512x512 first); `work_width/height` resample internally if you ask.
  *   - No text encoder: the empty-prompt context is a constant stored in the model file by the converter.
  *
  * CONFIGURATION MACROS (define before including the implementation)
