@@ -9,7 +9,7 @@ def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
     rows = json.load(open(sys.argv[1]))
-    peak = float(sys.argv[2]) if len(sys.argv) > 2 else None
+    peak = float(sys.argv[2]) if len(sys.argv) > 2 else rows[0].get("fma_peak_gflops") if rows else None
     maps = [m for m in ("albedo", "roughness", "metallic", "refined") if any(m in r["psnr"] for r in rows)]
     head = ["mode", "s", "speed-up", "peak MiB", "GFLOP"] + (["% of peak"] if peak else []) + \
            [f"{m} PSNR dB / max abs" for m in maps]
