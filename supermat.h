@@ -2269,10 +2269,21 @@ static int supermat__quantize_panels(const float *p, size_t total, int K, int N,
     return 0;
 }
 
+/* frees one of the model's blocks */
+static void supermat__release(supermat__loader *L, const void *p) {
+    supermat_model *m = L->m;
+    int i;
+    for (i = m->nblocks - 1; i >= 0; i--)
+        if (m->blocks[i] == p) {
+            supermat__free(&m->alloc, m->blocks[i], m->block_sizes[i]);
+            m->info.model_bytes -= m->block_sizes[i];
+            m->blocks[i] = NULL; m->block_sizes[i] = 0;
+            return;
+        }
+}
 /* converts a packed f32 weight to its storage format and releases the f32 copy */
 static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, size_t total, const char *name) {
-    supermat_model *m = L->m;
-    size_t i, bad = 0;
+    size_t bad = 0;
     int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, nkb = (pw->K + SUPERMAT__KC - 1) / SUPERMAT__KC;
     pw->q = supermat__mem(L, total * (fmt == 3 ? 1 : 2));
     if (fmt == 3) pw->qs = (float *)supermat__mem(L, sizeof(float) * (size_t)nkb * np * SUPERMAT__NR);
@@ -2282,13 +2293,7 @@ static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, s
         return;
     }
     pw->fmt = fmt;
-    for (i = (size_t)m->nblocks; i-- > 0;) /* release the f32 panels */
-        if (m->blocks[i] == (void *)pw->p) {
-            supermat__free(&m->alloc, m->blocks[i], m->block_sizes[i]);
-            m->info.model_bytes -= m->block_sizes[i];
-            m->blocks[i] = NULL; m->block_sizes[i] = 0;
-            break;
-        }
+    supermat__release(L, pw->p); /* the f32 panels */
     pw->p = NULL;
 }
 
@@ -2378,18 +2383,6 @@ static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const c
     supermat__name(bn, sizeof bn, "%s.bias", prefix);
     part.name = wn; part.bias = bias ? bn : NULL; part.rows_total = out; part.first = 0; part.count = out;
     supermat__pack(L, pw, &part, 1, in, 1, 0, bias);
-}
-/* frees one of the model's blocks */
-static void supermat__release(supermat__loader *L, const void *p) {
-    supermat_model *m = L->m;
-    int i;
-    for (i = m->nblocks - 1; i >= 0; i--)
-        if (m->blocks[i] == p) {
-            supermat__free(&m->alloc, m->blocks[i], m->block_sizes[i]);
-            m->info.model_bytes -= m->block_sizes[i];
-            m->blocks[i] = NULL; m->block_sizes[i] = 0;
-            return;
-        }
 }
 static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const char *prefix, int cin, int cout, int k, int stride) {
     char wn[200], bn[200];

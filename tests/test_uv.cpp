@@ -18,12 +18,6 @@
 #include <string>
 #include <vector>
 
-static int g_fail = 0, g_pass = 0;
-#define CHECK(cond, ...)                                                                   \
-    do {                                                                                   \
-        if (cond) g_pass++;                                                                \
-        else { g_fail++; std::printf("FAIL %s:%d: ", __FILE__, __LINE__); std::printf(__VA_ARGS__); std::printf("\n"); } \
-    } while (0)
 
 static std::string g_out = ".";
 

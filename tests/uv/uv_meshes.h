@@ -1,9 +1,18 @@
-/* Procedural test meshes and textures for the supermat_uv.h tests (C++11). World Z up. */
+/* Procedural test meshes and textures for the supermat_uv.h tests (C++11), and their pass/fail
+   counting. World Z up. */
 #ifndef UV_MESHES_H
 #define UV_MESHES_H
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <vector>
+
+static int g_fail = 0, g_pass = 0;
+#define CHECK(cond, ...)                                                                   \
+    do {                                                                                   \
+        if (cond) g_pass++;                                                                \
+        else { g_fail++; std::printf("FAIL %s:%d: ", __FILE__, __LINE__); std::printf(__VA_ARGS__); std::printf("\n"); } \
+    } while (0)
 
 struct UvMesh {
     std::vector<float> pos, uv, nrm; /* xyz, uv, xyz per vertex */
