@@ -29,7 +29,7 @@
  *     supermat_session_destroy(s); supermat_model_destroy(model);
  *
  * WHAT IT DOES
- *   - Loads a model from a caller-supplied memory buffer: a safetensors file (F32, F16, BF16) whose
+ *   - Loads a model from a caller-supplied memory buffer: a safetensors file (F32, F16, BF16, I8) whose
  *     `__metadata__` describes the architecture (see MODEL FILE below). Everything is validated first.
  *   - SuperMat (single view): RGBA (straight alpha) over gray 0.5, [-1, 1], VAE encode (mode x scaling
  *     factor), UNet trunk once, each requested expert branch on the same trunk output and skips, the
@@ -104,6 +104,20 @@
  *   sched.num_train_timesteps, sched.beta_start, sched.beta_end, sched.beta_schedule,
  *   sched.prediction_type, sched.steps_offset, sched.set_alpha_to_one, sched.timestep_spacing,
  *   context.tokens, context.dim. `supermat convert` writes them from the official files.
+ *
+ * INT8 WEIGHTS (`supermat convert --precision int8`, or any file with `weights = SUPERMAT_WEIGHTS_I8`)
+ *   A weight W [rows][cin] or [rows][cin][kh][kw] stored as I8 q comes with the F32 tensor
+ *   `<name>_scale` [rows][kh*kw][ceil(cin/64)] (a linear weight: kh*kw = 1), and
+ *   W[r][c][y][x] = q[r][c][y][x] * scale[r][y*kw + x][c / 64]. One scale per output channel, per
+ *   kernel tap, per 64 input channels; symmetric (scale = max |W| / 127 over its group, q in
+ *   [-127, 127], q = round-to-nearest-even(W * (127 / max))). Why: output channels differ in range by
+ *   orders of magnitude; groups of 64 keep one outlier from flattening a whole row (the rounding
+ *   error of a group is bounded by its own maximum); a group never spans two taps, so it is the same
+ *   group in PyTorch's [c][y][x] order and in the runtime's packed [(y, x)][c] order, and a file
+ *   made by the converter loads to the very bits that quantizing an f32 file at load gives; no zero
+ *   point, since weights are centred on 0. The scales cost 4 bytes per 64 weights (+6 %). The panels
+ *   are widened to f32 once per block of rows, so the arithmetic stays f32 (int8 saves memory and
+ *   bandwidth, not FLOPs). An I8 file loads as int8 unless `weights` asks for another format.
  *
  * LICENSE: see the end of the file (MIT or public domain, your choice).
  */
@@ -196,6 +210,8 @@ SUPERMAT_API int supermat_json_number(const char *js, const supermat_json_tok *t
 
 typedef enum supermat_dtype {
     SUPERMAT_DTYPE_DEFAULT = 0, SUPERMAT_DTYPE_F32, SUPERMAT_DTYPE_F16, SUPERMAT_DTYPE_BF16,
+    SUPERMAT_DTYPE_I8, /* int8 GEMM weights: the F32 tensor NAME_scale beside tensor NAME holds their scales
+                          (see INT8 WEIGHTS in the manual) */
     SUPERMAT_DTYPE_COUNT
 } supermat_dtype;
 typedef struct supermat_tensor_info {
@@ -808,7 +824,8 @@ static supermat_result supermat__st_entry(const char *js, const supermat_json_to
     if (!strcmp(dt, "F32")) { o->dtype = SUPERMAT_DTYPE_F32; esz = 4; }
     else if (!strcmp(dt, "F16")) { o->dtype = SUPERMAT_DTYPE_F16; esz = 2; }
     else if (!strcmp(dt, "BF16")) { o->dtype = SUPERMAT_DTYPE_BF16; esz = 2; }
-    else return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has dtype %s (F32, F16 and BF16 are supported)", o->name, dt);
+    else if (!strcmp(dt, "I8")) { o->dtype = SUPERMAT_DTYPE_I8; esz = 1; }
+    else return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has dtype %s (F32, F16, BF16 and I8 are supported)", o->name, dt);
     if (toks[s].size > 8) return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has %d dimensions", o->name, toks[s].size);
     o->ndim = toks[s].size;
     for (k = 0; k < o->ndim; k++) {
@@ -974,10 +991,21 @@ static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size
 typedef struct supermat__pw { /* a packed weight: y = x W^T + b, W [N][K] */
     float *p;      /* ceil(N/16) panels of K x 16 (f32 weights) */
     void *q;       /* the same panels in f16 / bf16 / int8 when fmt != 0 (then p is NULL) */
-    float *qs;     /* int8: a scale per column per KC block of K: [ceil(K/KC)][ceil(N/16)*16] */
+    float *qs;     /* int8: a scale per column per group of K rows: [groups][ceil(N/16)*16] */
     float *bias;   /* padded to a multiple of 16, or NULL */
-    int K, N, fmt; /* fmt: SUPERMAT_WEIGHTS_* (0 = f32) */
+    int K, N, fmt; /* fmt: 0 f32, 1 f16, 2 bf16, 3 int8 */
+    int qcin;      /* int8: K rows come in taps of qcin rows (a conv's input channels; K for a linear) */
 } supermat__pw;
+
+/* int8 scale groups: each tap's qcin rows in runs of SUPERMAT__QG (the last run of a tap may be short) */
+#define SUPERMAT__QG 64
+static int supermat__qgroups(int K, int qcin) { return K / qcin * ((qcin + SUPERMAT__QG - 1) / SUPERMAT__QG); }
+/* the group of row k, and the row where that group ends */
+static int supermat__qgroup(int k, int qcin, int *end) {
+    int tap = k / qcin, ci = k - tap * qcin, g = ci / SUPERMAT__QG, e = (g + 1) * SUPERMAT__QG;
+    *end = tap * qcin + (e < qcin ? e : qcin);
+    return tap * ((qcin + SUPERMAT__QG - 1) / SUPERMAT__QG) + g;
+}
 
 /* f16 / bf16 / int8 panels are widened to f32 a K block of one panel at a time (once per MC rows) */
 typedef void (*supermat__widen_fn)(const void *src, int fmt, const float *scale, int kc, float *dst);
@@ -1158,8 +1186,8 @@ typedef struct supermat__gemm_args {
     supermat__ukr_fn ukr;
     supermat__widen_fn widen;   /* for fmt != 0 */
     const void *Bq;            /* f16 / bf16 / int8 panels */
-    const float *qs;           /* int8 scales [K blocks][np * 16] */
-    int fmt, np;
+    const float *qs;           /* int8 scales [groups][np * 16] */
+    int fmt, np, qcin;
     int M, N, K;
     const supermat__asrc *A;
     const float *B;        /* packed panels (K x 16 each) */
@@ -1193,10 +1221,20 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             size_t boff = ((size_t)p * g->K + k0) * SUPERMAT__NR;
             const float *bp = g->B + (g->fmt ? 0 : boff);
             int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
-            if (g->fmt) { /* widen this panel's K block once for all the rows of the task */
+            if (g->fmt == 3) { /* widen this panel's K block once for all the rows of the task, a scale group at a time */
                 float *wb = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC;
-                g->widen((const char *)g->Bq + boff * (g->fmt == 3 ? 1 : 2), g->fmt,
-                         g->fmt == 3 ? g->qs + (size_t)(k0 / SUPERMAT__KC) * g->np * SUPERMAT__NR + (size_t)p * SUPERMAT__NR : NULL, kc, wb);
+                int k = k0, end, grp;
+                while (k < k0 + kc) {
+                    grp = supermat__qgroup(k, g->qcin, &end);
+                    if (end > k0 + kc) end = k0 + kc;
+                    g->widen((const signed char *)g->Bq + boff + (size_t)(k - k0) * SUPERMAT__NR, 3,
+                             g->qs + (size_t)grp * g->np * SUPERMAT__NR + (size_t)p * SUPERMAT__NR, end - k, wb + (size_t)(k - k0) * SUPERMAT__NR);
+                    k = end;
+                }
+                bp = wb;
+            } else if (g->fmt) {
+                float *wb = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC;
+                g->widen((const char *)g->Bq + boff * 2, g->fmt, NULL, kc, wb);
                 bp = wb;
             }
             for (m = m0; m < m1; m += SUPERMAT__MR) {
@@ -1421,7 +1459,7 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     if (!supermat__live(X) || M <= 0) return;
     memset(&g, 0, sizeof g);
     g.ukr = X->ukr; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
-    g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
     if (W->fmt && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
@@ -2092,6 +2130,7 @@ typedef struct supermat__loader {
     int weights;            /* requested supermat_weights */
     int conv;               /* requested supermat_conv */
     int keep_f32;           /* supermat__pack leaves the f32 panels (they are transformed next) */
+    int *qsc;               /* per tensor: its scale tensor (I8) or -1 */
 } supermat__loader;
 
 static void *supermat__mem(supermat__loader *L, size_t bytes) {
@@ -2201,7 +2240,49 @@ bad: {
     }
 }
 static float supermat__tval(const supermat__loader *L, int t, size_t i) {
-    return supermat__load_elem(L->data + L->ti[t].offset, L->ti[t].dtype, i);
+    const supermat_tensor_info *ti = &L->ti[t];
+    if (ti->dtype == SUPERMAT_DTYPE_I8) { /* q * scale[row][tap][c / QG] (the shapes were checked at load) */
+        size_t taps = ti->ndim == 4 ? (size_t)(ti->shape[2] * ti->shape[3]) : 1, cin = (size_t)ti->shape[1], per = cin * taps;
+        size_t row = i / per, rem = i % per, c = rem / taps, tap = rem % taps, ng = (cin + SUPERMAT__QG - 1) / SUPERMAT__QG;
+        float sc;
+        memcpy(&sc, L->data + L->ti[L->qsc[t]].offset + 4 * ((row * taps + tap) * ng + c / SUPERMAT__QG), 4);
+        return (float)(signed char)L->data[ti->offset + i] * sc;
+    }
+    return supermat__load_elem(L->data + ti->offset, ti->dtype, i);
+}
+/* I8 tensors: their F32 `<name>_scale` [rows][taps][ceil(cin/QG)], finite and >= 0 (into L->qsc) */
+static void supermat__check_i8(supermat__loader *L) {
+    int t, k;
+    for (t = 0; t < L->nt && !L->r; t++) {
+        const supermat_tensor_info *ti = &L->ti[t];
+        char sn[sizeof ti->name + 8];
+        int s;
+        size_t n, i;
+        int64_t taps, ng;
+        L->qsc[t] = -1;
+        if (ti->dtype != SUPERMAT_DTYPE_I8) continue;
+        if (ti->ndim != 2 && ti->ndim != 4) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, ti->name, "I8 tensor '%s' has %d dimensions (int8 weights are [rows][cin] or [rows][cin][kh][kw])", ti->name, ti->ndim); return; }
+        for (k = 0; k < ti->ndim; k++) if (ti->shape[k] <= 0 || ti->shape[k] > 0x7fffffff) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, ti->name, "I8 tensor '%s' has an empty or huge dimension", ti->name); return; }
+        taps = ti->ndim == 4 ? ti->shape[2] * ti->shape[3] : 1;
+        ng = (ti->shape[1] + SUPERMAT__QG - 1) / SUPERMAT__QG;
+        supermat__name(sn, sizeof sn, "%s_scale", ti->name);
+        s = supermat__find_tensor(L, sn);
+        if (s < 0) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MISSING_TENSOR, sn, "I8 tensor '%s' has no scale tensor '%s'", ti->name, sn); return; }
+        if (L->ti[s].dtype != SUPERMAT_DTYPE_F32 || L->ti[s].ndim != 3 || L->ti[s].shape[0] != ti->shape[0] || L->ti[s].shape[1] != taps || L->ti[s].shape[2] != ng) {
+            L->r = supermat__fail(L->err, SUPERMAT_ERROR_SHAPE_MISMATCH, sn, "scale tensor '%s' must be F32 [%lld, %lld, %lld] (rows, kernel taps, input channels / %d)", sn,
+                                  (long long)ti->shape[0], (long long)taps, (long long)ng, SUPERMAT__QG);
+            return;
+        }
+        n = (size_t)(L->ti[s].nbytes / 4);
+        for (i = 0; i < n; i++) {
+            float v;
+            memcpy(&v, L->data + L->ti[s].offset + 4 * i, 4);
+            if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, sn, "scale tensor '%s' contains NaN or Inf", sn); return; }
+            if (v < 0.0f) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, sn, "scale tensor '%s' has a negative scale %g", sn, (double)v); return; }
+        }
+        L->qsc[t] = s;
+        L->used[s] = 1;
+    }
 }
 /* the f32 values of a 1-D tensor of c elements: borrowed when possible, else converted */
 static const float *supermat__vec(supermat__loader *L, const char *name, int c, int pad16) {
@@ -2233,11 +2314,11 @@ nonfinite:
 }
 
 /* converts packed f32 panels (K x 16 each) to f16 / bf16 / int8 panels of the same layout; int8 takes
-   one symmetric scale (max |w| / 127) per column per KC block of K. Returns -1 if a value does not fit
-   f16 (first such index in *bad). */
-static int supermat__quantize_panels(const float *p, size_t total, int K, int N, int fmt, void *qv, float *qs, size_t *bad) {
+   one symmetric scale (max |w| / 127) per column per group of rows (supermat__qgroup). Returns -1 if a
+   value does not fit f16 (first such index in *bad). */
+static int supermat__quantize_panels(const float *p, size_t total, int K, int N, int qcin, int fmt, void *qv, float *qs, size_t *bad) {
     size_t i;
-    int np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR, nkb = (K + SUPERMAT__KC - 1) / SUPERMAT__KC;
+    int np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     if (fmt == 1) {
         uint16_t *q = (uint16_t *)qv;
         for (i = 0; i < total; i++) {
@@ -2249,15 +2330,15 @@ static int supermat__quantize_panels(const float *p, size_t total, int K, int N,
         for (i = 0; i < total; i++) q[i] = supermat__f32_to_bf16(p[i]);
     } else {
         signed char *q = (signed char *)qv;
-        int pnl, kb, c, k;
+        int pnl, c, k, k0, k1, grp;
         for (pnl = 0; pnl < np; pnl++)
-            for (kb = 0; kb < nkb; kb++) {
-                int k0 = kb * SUPERMAT__KC, k1 = SUPERMAT__MIN(K, k0 + SUPERMAT__KC);
+            for (k0 = 0; k0 < K; k0 = k1) {
+                grp = supermat__qgroup(k0, qcin, &k1);
                 for (c = 0; c < SUPERMAT__NR; c++) {
                     float mx = 0.0f, inv;
                     for (k = k0; k < k1; k++) { float v = fabsf(p[((size_t)pnl * K + k) * SUPERMAT__NR + c]); if (v > mx) mx = v; }
                     inv = mx > 0.0f ? 127.0f / mx : 0.0f;
-                    qs[(size_t)kb * np * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
+                    qs[(size_t)grp * np * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
                     for (k = k0; k < k1; k++) {
                         size_t o = ((size_t)pnl * K + k) * SUPERMAT__NR + c;
                         float v = rintf(p[o] * inv);
@@ -2284,11 +2365,11 @@ static void supermat__release(supermat__loader *L, const void *p) {
 /* converts a packed f32 weight to its storage format and releases the f32 copy */
 static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, size_t total, const char *name) {
     size_t bad = 0;
-    int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, nkb = (pw->K + SUPERMAT__KC - 1) / SUPERMAT__KC;
+    int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     pw->q = supermat__mem(L, total * (fmt == 3 ? 1 : 2));
-    if (fmt == 3) pw->qs = (float *)supermat__mem(L, sizeof(float) * (size_t)nkb * np * SUPERMAT__NR);
+    if (fmt == 3) pw->qs = (float *)supermat__mem(L, sizeof(float) * (size_t)supermat__qgroups(pw->K, pw->qcin) * np * SUPERMAT__NR);
     if (L->r) return;
-    if (supermat__quantize_panels(pw->p, total, pw->K, pw->N, fmt, pw->q, pw->qs, &bad)) {
+    if (supermat__quantize_panels(pw->p, total, pw->K, pw->N, pw->qcin, fmt, pw->q, pw->qs, &bad)) {
         L->r = supermat__fail(L->err, SUPERMAT_ERROR_UNSUPPORTED, name, "tensor '%s' has a value %g beyond the f16 range", name, (double)pw->p[bad]);
         return;
     }
@@ -2303,22 +2384,42 @@ typedef struct supermat__wpart { const char *name; const char *bias; int rows_to
 
 static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat__wpart *parts, int nparts, int cin, int k,
                            int is_conv, int need_bias) {
-    int p, K = cin * k * k, N = 0, n0 = 0, np;
-    size_t total;
+    int p, K = cin * k * k, N = 0, n0 = 0, np, fmt, direct;
+    size_t total, ngq = 0;
     if (L->r) return;
     for (p = 0; p < nparts; p++) N += parts[p].count;
     np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     if (!supermat__mul_ok((size_t)np * SUPERMAT__NR, (size_t)K, &total)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, parts[0].name, "weight too large"); return; }
-    pw->K = K; pw->N = N;
-    pw->p = (float *)supermat__mem(L, total * sizeof(float));
+    {   /* storage format: as the file stores it, or as asked */
+        int t0 = supermat__find_tensor(L, parts[0].name);
+        supermat_dtype d0 = t0 < 0 ? SUPERMAT_DTYPE_F32 : L->ti[t0].dtype;
+        fmt = L->weights == SUPERMAT_WEIGHTS_F16 ? 1 : L->weights == SUPERMAT_WEIGHTS_BF16 ? 2 : L->weights == SUPERMAT_WEIGHTS_I8 ? 3 : 0;
+        if (L->weights == SUPERMAT_WEIGHTS_DEFAULT) fmt = d0 == SUPERMAT_DTYPE_F16 ? 1 : d0 == SUPERMAT_DTYPE_BF16 ? 2 : d0 == SUPERMAT_DTYPE_I8 ? 3 : 0;
+        if (!L->m->info.weights) L->m->info.weights = (supermat_weights)(fmt + 1);
+    }
+    /* int8 from I8 tensors: the file's values and scales go straight into the panels (no requantizing) */
+    direct = fmt == 3 && !L->keep_f32;
+    for (p = 0; p < nparts && direct; p++) {
+        int t = supermat__find_tensor(L, parts[p].name);
+        direct = t >= 0 && L->ti[t].dtype == SUPERMAT_DTYPE_I8;
+    }
+    pw->K = K; pw->N = N; pw->qcin = cin;
+    pw->p = NULL; pw->q = NULL; pw->qs = NULL; pw->fmt = 0;
+    if (direct) {
+        ngq = (size_t)supermat__qgroups(K, cin) * np * SUPERMAT__NR;
+        pw->q = supermat__mem(L, total);
+        pw->qs = (float *)supermat__mem(L, ngq * sizeof(float));
+        if (pw->q) memset(pw->q, 0, total);
+        if (pw->qs) memset(pw->qs, 0, ngq * sizeof(float));
+    } else pw->p = (float *)supermat__mem(L, total * sizeof(float));
     pw->bias = NULL;
     if (need_bias) {
         pw->bias = (float *)supermat__mem(L, (size_t)np * SUPERMAT__NR * sizeof(float));
         if (pw->bias) memset(pw->bias, 0, (size_t)np * SUPERMAT__NR * sizeof(float));
     }
-    if (!pw->p) return;
+    if (L->r) return;
     /* zero the padding columns of the last panel */
-    if (N % SUPERMAT__NR) {
+    if (!direct && N % SUPERMAT__NR) {
         size_t kk;
         float *last = pw->p + (size_t)(np - 1) * K * SUPERMAT__NR;
         for (kk = 0; kk < (size_t)K; kk++) memset(last + kk * SUPERMAT__NR + N % SUPERMAT__NR, 0, sizeof(float) * (SUPERMAT__NR - N % SUPERMAT__NR));
@@ -2329,7 +2430,21 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
         want[0] = parts[p].rows_total; want[1] = cin; want[2] = k; want[3] = k;
         t = supermat__wtensor(L, parts[p].name, is_conv ? 4 : 2, want);
         if (t < 0) return;
-        for (r = 0; r < parts[p].count; r++) {
+        if (direct) {
+            const signed char *raw = (const signed char *)(L->data + L->ti[t].offset);
+            const unsigned char *sc = L->data + L->ti[L->qsc[t]].offset;
+            int kk = k * k, ng = (cin + SUPERMAT__QG - 1) / SUPERMAT__QG, tap, gi;
+            signed char *q = (signed char *)pw->q;
+            for (r = 0; r < parts[p].count; r++) {
+                int n = n0 + r, row = parts[p].first + r;
+                signed char *dst = q + (size_t)(n / SUPERMAT__NR) * K * SUPERMAT__NR + n % SUPERMAT__NR;
+                for (tap = 0; tap < kk; tap++) {
+                    for (ci = 0; ci < cin; ci++) dst[((size_t)tap * cin + ci) * SUPERMAT__NR] = raw[((size_t)row * cin + ci) * kk + tap];
+                    for (gi = 0; gi < ng; gi++)
+                        memcpy(pw->qs + ((size_t)tap * ng + gi) * np * SUPERMAT__NR + n, sc + 4 * (((size_t)row * kk + tap) * ng + gi), 4);
+                }
+            }
+        } else for (r = 0; r < parts[p].count; r++) {
             int n = n0 + r, row = parts[p].first + r;
             float *dst = pw->p + (size_t)(n / SUPERMAT__NR) * K * SUPERMAT__NR + n % SUPERMAT__NR;
             size_t base = (size_t)row * K;
@@ -2365,15 +2480,8 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
         n0 += parts[p].count;
     }
     if (L->r) return;
-    {   /* storage format: as the file stores it, or as asked */
-        int fmt = L->weights == SUPERMAT_WEIGHTS_F16 ? 1 : L->weights == SUPERMAT_WEIGHTS_BF16 ? 2 : L->weights == SUPERMAT_WEIGHTS_I8 ? 3 : 0;
-        if (L->weights == SUPERMAT_WEIGHTS_DEFAULT) {
-            int t0 = supermat__find_tensor(L, parts[0].name);
-            fmt = t0 < 0 ? 0 : L->ti[t0].dtype == SUPERMAT_DTYPE_F16 ? 1 : L->ti[t0].dtype == SUPERMAT_DTYPE_BF16 ? 2 : 0;
-        }
-        if (!L->m->info.weights) L->m->info.weights = (supermat_weights)(fmt + 1);
-        if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
-    }
+    if (direct) pw->fmt = 3;
+    else if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
 }
 
 static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const char *prefix, int out, int in, int bias) {
@@ -2726,13 +2834,15 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if (L.meta >= 0 && L.toks[L.meta].type != SUPERMAT_JSON_OBJECT) L.meta = -1;
     L.ti = (supermat_tensor_info *)supermat__alloc(&a, sizeof(supermat_tensor_info) * (size_t)(n + 1));
     L.used = (unsigned char *)supermat__alloc(&a, (size_t)n + 1);
-    if (!L.ti || !L.used) { L.r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the tensor table"); goto done; }
+    L.qsc = (int *)supermat__alloc(&a, sizeof(int) * ((size_t)n + 1));
+    if (!L.ti || !L.used || !L.qsc) { L.r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the tensor table"); goto done; }
     memset(L.used, 0, (size_t)n + 1);
     for (i = 0, k = 1; i < L.toks[0].size && !L.r; i++, k = L.toks[k].next) {
         if (supermat__json_eq(L.js, &L.toks[k], "__metadata__")) continue;
         L.r = supermat__st_entry(L.js, L.toks, k, 8 + hlen, desc->size, &L.ti[L.nt], err);
         if (!L.r) L.nt++;
     }
+    supermat__check_i8(&L);
     if (L.r) goto done;
     /* the architecture from the metadata */
     if (L.meta < 0) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the file has no __metadata__: it is not a supermat model (make one with `supermat convert`)"); goto done; }
@@ -2812,6 +2922,7 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
 done:
     if (L.ti) supermat__free(&a, L.ti, sizeof(supermat_tensor_info) * (size_t)(n + 1));
     if (L.used) supermat__free(&a, L.used, (size_t)n + 1);
+    if (L.qsc) supermat__free(&a, L.qsc, sizeof(int) * ((size_t)n + 1));
     if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
     if (L.r) { supermat__model_free(m); return L.r; }
     m->info.kernel = L.avx2 ? SUPERMAT_KERNEL_AVX2 : SUPERMAT_KERNEL_SCALAR;

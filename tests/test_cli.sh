@@ -124,6 +124,8 @@ check "convert writes the model" [ -s "$MODEL" ]
 absent "$MODEL.tmp"
 run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_f16.safetensors" --dtype f16
 check "convert --dtype f16 (kind detected) exits 0" [ $RC -eq 0 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8.safetensors" --precision int8
+check "convert --precision int8 exits 0" [ $RC -eq 0 ]
 run convert --unet "$T/missing.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors"
 check "convert of a missing checkpoint exits 1" [ $RC -eq 1 ]
 check "convert error names the file" grep -q 'missing.pth' "$T/err"
@@ -135,6 +137,12 @@ check "info --weights int8 exits 0" [ $RC -eq 0 ]
 check "info --weights int8 reports int8" grep -Eq '^weights +int8' "$T/out"
 run info "$T/tiny_f16.safetensors"
 check "an f16 file is held as f16 by default" grep -Eq '^weights +f16' "$T/out"
+run info "$T/tiny_i8.safetensors"
+check "an int8 file is held as int8 by default" grep -Eq '^weights +int8' "$T/out"
+check "info int8: I8 tensors" grep -Eq 'I8: [0-9]+ tensors' "$T/out"
+run image --model "$T/tiny_i8.safetensors" --out "$T/w_i8" "$DATA/img/sphere_64.png"
+check "image with the int8 file exits 0" [ $RC -eq 0 ]
+check_png "$T/w_i8/sphere_64_albedo.png" 64 64 2
 run image --weights bf16 --model "$MODEL" --out "$T/w_bf16" "$DATA/img/sphere_64.png"
 check "image --weights bf16 exits 0" [ $RC -eq 0 ]
 check_png "$T/w_bf16/sphere_64_albedo.png" 64 64 2

@@ -194,7 +194,7 @@ static void test_f16_overflow(void) {
     for (i = 0; i < N * K; i++) w[i] = (float)((i * 104729) % 2001 - 1000) * 60.0f;   /* up to 6e4, f16 range */
     memset(p, 0, sizeof p);
     for (j = 0; j < N; j++) for (k = 0; k < K; k++) p[((size_t)(j / 16) * K + k) * 16 + j % 16] = w[j * K + k];
-    TU_CHECK(supermat__quantize_panels(p, sizeof p / sizeof p[0], K, N, 1, q, scale, &bad) == 0, "f16 panels");
+    TU_CHECK(supermat__quantize_panels(p, sizeof p / sizeof p[0], K, N, K, 1, q, scale, &bad) == 0, "f16 panels");
     for (avx2 = 0; avx2 <= supermat_cpu_has_avx2(); avx2++) {
         double worst = 0.0, ymax = 0.0;
         memset(&X, 0, sizeof X);

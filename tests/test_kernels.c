@@ -150,26 +150,46 @@ static void test_quantized(int avx2, int threads) {
     supermat__select_kernels(&k.X);
     for (fmt = 1; fmt <= 3; fmt++)
         for (it = 0; it < 8; it++) {
-            int M = irand(1, 100), N = irand(1, 50), K = irand(1, 600), i, j, kq, np = (N + 15) / 16, nkb = (K + 255) / 256;
+            /* K = taps x cin as in a conv: int8 groups are 64 input channels of one tap */
+            int M = irand(1, 100), N = irand(1, 50), taps = irand(1, 9), cin = irand(1, 200), K = taps * cin, i, j, kq, np = (N + 15) / 16;
+            int ng = (cin + 63) / 64, nq = taps * ng;
             float *a = rvec((size_t)M * K, 1.0), *wt = rvec((size_t)N * K, 0.1), *c = (float *)malloc(sizeof(float) * M * N), *cf = (float *)malloc(sizeof(float) * M * N);
             double *ref = (double *)malloc(sizeof(double) * M * N), qerr = 0, qmax = 0;
             size_t total = (size_t)np * 16 * K, bad;
             supermat__pw pw, pq;
             pack_w(&pw, wt, NULL, N, K, 1);
             pq = pw;
-            pq.q = malloc(total * 2); pq.qs = (float *)malloc(sizeof(float) * nkb * np * 16); pq.fmt = fmt; pq.p = NULL;
-            TU_CHECK(supermat__quantize_panels(pw.p, total, K, N, fmt, pq.q, pq.qs, &bad) == 0, "quantize fmt %d", fmt);
+            pq.q = malloc(total * 2); pq.qs = (float *)malloc(sizeof(float) * nq * np * 16); pq.fmt = fmt; pq.p = NULL; pq.qcin = cin;
+            TU_CHECK(supermat__qgroups(K, cin) == nq, "int8 groups %d, expected %d", supermat__qgroups(K, cin), nq);
+            TU_CHECK(supermat__quantize_panels(pw.p, total, K, N, cin, fmt, pq.q, pq.qs, &bad) == 0, "quantize fmt %d", fmt);
             for (i = 0; i < M; i++)
                 for (j = 0; j < N; j++) {
                     double s = 0;
                     for (kq = 0; kq < K; kq++) {
                         size_t o = ((size_t)(j / 16) * K + kq) * 16 + j % 16;
                         double w = fmt == 1 ? supermat__f16_to_f32(((uint16_t *)pq.q)[o]) : fmt == 2 ? supermat__bf16_to_f32(((uint16_t *)pq.q)[o])
-                                 : (double)((signed char *)pq.q)[o] * pq.qs[(size_t)(kq / 256) * np * 16 + j];
+                                 : (double)((signed char *)pq.q)[o] * pq.qs[(size_t)((kq / cin) * ng + (kq % cin) / 64) * np * 16 + j];
                         s += (double)a[(size_t)i * K + kq] * w;
                     }
                     ref[(size_t)i * N + j] = s;
                 }
+            if (fmt == 3) { /* the format's definition: |w - q s| <= s / 2 (+ float rounding) and s = max |w| / 127 per column, tap, 64 channels */
+                double worst = 0;
+                int g, bad_s = 0;
+                for (j = 0; j < N; j++)
+                    for (g = 0; g < nq; g++) {
+                        int tap = g / ng, c0 = (g % ng) * 64, c1 = c0 + 64 < cin ? c0 + 64 : cin;
+                        float sc = pq.qs[(size_t)g * np * 16 + j], mx = 0;
+                        for (kq = tap * cin + c0; kq < tap * cin + c1; kq++) {
+                            size_t o = ((size_t)(j / 16) * K + kq) * 16 + j % 16;
+                            double e = fabs((double)wt[(size_t)j * K + kq] - (double)((signed char *)pq.q)[o] * sc) / (0.5 * sc);
+                            if (e > worst) worst = e;
+                            if (fabsf(wt[(size_t)j * K + kq]) > mx) mx = fabsf(wt[(size_t)j * K + kq]);
+                        }
+                        if (sc != mx / 127.0f) bad_s++;
+                    }
+                TU_CHECK(worst <= 1.0 + 1e-4 && bad_s == 0, "int8 rounding: worst |w - q s| = %.6f s/2, %d wrong scales", worst, bad_s);
+            }
             k.X.status = SUPERMAT_SUCCESS;
             supermat__linear(&k.X, a, (size_t)K, M, &pq, c, (size_t)N, NULL, 0);
             TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, avx2 ? "avx2" : "scalar", M, N, K, maxerr(c, ref, (size_t)M * N));

@@ -980,6 +980,11 @@ static int sm__pth_open_st(sm_pth *p, uint64_t hlen, int skip_unsupported, char 
             free(hdr);
             return sm__err(err, cap, r, "%s: %s", p->file, se.message);
         }
+        if (p->t[p->n].dtype == SUPERMAT_DTYPE_I8) { /* quantized input: its scales live in another tensor */
+            if (skip_unsupported) continue;
+            free(hdr);
+            return sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "%s: tensor '%s' is I8: convert from the F32, F16 or BF16 checkpoint", p->file, p->t[p->n].name);
+        }
         p->entry[p->n] = -1;
         p->n++;
     }
@@ -1423,8 +1428,10 @@ static float sm__bf16_to_f32(uint16_t h) {
     return f;
 }
 
-static size_t sm__dt_size(supermat_dtype d) { return d == SUPERMAT_DTYPE_F32 ? 4 : 2; }
-static const char *sm__dt_name(supermat_dtype d) { return d == SUPERMAT_DTYPE_F32 ? "F32" : d == SUPERMAT_DTYPE_F16 ? "F16" : "BF16"; }
+static size_t sm__dt_size(supermat_dtype d) { return d == SUPERMAT_DTYPE_F32 ? 4 : d == SUPERMAT_DTYPE_I8 ? 1 : 2; }
+static const char *sm__dt_name(supermat_dtype d) {
+    return d == SUPERMAT_DTYPE_F32 ? "F32" : d == SUPERMAT_DTYPE_F16 ? "F16" : d == SUPERMAT_DTYPE_I8 ? "I8" : "BF16";
+}
 
 /* Converts n elements (src and dst may not overlap). Returns the index of the first non-finite output
    value, or -1. `overflow` is set when a finite input became Inf. */
@@ -1914,6 +1921,7 @@ typedef struct sm__otensor {
     char name[SM__NAME_CAP];
     int src; /* 0 checkpoint, 1 VAE, 2 context */
     int index;
+    int q;   /* 1: an int8 weight, 2: its scales (the next tensor, written with it) */
     supermat_dtype in_dt, out_dt;
     int ndim;
     int64_t shape[8];
@@ -1948,6 +1956,49 @@ static int sm__write_tensor(FILE *f, sm_pth *p, const sm__otensor *o, unsigned c
         done += n;
     }
     return sm__pth_crc_done(p, o->index, crc, err, cap);
+}
+
+/* int8 weights, the format of supermat.h's INT8 WEIGHTS: per row, kernel tap and 64 input channels a
+   scale max |w| / 127 and q = round-to-nearest-even(w * (127 / max)), in the very float operations the
+   runtime uses when it quantizes at load (so both give the same bits). Reads the whole tensor. */
+static int sm__write_i8(FILE *f, sm_pth *p, const sm__otensor *o, const sm__otensor *so, unsigned char *inb, const char *outpath,
+                        char *err, size_t cap) {
+    size_t esi = sm__dt_size(o->in_dt), ne = (size_t)(o->in_bytes / esi), rows = (size_t)o->shape[0], cin = (size_t)o->shape[1];
+    size_t taps = o->ndim == 4 ? (size_t)(o->shape[2] * o->shape[3]) : 1, ng = (size_t)so->shape[2], row, tap, g, c;
+    float *w = (float *)malloc(sizeof(float) * (ne ? ne : 1)), *sc = (float *)malloc((size_t)so->out_bytes ? (size_t)so->out_bytes : 4);
+    signed char *q = (signed char *)malloc(ne ? ne : 1);
+    uint64_t done = 0;
+    uint32_t crc = 0;
+    int r = 0, ovf;
+    if (!w || !sc || !q) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory for tensor '%s' (%llu elements)", o->name, (unsigned long long)ne); goto done; }
+    while (done < o->in_bytes) {
+        size_t n = (size_t)SM__MIN((uint64_t)SM__CHUNK, o->in_bytes - done);
+        long bad;
+        if ((r = sm__pth_read_part(p, o->index, done, inb, n, &crc, err, cap))) goto done;
+        bad = sm__convert_elems(inb, o->in_dt, (unsigned char *)(w + done / esi), SUPERMAT_DTYPE_F32, n / esi, &ovf);
+        if (bad >= 0) { r = sm__err(err, cap, SUPERMAT_ERROR_NONFINITE, "%s: tensor '%s' holds NaN or Inf (element %llu)", p->file, o->name, (unsigned long long)(done / esi) + (unsigned long long)bad); goto done; }
+        done += n;
+    }
+    if ((r = sm__pth_crc_done(p, o->index, crc, err, cap))) goto done;
+    for (row = 0; row < rows; row++)
+        for (tap = 0; tap < taps; tap++)
+            for (g = 0; g < ng; g++) {
+                size_t c1 = SM__MIN(cin, (g + 1) * 64);
+                float mx = 0.0f, inv;
+                for (c = g * 64; c < c1; c++) { float v = fabsf(w[(row * cin + c) * taps + tap]); if (v > mx) mx = v; }
+                inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+                sc[(row * taps + tap) * ng + g] = mx / 127.0f;
+                for (c = g * 64; c < c1; c++) {
+                    size_t i = (row * cin + c) * taps + tap;
+                    float v = rintf(w[i] * inv);
+                    q[i] = (signed char)(v > 127.0f ? 127 : v < -127.0f ? -127 : (int)v);
+                }
+            }
+    if (fwrite(q, 1, ne, f) != ne || fwrite(sc, 1, (size_t)so->out_bytes, f) != (size_t)so->out_bytes)
+        r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", outpath);
+done:
+    free(w); free(sc); free(q);
+    return r;
 }
 
 static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__otensor *ot, int nt, sm_pth *ck, sm_pth *vae, const float *ctx,
@@ -1993,7 +2044,8 @@ static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__o
     for (i = 0; i < nt && !r; i++) {
         if (ot[i].src == 2) {
             if (fwrite(ctx, 1, (size_t)ot[i].out_bytes, f) != (size_t)ot[i].out_bytes) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error", tmp);
-        } else r = sm__write_tensor(f, ot[i].src == 0 ? ck : vae, &ot[i], inb, outb, tmp, err, cap);
+        } else if (ot[i].q == 1) r = sm__write_i8(f, ot[i].src == 0 ? ck : vae, &ot[i], &ot[i + 1], inb, tmp, err, cap);
+        else if (ot[i].q != 2) r = sm__write_tensor(f, ot[i].src == 0 ? ck : vae, &ot[i], inb, outb, tmp, err, cap);
         written += ot[i].out_bytes;
         if (progress && (written >= next_report || i + 1 == nt)) {
             fprintf(stderr, "sm_convert: writing %3d%% (%.2f of %.2f GB)\n", total ? (int)(100.0 * (double)written / (double)total) : 100, written / 1e9, total / 1e9);
@@ -2113,6 +2165,14 @@ static void sm__vae_name(const char *in, char *out, size_t cap, int *renamed) {
     snprintf(out, cap, "vae.%s", in);
 }
 
+/* int8 output: the weights the runtime multiplies in its GEMMs. The cross-attention keys and values are
+   not: they are folded with the constant context at load, so they keep their precision. */
+static int sm__int8_weight(const char *name, int ndim) {
+    size_t n = strlen(name);
+    if ((ndim != 2 && ndim != 4) || n < 7 || strcmp(name + n - 7, ".weight")) return 0;
+    return !strstr(name, ".attn2.to_k.weight") && !strstr(name, ".attn2.to_v.weight");
+}
+
 static int sm__add_outputs(sm__otensor *ot, int *nt, sm_pth *p, int src, supermat_dtype dt, uint64_t *off, char *err, size_t cap) {
     int i, renamed;
     for (i = 0; i < p->n; i++) {
@@ -2139,10 +2199,32 @@ static int sm__add_outputs(sm__otensor *ot, int *nt, sm_pth *p, int src, superma
         memcpy(o->shape, t->shape, sizeof o->shape);
         if (renamed && o->ndim == 4 && o->shape[2] == 1 && o->shape[3] == 1) o->ndim = 2; /* 1x1 conv -> linear */
         o->in_bytes = t->nbytes;
+        if (dt == SUPERMAT_DTYPE_I8) {
+            o->q = sm__int8_weight(o->name, o->ndim) && o->shape[0] > 0 && o->shape[1] > 0;
+            o->out_dt = o->q ? SUPERMAT_DTYPE_I8 : t->dtype;
+        }
         o->out_bytes = ne * sm__dt_size(o->out_dt);
         o->out_off = *off;
         *off += o->out_bytes;
         (*nt)++;
+        if (o->q) { /* the scales: [rows][kernel taps][ceil(cin / 64)] */
+            sm__otensor *s = &ot[*nt];
+            size_t n = strlen(o->name);
+            if (n + 7 > SM__NAME_CAP) return sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "%s: tensor name '%s_scale' is too long", p->file, o->name);
+            memset(s, 0, sizeof *s);
+            memcpy(s->name, o->name, n);
+            memcpy(s->name + n, "_scale", 7);
+            s->src = src; s->index = i; s->q = 2;
+            s->in_dt = s->out_dt = SUPERMAT_DTYPE_F32;
+            s->ndim = 3;
+            s->shape[0] = o->shape[0];
+            s->shape[1] = o->ndim == 4 ? o->shape[2] * o->shape[3] : 1;
+            s->shape[2] = (o->shape[1] + 63) / 64;
+            s->out_bytes = (uint64_t)s->shape[0] * (uint64_t)s->shape[1] * (uint64_t)s->shape[2] * 4;
+            s->out_off = *off;
+            *off += s->out_bytes;
+            (*nt)++;
+        }
     }
     return 0;
 }
@@ -2366,7 +2448,7 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     sm__meta_add(ms, "context.dim", "%d", dim);
 
     /* the output */
-    ot = (sm__otensor *)malloc(sizeof(sm__otensor) * ((size_t)ck->n + (size_t)vae->n + 1));
+    ot = (sm__otensor *)malloc(sizeof(sm__otensor) * (2 * ((size_t)ck->n + (size_t)vae->n) + 1)); /* int8: + scales */
     if (!ot) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory"); goto done; }
     if ((r = sm__add_outputs(ot, &nt, ck, 0, d->dtype, &off, err, cap)) || (r = sm__add_outputs(ot, &nt, vae, 1, d->dtype, &off, err, cap))) goto done;
     {
@@ -2424,11 +2506,12 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--threads") && i + 1 < argc) d.threads = atoi(argv[++i]);
         else if (!strcmp(a, "--dtype") && i + 1 < argc) {
             const char *t = argv[++i];
-            d.dtype = !strcmp(t, "f32") ? SUPERMAT_DTYPE_F32 : !strcmp(t, "f16") ? SUPERMAT_DTYPE_F16 : !strcmp(t, "bf16") ? SUPERMAT_DTYPE_BF16 : SUPERMAT_DTYPE_COUNT;
+            d.dtype = !strcmp(t, "f32") ? SUPERMAT_DTYPE_F32 : !strcmp(t, "f16") ? SUPERMAT_DTYPE_F16 : !strcmp(t, "bf16") ? SUPERMAT_DTYPE_BF16
+                    : !strcmp(t, "int8") ? SUPERMAT_DTYPE_I8 : SUPERMAT_DTYPE_COUNT;
         } else if (!strcmp(a, "--quiet")) d.progress = 0;
         else {
             fprintf(stderr, "usage: %s --checkpoint supermat.pth --base sd21_dir --out model.safetensors [--kind supermat|supermat-mv|uv-refine]\n"
-                            "          [--dtype f32|f16|bf16] [--threads N] [--quiet]\n", argv[0]);
+                            "          [--dtype f32|f16|bf16|int8] [--threads N] [--quiet]\n", argv[0]);
             return 2;
         }
     }

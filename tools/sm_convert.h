@@ -47,7 +47,9 @@ typedef struct sm_convert_desc {
     const char *base_dir;   /* Stable Diffusion 2.1 in diffusers layout */
     const char *output;     /* the model file to write */
     supermat_dtype dtype;   /* DEFAULT: keep every tensor's stored dtype; F32 / F16 / BF16: convert the
-                               checkpoint and VAE tensors (round to nearest even). `context` is always F32. */
+                               checkpoint and VAE tensors (round to nearest even); I8: the GEMM weights
+                               as int8 + `<name>_scale` (supermat.h, INT8 WEIGHTS), the rest as stored.
+                               `context` is always F32. */
     int progress;           /* nonzero: progress lines on stderr */
     int threads;            /* text encoder threads: 0 = 2, 1 = the calling thread only */
 } sm_convert_desc;

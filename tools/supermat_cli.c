@@ -146,6 +146,7 @@ static const char *cli_dtype_name(supermat_dtype d) {
     case SUPERMAT_DTYPE_F32: return "F32";
     case SUPERMAT_DTYPE_F16: return "F16";
     case SUPERMAT_DTYPE_BF16: return "BF16";
+    case SUPERMAT_DTYPE_I8: return "I8";
     default: return "?";
     }
 }
@@ -189,10 +190,10 @@ static const char cli_usage_convert[] =
     "  --unet FILE       the official checkpoint, e.g. supermat.pth (required)\n"
     "  --base DIR        the Stable Diffusion 2.1 folder (required)\n"
     "  --out FILE        the model file to write (required)\n"
-    "  --dtype D         f32 | f16 | bf16: convert the weights (round to nearest even);\n"
-    "  --precision D     (the same option) default: keep every tensor's stored dtype. int8 is made\n"
-    "                    at load (--weights int8 on the other commands): its per-block scales follow\n"
-    "                    the runtime's packing\n"
+    "  --dtype D         f32 | f16 | bf16 | int8: convert the weights (f16 / bf16: round to nearest\n"
+    "  --precision D     even; int8: the GEMM weights as int8 with a scale per output channel, kernel\n"
+    "                    tap and 64 input channels, the rest as stored; loads to the same bits as\n"
+    "                    --weights int8 on an f32 file). Default: keep every tensor's stored dtype\n"
     "  --threads N       text encoder threads (default 0 = 2, 1 = none)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
@@ -736,9 +737,8 @@ static int cli_convert(int argc, char **argv) {
             if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
             else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
             else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
-            else if (!strcmp(v, "int8"))
-                return cli_usage_error(cmd, "int8: its scales follow the runtime's weight packing, so int8 is made at load: write f16 here and load with --weights int8");
-            else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16 or bf16", v);
+            else if (!strcmp(v, "int8") || !strcmp(v, "i8")) d.dtype = SUPERMAT_DTYPE_I8;
+            else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16, bf16 or int8", v);
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
         } else if (a[0] == '-') {
