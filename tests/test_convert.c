@@ -436,6 +436,18 @@ static void test_reader_small(void) {
         sm_pth *none = NULL;
         TU_CHECK(sm_pth_open("does/not/exist.pth", &none, err, sizeof err) != 0 && none == NULL && strstr(err, "exist.pth"), "missing file: %s", err);
     }
+    {   /* an already quantized safetensors input (I8): refused, naming the tensor */
+        static const char hdr[] = "{\"w\":{\"dtype\":\"I8\",\"shape\":[2,3],\"data_offsets\":[0,6]}}";
+        unsigned char f[8 + sizeof hdr - 1 + 6];
+        size_t hl = sizeof hdr - 1;
+        sm_pth *q = NULL;
+        memset(f, 0, sizeof f);
+        for (i = 0; i < 8; i++) f[i] = (unsigned char)(hl >> (8 * i));
+        memcpy(f + 8, hdr, hl);
+        r = sm_pth_open_memory(f, sizeof f, &q, err, sizeof err);
+        TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && q == NULL && strstr(err, "'w' is I8"), "I8 safetensors input: %d '%s'", r, err);
+        if (q) sm_pth_close(q);
+    }
 }
 
 /* ---- 2. robustness: truncation and corruption sweeps (run under ASan/UBSan in CI) ------------ */
