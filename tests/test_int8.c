@@ -105,18 +105,6 @@ static supermat_model *load(const file *f, supermat_weights w, supermat_model_in
     return m;
 }
 
-/* an RGBA object: a shaded disc (alpha 1 inside, soft edge, 0 outside) */
-static void make_image(unsigned char *rgba, int w, int h, int cx, int cy, int r) {
-    int x, y;
-    for (y = 0; y < h; y++)
-        for (x = 0; x < w; x++) {
-            double d = sqrt((double)(x - cx) * (x - cx) + (double)(y - cy) * (y - cy)), a = r + 0.5 - d;
-            unsigned char *p = rgba + ((size_t)y * w + x) * 4;
-            p[0] = (unsigned char)(40 + (x * 197) % 200); p[1] = (unsigned char)(30 + (y * 89) % 210); p[2] = (unsigned char)((x * y) % 256);
-            p[3] = (unsigned char)(a >= 1.0 ? 255 : a <= 0.0 ? 0 : (int)(a * 255.0));
-        }
-}
-
 enum { S = 64, V = 3, M = 32 };
 #define OUT_FLOATS (S * S * 6 > V * M * M * 3 ? S * S * 6 : V * M * M * 3)
 
@@ -130,18 +118,12 @@ static int run(supermat_model *m, const supermat_model_info *info, float *out) {
     supermat_session *s;
     supermat_run_desc rd;
     supermat_error err;
-    int v, i, r;
+    int i, r;
     memset(&sd, 0, sizeof sd);
     memset(&rd, 0, sizeof rd);
     sd.model = m; sd.threads = 2;
     if (info->kind == SUPERMAT_KIND_SUPERMAT_MV) {
-        for (v = 0; v < V; v++) {
-            make_image(px[v], M, M, 10 + 4 * v, 14, 9);
-            memset(&in[v], 0, sizeof in[v]); in[v].pixels = px[v]; in[v].width = M; in[v].height = M; in[v].channels = 4;
-            memset(&ov[v], 0, sizeof ov[v]); ov[v].pixels = out + (size_t)v * M * M * 3; ov[v].channels = 3; ov[v].format = SUPERMAT_FORMAT_F32;
-            for (i = 0; i < 16; i++) cams[v * 16 + i] = (i % 5 == 0) ? 1.0f : 0.0f;
-            cams[v * 16 + 3] = (float)v * 0.7f; cams[v * 16 + 11] = 1.5f - (float)v;
-        }
+        tu_mv_views(V, M, px[0], in, ov, out, cams);
         sd.width = M; sd.height = M; sd.views = V; sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
         rd.input_views = in; rd.albedo_views = ov; rd.cameras = cams;
     } else if (info->kind == SUPERMAT_KIND_UV_REFINE) {
@@ -157,7 +139,7 @@ static int run(supermat_model *m, const supermat_model_info *info, float *out) {
         rd.position = rd.input; rd.position.pixels = pos;
         rd.refined.pixels = out; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
     } else {
-        make_image(px[0], S, S, 30, 28, 20);
+        tu_disc_rgba(px[0], S, S, 30, 28, 20);
         sd.width = S; sd.height = S;
         rd.input.pixels = px[0]; rd.input.width = S; rd.input.height = S; rd.input.channels = 4;
         rd.albedo.pixels = out; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;

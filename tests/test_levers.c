@@ -32,18 +32,6 @@ static supermat_model *load(const char *path, unsigned char **data) {
     return m;
 }
 
-/* an RGBA test object: a shaded disc in the top-left quadrant (alpha 1 inside, a soft edge, 0 outside) */
-static void make_image(unsigned char *rgba, int w, int h, int cx, int cy, int r) {
-    int x, y;
-    for (y = 0; y < h; y++)
-        for (x = 0; x < w; x++) {
-            double d = sqrt((double)(x - cx) * (x - cx) + (double)(y - cy) * (y - cy)), a = r + 0.5 - d;
-            unsigned char *p = rgba + ((size_t)y * w + x) * 4;
-            p[0] = (unsigned char)(40 + (x * 197) % 200); p[1] = (unsigned char)(30 + (y * 89) % 210); p[2] = (unsigned char)((x * y) % 256);
-            p[3] = (unsigned char)(a >= 1.0 ? 255 : a <= 0.0 ? 0 : (int)(a * 255.0));
-        }
-}
-
 /* ---- stage capture / injection through the inspect hook ---- */
 typedef struct cap {
     supermat_stage want;     /* captured */
@@ -402,14 +390,8 @@ static int run_mv(supermat_model *m, int att, int stride, int threads, float *ou
     supermat_session *s;
     supermat_run_desc rd;
     supermat_error err;
-    int v, i, r;
-    for (v = 0; v < V; v++) {
-        make_image(px[v], M, M, 10 + 4 * v, 14, 9);
-        memset(&in[v], 0, sizeof in[v]); in[v].pixels = px[v]; in[v].width = M; in[v].height = M; in[v].channels = 4;
-        memset(&ov[v], 0, sizeof ov[v]); ov[v].pixels = out + (size_t)v * M * M * 3; ov[v].channels = 3; ov[v].format = SUPERMAT_FORMAT_F32;
-        for (i = 0; i < 16; i++) cams[v * 16 + i] = (i % 5 == 0) ? 1.0f : 0.0f;
-        cams[v * 16 + 3] = (float)v * 0.7f; cams[v * 16 + 11] = 1.5f - (float)v;
-    }
+    int r;
+    tu_mv_views(V, M, px[0], in, ov, out, cams);
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = M; sd.height = M; sd.views = V; sd.threads = threads; sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
     sd.mv_attention = (supermat_mv_attention)att; sd.mv_key_stride = stride;
@@ -480,7 +462,7 @@ int main(int argc, char **argv) {
     m = load(argv[1], &d0); mv = load(argv[2], &d1); uv = load(argv[3], &d2);
     test_layout();
     test_resample_props();
-    make_image(img, S, S, 18, 20, 13);
+    tu_disc_rgba(img, S, S, 18, 20, 13);
     if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); }
     if (uv) test_skip_uv(uv);
     if (mv) test_mv_window(mv);

@@ -75,4 +75,31 @@ static inline double tu_rel_l2(const float *a, const float *b, size_t n) {
     for (i = 0; i < n; i++) { double d = (double)a[i] - b[i]; num += d * d; den += (double)b[i] * b[i]; }
     return den > 0 ? sqrt(num / den) : sqrt(num);
 }
+
+#ifdef SUPERMAT_H
+/* An RGBA test object: a shaded disc centred at (cx, cy) (alpha 1 inside, a soft edge, 0 outside). */
+static inline void tu_disc_rgba(unsigned char *rgba, int w, int h, int cx, int cy, int r) {
+    int x, y;
+    for (y = 0; y < h; y++)
+        for (x = 0; x < w; x++) {
+            double d = sqrt((double)(x - cx) * (x - cx) + (double)(y - cy) * (y - cy)), a = r + 0.5 - d;
+            unsigned char *p = rgba + ((size_t)y * w + x) * 4;
+            p[0] = (unsigned char)(40 + (x * 197) % 200); p[1] = (unsigned char)(30 + (y * 89) % 210); p[2] = (unsigned char)((x * y) % 256);
+            p[3] = (unsigned char)(a >= 1.0 ? 255 : a <= 0.0 ? 0 : (int)(a * 255.0));
+        }
+}
+/* nv multi-view test views of m x m pixels: discs moving across the views (px: nv * m * m * 4 bytes),
+   float RGB outputs into out (nv * m * m * 3), and distinct translated cameras (nv * 16 floats). */
+static inline void tu_mv_views(int nv, int m, unsigned char *px, supermat_image *in, supermat_image *ov, float *out, float *cams) {
+    int v, i;
+    for (v = 0; v < nv; v++) {
+        unsigned char *pv = px + (size_t)v * m * m * 4;
+        tu_disc_rgba(pv, m, m, 10 + 4 * v, 14, 9);
+        memset(&in[v], 0, sizeof in[v]); in[v].pixels = pv; in[v].width = m; in[v].height = m; in[v].channels = 4;
+        memset(&ov[v], 0, sizeof ov[v]); ov[v].pixels = out + (size_t)v * m * m * 3; ov[v].channels = 3; ov[v].format = SUPERMAT_FORMAT_F32;
+        for (i = 0; i < 16; i++) cams[v * 16 + i] = (i % 5 == 0) ? 1.0f : 0.0f;
+        cams[v * 16 + 3] = (float)v * 0.7f; cams[v * 16 + 11] = 1.5f - (float)v;
+    }
+}
+#endif
 #endif
