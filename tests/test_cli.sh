@@ -8,6 +8,13 @@
 # read with od), PFM headers and sizes, that --outputs limits what is written, that threads do not
 # change the bits, and that bad input (an image that is not a multiple of 8, a missing model, bad
 # options) fails with a message and the documented exit code.
+# The default model (no --model): SUPERMAT_MODEL naming the tiny model is used by image, info and bench,
+# naming a missing file is an error naming it, a copy of the tool in PREFIX/bin finds
+# PREFIX/share/supermat/supermat_default.safetensors, and without any the message lists the places
+# (SUPERMAT_MODEL is removed from the environment of every other run). `sheet`: the PNG size of a
+# 2-row sheet with labels and of one without, and its errors (a missing input: exit 1, nothing written,
+# an older sheet untouched; bad rows, --cell and --labels: exit 2). A PNG write that fails (a file size
+# limit) exits 1 and leaves no file, for `sheet` and `image`.
 # Then the same for the multi-view and UV-refine models: converts both, runs `views` (6 views, 3 views,
 # one view with a numeric index and a flat matrix) and `refine`, compares their --float maps with the
 # official goldens (max abs error 1e-4, tests/pfm_npy_diff.c built with ${CC:-cc}), checks the camera
@@ -15,7 +22,10 @@
 # missing matrix), size mismatches, a model of the wrong kind for each command, and `bench` on all
 # three kinds; `bench --image` (the speed / accuracy table: its JSON parsed by a small awk parser, the
 # f32 reference at 200 dB, f16 finite and below, a map a mode does not compute as null) and its usage
-# errors. Needs bash, coreutils, od, awk and a C compiler (without one the golden comparison is skipped).
+# errors; bench --image against ground truth (--truth-albedo/-roughness/-metallic: `image`'s own PNGs as
+# the truth give the f32 row 200 dB, a map a mode skips or without truth null; a truth of the wrong
+# size, colour type or model kind exits 1 with a message and writes no JSON; without --image exits 2).
+# Needs bash, coreutils, od, awk and a C compiler (without one the golden comparison is skipped).
 set -eu
 
 if [ $# -ne 2 ]; then
@@ -38,10 +48,16 @@ check() { # check "description" command...
 }
 
 # runs the tool, keeping stdout, stderr and the exit code; a sanitizer report (ASan exits 1 too, like
-# an expected error) is a failure of its own
-run() {
+# an expected error) is a failure of its own. SUPERMAT_MODEL (the default model) is removed from the
+# environment: only run_env sets it.
+run() { run_env -- "$@"; }
+# run_env [VAR=VALUE...] -- ARGS: the same with these variables set
+run_env() {
+    local vars=()
+    while [ "$1" != "--" ]; do vars+=("$1"); shift; done
+    shift
     set +e
-    "$BIN" "$@" >"$T/out" 2>"$T/err"
+    env -u SUPERMAT_MODEL ${vars[@]+"${vars[@]}"} "$BIN" "$@" >"$T/out" 2>"$T/err"
     RC=$?
     set -e
     if grep -Eq 'Sanitizer|runtime error:' "$T/err"; then
@@ -90,7 +106,7 @@ check "--version prints the version" grep -Eq '^supermat [0-9]+\.[0-9]+\.[0-9]+$
 run --help
 check "--help exits 0" [ $RC -eq 0 ]
 check "--help lists the commands" grep -q 'convert' "$T/out"
-for c in convert image views refine info bench; do
+for c in convert image views refine info bench sheet; do
     run "$c" --help
     check "$c --help exits 0" [ $RC -eq 0 ]
     check "$c --help prints usage" grep -q "usage: supermat $c" "$T/out"
@@ -98,6 +114,9 @@ done
 run image --help
 check "image --help says images are not resized" grep -q 'NOT resized' "$T/out"
 check "image --help says multiples of 8" grep -q 'multiples of 8' "$T/out"
+check "image --help: the default model's search order" grep -q 'SUPERMAT_MODEL' "$T/out"
+check "image --help: the installed default model" grep -q 'share/supermat/supermat_default.safetensors' "$T/out"
+check "image --help: the source tree's default model" grep -q 'models/supermat_default.safetensors' "$T/out"
 run
 check "no command exits 2" [ $RC -eq 2 ]
 run frobnicate
@@ -105,8 +124,10 @@ check "unknown command exits 2" [ $RC -eq 2 ]
 run image --model x --out "$T/o" --no-such-option "$SPHERE"
 check "unknown option exits 2" [ $RC -eq 2 ]
 check "unknown option is named" grep -q 'no-such-option' "$T/err"
-run image --out "$T/o" "$SPHERE"
-check "image without --model exits 2" [ $RC -eq 2 ]
+run image --model x "$SPHERE"
+check "image without --out exits 2" [ $RC -eq 2 ]
+run views --cameras x --out "$T/o" "$SPHERE"
+check "views without --model exits 2 (no default model for views)" [ $RC -eq 2 ]
 run image --model x --out "$T/o" --outputs albedo,shininess "$SPHERE"
 check "bad --outputs exits 2" [ $RC -eq 2 ]
 run image --model x --out "$T/o" --threads
@@ -218,6 +239,124 @@ O5=$T/out5
 run image --model "$T/tiny_f16.safetensors" --out "$O5" "$SPHERE"
 check "image with the f16 model exits 0" [ $RC -eq 0 ]
 check_png "$O5/sphere_64_albedo.png" 64 64 2
+
+# ---- the default model: no --model -> $SUPERMAT_MODEL, the installed data folder, the source tree ----
+OD=$T/default_env
+run_env SUPERMAT_MODEL="$MODEL" -- image --out "$OD" "$SPHERE"
+check "image without --model, SUPERMAT_MODEL set, exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check_png "$OD/sphere_64_albedo.png" 64 64 2
+check_png "$OD/sphere_64_roughness.png" 64 64 0
+check_png "$OD/sphere_64_metallic.png" 64 64 0
+check "SUPERMAT_MODEL: the same maps as --model" cmp -s "$O1/sphere_64_albedo.png" "$OD/sphere_64_albedo.png"
+run_env SUPERMAT_MODEL="$T/no_such_model.safetensors" -- image --out "$T/default_bad" "$SPHERE"
+check "SUPERMAT_MODEL naming a missing file exits 1" [ $RC -eq 1 ]
+check "SUPERMAT_MODEL naming a missing file: the message names the file" grep -q 'no_such_model.safetensors' "$T/err"
+check "SUPERMAT_MODEL naming a missing file: the message names SUPERMAT_MODEL" grep -q 'SUPERMAT_MODEL' "$T/err"
+absent "$T/default_bad"
+run_env SUPERMAT_MODEL="$T/no_such_model.safetensors" -- image --model "$MODEL" --out "$T/default_given" "$SPHERE"
+check "--model wins over SUPERMAT_MODEL" [ $RC -eq 0 ]
+run_env SUPERMAT_MODEL="$MODEL" -- info
+check "info without FILE (SUPERMAT_MODEL) exits 0" [ $RC -eq 0 ]
+check "info without FILE names the default model" grep -qF "default       $MODEL (the default model: \$SUPERMAT_MODEL)" "$T/out"
+check "info without FILE describes it" grep -Eq '^kind +supermat$' "$T/out"
+run_env SUPERMAT_MODEL="$T/no_such_model.safetensors" -- info
+check "info without FILE, SUPERMAT_MODEL missing, exits 1" [ $RC -eq 1 ]
+check "info without FILE, SUPERMAT_MODEL missing: the message names the file" grep -q 'no_such_model.safetensors' "$T/err"
+run_env SUPERMAT_MODEL="$MODEL" -- bench --size 64 --pipeline-only
+check "bench without --model (SUPERMAT_MODEL) exits 0" [ $RC -eq 0 ]
+check "bench without --model runs the default model" grep -qF "supermat bench: $MODEL (supermat" "$T/out"
+run_env SUPERMAT_MODEL="$MODEL" -- bench --image "$SPHERE" --modes branch_albedo
+check "bench --image without --model (SUPERMAT_MODEL) exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+run_env SUPERMAT_MODEL="$T/no_such_model.safetensors" -- bench --size 64 --pipeline-only
+check "bench, SUPERMAT_MODEL missing, exits 1" [ $RC -eq 1 ]
+# an install that was moved: PREFIX/bin/supermat finds PREFIX/share/supermat/supermat_default.safetensors
+mkdir -p "$T/prefix/bin" "$T/prefix/share/supermat"
+cp "$BIN" "$T/prefix/bin/supermat"
+cp "$MODEL" "$T/prefix/share/supermat/supermat_default.safetensors"
+BIN_SAVED=$BIN
+BIN=$T/prefix/bin/supermat
+run info
+check "a moved install: info without FILE exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "a moved install: the model beside the executable" \
+    grep -q 'prefix/share/supermat/supermat_default.safetensors (the default model: installed, beside this executable)' "$T/out"
+run image --out "$T/default_moved" "$SPHERE"
+check "a moved install: image without --model exits 0" [ $RC -eq 0 ]
+check "a moved install: the same maps" cmp -s "$O1/sphere_64_albedo.png" "$T/default_moved/sphere_64_albedo.png"
+BIN=$BIN_SAVED
+rm -rf "$T/prefix"
+# and here: the installed or source tree's default model if there is one, else exit 1 naming every place
+run info
+if [ $RC -eq 0 ]; then
+    check "info without FILE: a default model from the install or the source tree" \
+        grep -Eq '^default .*/supermat_default.safetensors \(the default model: (installed|installed, beside this executable|source tree)\)$' "$T/out"
+else
+    check "no default model: exit 1" [ $RC -eq 1 ]
+    check "no default model: the message names SUPERMAT_MODEL" grep -q 'SUPERMAT_MODEL: not set' "$T/err"
+    check "no default model: the message names the installed place" grep -q 'share/supermat/supermat_default.safetensors (installed' "$T/err"
+    check "no default model: the message names the source tree" grep -q 'models/supermat_default.safetensors (source tree)' "$T/err"
+fi
+
+# ---- sheet: a contact sheet ---------------------------------------------------------------------
+# 2 rows x 3 columns of 64-pixel cells with labels: 4 + 3 * (64 + 4) = 208 wide,
+# 4 + (8 + 4) + 2 * (64 + 4) = 152 high (RGBA, RGB and gray inputs, non-square, an empty cell)
+SH=$T/sheets/sheet.png
+mkdir -p "$T/sheets"
+run sheet --out "$SH" --cell 64 --labels "input,ring (72x48),box_40" "$SPHERE,$RING,$DATA/img/box_40.png" "$DATA/img/uv/uv_bc.png,-,$DATA/img/uv/uv_mask.png"
+check "sheet exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check_png "$SH" 208 152 2
+absent "$SH.tmp"
+run sheet --out "$T/sheets/plain.png" "$SPHERE,$RING" "$DATA/img/box_40.png"
+check "sheet without labels, default cell exits 0" [ $RC -eq 0 ]
+check_png "$T/sheets/plain.png" 268 268 2
+cp "$SH" "$T/sheets/before.png"
+run sheet --out "$SH" "$SPHERE,$T/no_such_picture.png"
+check "sheet with a missing input exits 1" [ $RC -eq 1 ]
+check "sheet with a missing input: the message names it" grep -q 'no_such_picture.png' "$T/err"
+check "sheet with a missing input: the old sheet is untouched" cmp -s "$SH" "$T/sheets/before.png"
+absent "$SH.tmp"
+printf 'not a picture\n' >"$T/sheets/text.png"
+run sheet --out "$T/sheets/never.png" "$SPHERE,$T/sheets/text.png"
+check "sheet with a file that is not an image exits 1" [ $RC -eq 1 ]
+absent "$T/sheets/never.png"
+absent "$T/sheets/never.png.tmp"
+run sheet --out "$T/sheets/never.png"
+check "sheet without rows exits 2" [ $RC -eq 2 ]
+run sheet --out "$T/sheets/never.png" --cell 7 "$SPHERE"
+check "sheet --cell 7 exits 2" [ $RC -eq 2 ]
+run sheet --out "$T/sheets/never.png" --cell x "$SPHERE"
+check "sheet --cell x exits 2" [ $RC -eq 2 ]
+run sheet --out "$T/sheets/never.png" "$SPHERE,,$RING"
+check "sheet with an empty entry exits 2" [ $RC -eq 2 ]
+run sheet --out "$T/sheets/never.png" --labels a,b,c "$SPHERE,$RING"
+check "sheet with more labels than columns exits 2" [ $RC -eq 2 ]
+run sheet "$SPHERE"
+check "sheet without --out exits 2" [ $RC -eq 2 ]
+absent "$T/sheets/never.png"
+run sheet --out "$T/no_such_dir/sheet.png" "$SPHERE"
+check "sheet into a missing folder exits 1" [ $RC -eq 1 ]
+
+# a write that fails (a 4 KiB file size limit with SIGXFSZ ignored: write() fails with EFBIG): exit 1,
+# a message, and no file left, neither the PNG nor its .tmp (the sheet is ~95 KB, the albedo ~12 KB)
+run_limited() {
+    set +e
+    (trap '' XFSZ; ulimit -f 4; exec env -u SUPERMAT_MODEL "$BIN" "$@") >"$T/out" 2>"$T/err"
+    RC=$?
+    set -e
+}
+run_limited sheet --out "$T/sheets/limited.png" --cell 256 "$SPHERE,$RING"
+check "sheet whose write fails exits 1" [ $RC -eq 1 ]
+check "sheet whose write fails: the message names the file" grep -q "cannot write '.*limited.png'" "$T/err"
+absent "$T/sheets/limited.png"
+absent "$T/sheets/limited.png.tmp"
+run_limited image --model "$MODEL" --out "$T/limited" "$SPHERE"
+check "image whose write fails exits 1" [ $RC -eq 1 ]
+check "image whose write fails: the message names the file" grep -q "cannot write '.*sphere_64_albedo.png'" "$T/err"
+absent "$T/limited/sphere_64_albedo.png"
+absent "$T/limited/sphere_64_albedo.png.tmp"
 
 # ---- bad input --------------------------------------------------------------------------------
 # a valid 30x30 8-bit gray PNG (zlib stream and CRCs included)
@@ -550,6 +689,60 @@ for map in albedo roughness metallic; do
 done
 v=$(jfield "$BJ" branch_albedo psnr albedo)
 check "bench --image JSON: branch_albedo psnr albedo is 200 ($v)" [ "$v" = 200 ]
+v=$(jfield "$BJ" f32 gt_psnr albedo)
+check "bench --image JSON without truth: gt_psnr albedo is null ($v)" [ "$v" = null ]
+check "bench --image without truth: no gt_psnr column" bash -c "! grep -q gt_psnr '$T/out'"
+
+# bench --image against ground truth: `supermat image`'s PNGs of the same model are the truth, so the
+# f32 row (the same computation, quantised the same way) is at the cap
+GT=$T/gt
+run image --model "$MODEL" --out "$GT" "$SPHERE"
+check "image for the truth maps exits 0" [ $RC -eq 0 ]
+TRUTH=(--truth-albedo "$GT/sphere_64_albedo.png" --truth-roughness "$GT/sphere_64_roughness.png" --truth-metallic "$GT/sphere_64_metallic.png")
+BG=$T/bench_gt.json
+run bench --model "$MODEL" --image "$SPHERE" --modes f16,branch_rm "${TRUTH[@]}" --json "$BG"
+check "bench --image with truth exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "bench --image with truth: a gt_psnr column" grep -q '^mode .* max_abs gt_psnr |' "$T/out"
+check "bench --image with truth: the truth line" grep -q "^truth .*albedo $GT/sphere_64_albedo.png" "$T/out"
+check "bench --image with truth: f32 row at 200 for the truth" grep -Eq '^f32 .*\| +200\.00 +200\.00 +0\.000e\+00 +200\.00 \| +200\.00 +200\.00 +0\.000e\+00 +200\.00 \| +200\.00 +200\.00 +0\.000e\+00 +200\.00$' "$T/out"
+check "bench --image with truth: the JSON parses" json_ok "$BG"
+check "bench --image with truth: every row has gt_psnr" [ "$(grep -c '"gt_psnr": {' "$BG")" -eq 3 ]
+for map in albedo roughness metallic; do
+    v=$(jfield "$BG" f32 gt_psnr $map)
+    check "bench --image truth JSON: f32 gt_psnr $map is the cap, 200 ($v)" [ "$v" = 200 ]
+    v=$(jfield "$BG" f16 gt_psnr $map)
+    check "bench --image truth JSON: f16 gt_psnr $map finite, in (20, 200] ($v)" num_in "$v" 20 200.5
+done
+v=$(jfield "$BG" branch_rm gt_psnr albedo)
+check "bench --image truth JSON: branch_rm gt_psnr albedo is null ($v)" [ "$v" = null ]
+v=$(jfield "$BG" branch_rm gt_psnr metallic)
+check "bench --image truth JSON: branch_rm gt_psnr metallic is 200 ($v)" [ "$v" = 200 ]
+run bench --model "$MODEL" --image "$SPHERE" --modes f32 --truth-roughness "$GT/sphere_64_roughness.png" --json "$BG"
+check "bench --image with one truth file exits 0" [ $RC -eq 0 ]
+v=$(jfield "$BG" f32 gt_psnr roughness)
+check "bench --image one truth: roughness 200 ($v)" [ "$v" = 200 ]
+v=$(jfield "$BG" f32 gt_psnr albedo)
+check "bench --image one truth: albedo null ($v)" [ "$v" = null ]
+rm -f "$BG"
+run bench --model "$MODEL" --image "$SPHERE" --truth-albedo "$DATA/img/box_40.png" --json "$BG"
+check "bench --image with a truth of the wrong size exits 1" [ $RC -eq 1 ]
+check "bench --image with a truth of the wrong size: the message" grep -q "albedo truth '$DATA/img/box_40.png' is 40x40 but the image '$SPHERE' is 64x64" "$T/err"
+absent "$BG"
+run bench --model "$MODEL" --image "$SPHERE" --truth-albedo "$GT/sphere_64_roughness.png"
+check "bench --image with a gray albedo truth exits 1" [ $RC -eq 1 ]
+check "bench --image with a gray albedo truth: the message" grep -q "albedo truth .* is gray: give an 8-bit RGB" "$T/err"
+run bench --model "$MODEL" --image "$SPHERE" --truth-metallic "$GT/sphere_64_albedo.png"
+check "bench --image with a colour metallic truth exits 1" [ $RC -eq 1 ]
+check "bench --image with a colour metallic truth: the message" grep -q "metallic truth .* is in colour: give an 8-bit gray" "$T/err"
+run bench --model "$MODEL" --image "$SPHERE" --truth-roughness "$T/no_such_truth.png"
+check "bench --image with a missing truth exits 1" [ $RC -eq 1 ]
+check "bench --image with a missing truth names it" grep -q "cannot read the roughness truth '$T/no_such_truth.png'" "$T/err"
+run bench --model "$MODEL" --truth-albedo "$GT/sphere_64_albedo.png"
+check "bench --truth-albedo without --image exits 2" [ $RC -eq 2 ]
+check "bench --truth-albedo without --image explains" grep -q -- "--truth-albedo needs --image" "$T/err"
+run bench --model "$MODEL" --image "$SPHERE" --truth-color "$GT/sphere_64_albedo.png"
+check "bench --truth-color exits 2" [ $RC -eq 2 ]
 for key in psnr psnr_fg max_abs; do
     v=$(jfield "$BJ" branch_albedo $key roughness)
     check "bench --image JSON: branch_albedo $key roughness is null ($v)" [ "$v" = null ]
@@ -561,6 +754,10 @@ check "bench --image supermat-mv (one image, 2 views) exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
 check "bench --image supermat-mv: the JSON parses" json_ok "$T/bench_mv.json"
 check "bench --image supermat-mv: an mv_window_own row" grep -q '^mv_window_own ' "$T/out"
+run bench --model "$MV" --image "$MVIMG/color_0000.png" --views 2 --modes f32 --truth-roughness "$GT/sphere_64_roughness.png" --json "$BG"
+check "bench --image supermat-mv with a truth exits 1" [ $RC -eq 1 ]
+check "bench --image supermat-mv with a truth: for a supermat model" grep -q "are for a supermat model (one image); model .* is a supermat-mv model" "$T/err"
+absent "$BG"
 run bench --model "$UV" --image "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --modes int8 --json "$T/bench_uv.json"
 check "bench --image uv-refine exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"

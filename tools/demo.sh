@@ -1,15 +1,20 @@
 #!/usr/bin/env bash
-# The main job on the embedded default model: build the tool, convert the model, turn a picture into
-# albedo / roughness / metallic maps under out/.
-# NOTE: no trained default model can be shipped yet; the default is the TINY RANDOM-WEIGHT model in
-# tests/data/tiny (official architecture, random weights). Its maps are not meaningful materials;
-# the pipeline, file formats and speed path are the real ones. Point MODEL_PTH/BASE_DIR at the official
-# supermat.pth and a Stable Diffusion 2.1 folder to run the real model.
+# The main job on the default model: build the tool, turn pictures into albedo / roughness / metallic
+# maps under out/, and put each picture and its maps side by side in out/sheet.png.
+#
+#   bash tools/demo.sh
+#
+# Pictures: examples/pictures/*.png (RGBA, width and height multiples of 8). A file named
+# <stem>_gt_albedo.png, <stem>_gt_roughness.png or <stem>_gt_metallic.png there is a true map of
+# <stem>.png, not a picture: the sheet shows it in a "true ..." column. When that folder has no
+# pictures, tests/data/img/sphere_64.png is used. IMAGE="a.png b.png" picks other pictures.
+# Model: the default model, found by `supermat` itself (SUPERMAT_MODEL, the installed data folder,
+# the source tree's models/supermat_default.safetensors: `build/supermat image --help`). To run the
+# official model instead, convert its checkpoint and a Stable Diffusion 2.1 folder (diffusers layout):
+#   MODEL_PTH=supermat.pth BASE_DIR=stable-diffusion-2-1 bash tools/demo.sh
+# (written to out/model.safetensors and given with --model).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-MODEL_PTH="${MODEL_PTH:-tests/data/tiny/supermat.pth}"
-BASE_DIR="${BASE_DIR:-tests/data/tiny/base}"
-IMAGE="${IMAGE:-tests/data/img/sphere_64.png}"
 need=()
 for p in cmake make gcc g++ libstb-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
@@ -19,7 +24,71 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
 cmake --build build -j"$(nproc 2>/dev/null || echo 2)" --target supermat
+SM=build/supermat
 mkdir -p out
-build/supermat convert --kind supermat --unet "$MODEL_PTH" --base "$BASE_DIR" --out out/model.safetensors
-build/supermat image --model out/model.safetensors --out out "$IMAGE"
-ls -l out
+
+# the pictures
+pics=()
+if [ -n "${IMAGE:-}" ]; then
+  read -r -a pics <<<"$IMAGE"
+else
+  for f in examples/pictures/*.png; do
+    [ -f "$f" ] || continue
+    case "$f" in *_gt_albedo.png | *_gt_roughness.png | *_gt_metallic.png) continue ;; esac
+    pics+=("$f")
+  done
+  if [ ${#pics[@]} -eq 0 ]; then
+    echo "demo: no pictures in examples/pictures: using tests/data/img/sphere_64.png"
+    pics=(tests/data/img/sphere_64.png)
+  fi
+fi
+
+# the model: the default one, unless MODEL_PTH asks for a conversion
+model=()
+if [ -n "${MODEL_PTH:-}" ]; then
+  if [ -z "${BASE_DIR:-}" ]; then
+    echo "demo: MODEL_PTH needs BASE_DIR, the Stable Diffusion 2.1 folder (diffusers layout)" >&2
+    exit 2
+  fi
+  "$SM" convert --kind supermat --unet "$MODEL_PTH" --base "$BASE_DIR" --out out/model.safetensors
+  model=(--model out/model.safetensors)
+  echo "model: out/model.safetensors (converted from $MODEL_PTH)"
+else
+  if ! info=$("$SM" info); then
+    echo "demo: no default model (see the places above). Give one with SUPERMAT_MODEL=FILE.safetensors," >&2
+    echo "      or convert a checkpoint: MODEL_PTH=supermat.pth BASE_DIR=stable-diffusion-2-1 bash tools/demo.sh" >&2
+    exit 1
+  fi
+  echo "model: $(sed -n 's/^default *//p' <<<"$info")"
+fi
+
+# the maps
+"$SM" image ${model[@]+"${model[@]}"} --out out "${pics[@]}"
+
+# the sheet: picture, albedo, roughness, metallic (+ the true maps when there are any)
+gt=0
+for p in "${pics[@]}"; do
+  for m in albedo roughness metallic; do [ -f "${p%.png}_gt_$m.png" ] && gt=1; done
+done
+rows=()
+for p in "${pics[@]}"; do
+  s=$(basename "${p%.*}")
+  row="$p,out/${s}_albedo.png,out/${s}_roughness.png,out/${s}_metallic.png"
+  if [ $gt = 1 ]; then
+    for m in albedo roughness metallic; do
+      if [ -f "${p%.png}_gt_$m.png" ]; then row="$row,${p%.png}_gt_$m.png"; else row="$row,-"; fi
+    done
+  fi
+  rows+=("$row")
+done
+labels="input,albedo,roughness,metallic"
+[ $gt = 1 ] && labels="$labels,true albedo,true roughness,true metallic"
+"$SM" sheet --out out/sheet.png --cell 160 --labels "$labels" "${rows[@]}" >/dev/null
+
+echo
+echo "maps (${#pics[@]} picture$([ ${#pics[@]} -eq 1 ] || echo s)):"
+for p in "${pics[@]}"; do
+  s=$(basename "${p%.*}")
+  echo "  out/${s}_albedo.png  out/${s}_roughness.png  out/${s}_metallic.png   (from $p)"
+done
+echo "sheet: out/sheet.png (each row: $labels)"

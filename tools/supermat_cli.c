@@ -2,11 +2,13 @@
  *
  *     supermat convert --kind supermat --unet supermat.pth --base stable-diffusion-2-1 --out supermat.safetensors
  *     supermat image --model supermat.safetensors --out maps/ photo.png
+ *     supermat image --out maps/ photo.png                       (the default model, see >>model)
  *     supermat views --model supermat_mv.safetensors --cameras meta.json --out maps/ color_000*.png
  *     supermat refine --model uv_refine_bc.safetensors --map uv_bc.png --mask uv_mask.png --position uv_position.png --out maps/
  *     supermat info supermat.safetensors
  *     supermat bench --model supermat.safetensors --size 512
  *     supermat bench --model supermat.safetensors --image photo.png --modes all --json table.json
+ *     supermat sheet --out sheet.png --labels input,albedo photo.png,maps/photo_albedo.png
  *
  * One translation unit: it defines SUPERMAT_IMPLEMENTATION (and so may use the header's private
  * `supermat__*` GEMM for the benchmark) and links with tools/sm_convert.c. Images are read and written
@@ -17,7 +19,9 @@
  * Sections (search for the marker):
  *   >>platform   includes, stb, timing, small helpers
  *   >>args       option parsing, usage texts
- *   >>files      reading a whole file, creating directories, PNG / PFM writers
+ *   >>files      reading a whole file, creating directories, PNG / PFM writers (FILE.tmp, then renamed)
+ *   >>model      the default model: where a command without --model finds it ($SUPERMAT_MODEL, the
+ *                installed data folder, the source tree's models/), one function for every command
  *   >>convert    `supermat convert`
  *   >>image      `supermat image` (and what `views` and `refine` share with it)
  *   >>views      `supermat views`: meta.json cameras, the multi-view run
@@ -25,7 +29,9 @@
  *   >>info       `supermat info`
  *   >>bench      `supermat bench`: FMA peak, the pipeline per stage, AVX2 vs scalar GEMM
  *   >>benchimage `supermat bench --image`: the speed / memory levers (modes) on a real input, a table
- *                of seconds, speed-up, memory, FLOPs and PSNR / max error against the f32 mode
+ *                of seconds, speed-up, memory, FLOPs and PSNR / max error against the f32 mode, and
+ *                with --truth-albedo/-roughness/-metallic the PSNR of every mode against ground truth
+ *   >>sheet      `supermat sheet`: a contact sheet of pictures and maps (resampling, a 5x8 bitmap font)
  *   >>main
  *
  * Exit status: 0 ok, 1 runtime error, 2 usage error.
@@ -169,9 +175,13 @@ static const char cli_usage_main[] =
     "  views     the same for the views of one object with their cameras (a supermat-mv model)\n"
     "  refine    complete a partial UV texture map (a uv-refine model)\n"
     "  info      describe a model file: architecture, parameters, dtypes, memory\n"
+    "  sheet     a contact sheet: rows of pictures and maps side by side in one PNG, with labels\n"
     "  mesh      a textured glTF mesh -> complete albedo + metallicRoughness UV textures (supermat_uv.h)\n"
     "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM; with --image\n"
     "            a speed / accuracy table of the speed and memory levers on a real input\n"
+    "\n"
+    "image, info and bench run the default model when --model is not given (the file $SUPERMAT_MODEL\n"
+    "names, else the installed or the source tree's supermat_default.safetensors: `supermat image --help`).\n"
     "\n"
     "  supermat COMMAND --help   the options of a command\n"
     "  supermat --version        the version\n"
@@ -199,7 +209,7 @@ static const char cli_usage_convert[] =
     "Progress is printed on stderr when it is a terminal.\n";
 
 static const char cli_usage_image[] =
-    "usage: supermat image --model FILE --out DIR [options] IMAGE...\n"
+    "usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
     "\n"
     "Runs the single-view SuperMat pipeline (a supermat model) on each image, at the image's own\n"
     "size, and writes\n"
@@ -213,7 +223,8 @@ static const char cli_usage_image[] =
     "Images are NOT resized: resize them first if needed (the official scripts use 512x512).\n"
     "\n"
     "options:\n"
-    "  --model FILE      a model file made by `supermat convert` (required)\n"
+    "  --model FILE      a model file made by `supermat convert` (default: the default model,\n"
+    "                    see DEFAULT MODEL below)\n"
     "  --out DIR         the output folder, created if missing (required)\n"
     "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three);\n"
     "                    only what is asked for is computed\n"
@@ -224,8 +235,9 @@ static const char cli_usage_image[] =
     "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
-    "Progress is printed on stderr when it is a terminal. For a supermat-mv model use `supermat\n"
-    "views`, for a uv-refine model `supermat refine`.\n";
+    "Each file is written as FILE.tmp and renamed when complete. Progress (and the default model's\n"
+    "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
+    "for a uv-refine model `supermat refine`. `supermat sheet` puts inputs and maps side by side.\n";
 
 static const char cli_usage_views[] =
     "usage: supermat views --model FILE --cameras meta.json --out DIR [options] VIEW...\n"
@@ -292,12 +304,13 @@ static const char cli_usage_refine[] =
     "Progress is printed on stderr when it is a terminal.\n";
 
 static const char cli_usage_info[] =
-    "usage: supermat info [options] FILE\n"
+    "usage: supermat info [options] [FILE]\n"
     "\n"
     "Prints a model file's kind and architecture (with the camera embedding of a supermat-mv model\n"
     "and the input channels of a uv-refine model), its parameter counts (UNet trunk, per branch,\n"
     "VAE), the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
-    "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv).\n"
+    "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv). Without FILE: the\n"
+    "default model (below), after a line saying which file that is.\n"
     "\n"
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
@@ -305,8 +318,8 @@ static const char cli_usage_info[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n";
 
 static const char cli_usage_bench[] =
-    "usage: supermat bench --model FILE [options]\n"
-    "       supermat bench --model FILE --image IMAGE [--modes all|LIST] [--json FILE] [options]\n"
+    "usage: supermat bench [--model FILE] [options]\n"
+    "       supermat bench [--model FILE] --image IMAGE [--modes all|LIST] [--json FILE] [options]\n"
     "\n"
     "Without --image, measures in one run: (a) this machine's AVX2 FMA peak on every thread; (b) the\n"
     "full pipeline on synthetic input, seconds / GFLOP / GFLOP/s / % of the peak per stage (VAE encode,\n"
@@ -318,7 +331,8 @@ static const char cli_usage_bench[] =
     "circle around the object) and uv-refine (a UV map, its mask and position map).\n"
     "\n"
     "options:\n"
-    "  --model FILE      a model file made by `supermat convert` (required)\n"
+    "  --model FILE      a model file made by `supermat convert` (default: the default model,\n"
+    "                    see DEFAULT MODEL at the end)\n"
     "  --size S          image size: S (square) or WxH, multiples of 8 (default 512)\n"
     "  --views N         supermat-mv: views processed together, 1 to 64 (default 6)\n"
     "  --threads N       threads (default 0 = all cores)\n"
@@ -377,10 +391,27 @@ static const char cli_usage_bench_image[] =
     "  --json FILE       also write the table as a JSON list, one object per mode:\n"
     "                    {\"mode\", \"seconds\", \"speedup\", \"peak_bytes\", \"flops\", \"fma_peak_gflops\",\n"
     "                    \"fraction_of_peak\" (FLOPs performed / s / the FMA peak measured first), \"psnr\": {\"albedo\",\n"
-    "                    \"roughness\", \"metallic\"}, \"psnr_fg\": {...}, \"max_abs\": {...}} (uv-refine:\n"
-    "                    the key \"refined\"); skipped and failed modes are left out\n"
+    "                    \"roughness\", \"metallic\"}, \"psnr_fg\": {...}, \"max_abs\": {...}, \"gt_psnr\": {...}}\n"
+    "                    (uv-refine: the key \"refined\"); skipped and failed modes are left out\n"
     "--size, --outputs, --weights and --pipeline-only do not apply with --image. A mode that fails is\n"
     "reported and the others still run; the exit status is then 1.\n";
+
+/* (and the rest of it) */
+static const char cli_usage_bench_truth[] =
+    "\n"
+    "AGAINST GROUND TRUTH (a supermat model, one --image)\n"
+    "  --truth-albedo FILE     the true albedo: an 8-bit sRGB RGB PNG (an alpha channel is ignored)\n"
+    "  --truth-roughness FILE  the true roughness: an 8-bit gray PNG (an alpha channel is ignored)\n"
+    "  --truth-metallic FILE   the true metallic: an 8-bit gray PNG (an alpha channel is ignored)\n"
+    "Any subset; each the size of the image. Every mode (f32 included) adds a gt_psnr column per map:\n"
+    "its maps quantised to 8 bits exactly as `supermat image` writes its PNGs, against the truth over\n"
+    "the object's pixels (input alpha >= 128): MSE over those pixels and the map's channels of the\n"
+    "8-bit values / 255, gt_psnr = 10 log10(1 / MSE) dB, capped at 200 (identical). The res* modes\n"
+    "are measured on their maps resampled back to the image size. JSON: \"gt_psnr\": {\"albedo\",\n"
+    "\"roughness\", \"metallic\"}, null where no truth was given or the mode does not compute the map.\n"
+    "A truth file that cannot be read, is not of the image's size, is 16-bit or has the wrong colour\n"
+    "type (albedo: colour; roughness, metallic: gray), or an image without object pixels, is an error\n"
+    "(exit status 1) before anything runs.\n";
 
 static int cli_usage_error(const char *cmd, const char *fmt, ...) CLI_PRINTF(2, 3);
 static int cli_usage_error(const char *cmd, const char *fmt, ...) {
@@ -596,17 +627,79 @@ static char *cli_stem(const char *path) {
     return s;
 }
 
+/* Output files are written to PATH.tmp and renamed to PATH once complete and closed without error:
+   a failed write leaves neither a half-written PATH nor PATH.tmp (and keeps an older PATH as it was). */
+typedef struct cli_out {
+    FILE *f;
+    char *tmp;       /* PATH.tmp */
+    const char *path;
+    int err;         /* the first errno of a failed write, or -1; 0 while all is well */
+} cli_out;
+
+static int cli_out_open(cli_out *o, const char *path) {
+    size_t n = strlen(path);
+    memset(o, 0, sizeof *o);
+    o->path = path;
+    o->tmp = (char *)malloc(n + 5);
+    if (!o->tmp) { cli_error("out of memory"); return CLI_FAIL; }
+    memcpy(o->tmp, path, n);
+    memcpy(o->tmp + n, ".tmp", 5);
+    o->f = fopen(o->tmp, "wb");
+    if (!o->f) {
+        cli_error("cannot write '%s': %s", o->tmp, strerror(errno));
+        free(o->tmp);
+        o->tmp = NULL;
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+static void cli_out_write(cli_out *o, const void *data, size_t n) {
+    if (o->err || !n) return;
+    errno = 0;
+    if (fwrite(data, 1, n, o->f) != n) o->err = errno ? errno : -1;
+}
+
+/* stb_image_write's callback */
+static void cli_out_stbi(void *ctx, void *data, int n) {
+    if (n > 0) cli_out_write((cli_out *)ctx, data, (size_t)n);
+}
+
+/* ok = the caller's part succeeded: closes, then renames PATH.tmp to PATH, or removes PATH.tmp
+   (with a message unless the caller failed and has said why) */
+static int cli_out_close(cli_out *o, int ok) {
+    int rc = CLI_OK;
+    if (!o->f) return CLI_FAIL;
+    errno = 0;
+    if (fflush(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
+    errno = 0;
+    if (fclose(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
+    o->f = NULL;
+    errno = 0;
+    if (ok && !o->err && rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
+    if (!ok || o->err) {
+        if (ok) cli_error("cannot write '%s': %s", o->path, o->err > 0 ? strerror(o->err) : "write error");
+        remove(o->tmp);
+        rc = CLI_FAIL;
+    }
+    free(o->tmp);
+    o->tmp = NULL;
+    return rc;
+}
+
 /* PFM: "PF" (RGB) or "Pf" (gray), scale -1.0 = little endian, rows bottom to top */
 static int cli_write_pfm(const char *path, const float *px, int w, int h, int channels) {
-    FILE *f = fopen(path, "wb");
+    cli_out o;
     unsigned char *row;
+    char hdr[64];
     size_t rn = (size_t)w * (size_t)channels, i;
-    int y, ok;
-    if (!f) { cli_error("cannot write '%s': %s", path, strerror(errno)); return CLI_FAIL; }
+    int y, n;
     row = (unsigned char *)malloc(rn * 4);
-    if (!row) { fclose(f); cli_error("out of memory"); return CLI_FAIL; }
-    ok = fprintf(f, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", w, h) > 0;
-    for (y = h - 1; ok && y >= 0; y--) {
+    if (!row) { cli_error("out of memory"); return CLI_FAIL; }
+    if (cli_out_open(&o, path) != CLI_OK) { free(row); return CLI_FAIL; }
+    n = snprintf(hdr, sizeof hdr, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", w, h);
+    cli_out_write(&o, hdr, (size_t)n);
+    for (y = h - 1; y >= 0 && !o.err; y--) {
         const float *src = px + (size_t)y * rn;
         for (i = 0; i < rn; i++) {
             uint32_t u;
@@ -616,27 +709,34 @@ static int cli_write_pfm(const char *path, const float *px, int w, int h, int ch
             row[4 * i + 2] = (unsigned char)((u >> 16) & 255u);
             row[4 * i + 3] = (unsigned char)(u >> 24);
         }
-        ok = fwrite(row, 1, rn * 4, f) == rn * 4;
+        cli_out_write(&o, row, rn * 4);
     }
     free(row);
-    if (fclose(f) != 0) ok = 0;
-    if (!ok) { cli_error("cannot write '%s': %s", path, strerror(errno)); return CLI_FAIL; }
-    return CLI_OK;
+    return cli_out_close(&o, 1);
 }
 
-/* 8-bit PNG from floats in [0, 1], quantised exactly as the library's 8-bit path (rintf(v * 255)) */
+/* an 8-bit PNG of w x h pixels of `channels` bytes (1 gray, 3 RGB, 4 RGBA), rows top to bottom */
+static int cli_write_png_u8(const char *path, const unsigned char *px, int w, int h, int channels) {
+    cli_out o;
+    int ok;
+    if (cli_out_open(&o, path) != CLI_OK) return CLI_FAIL;
+    ok = stbi_write_png_to_func(cli_out_stbi, &o, w, h, channels, px, w * channels);
+    if (!ok) cli_error("cannot write '%s': PNG encoding failed (out of memory?)", path);
+    return cli_out_close(&o, ok);
+}
+
+/* one map value in [0, 1] as the 8-bit PNGs store it, exactly as the library's 8-bit path (rintf(v * 255));
+   also what `bench --image` compares with the truth files */
+static unsigned char cli_quantize(float v) {
+    v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; /* the library already clamps: a no-op */
+    return (unsigned char)rintf(v * 255.0f);
+}
+
+/* 8-bit PNG from floats in [0, 1], quantised by cli_quantize() */
 static int cli_write_png(const char *path, const float *px, int w, int h, int channels, unsigned char *tmp) {
     size_t n = (size_t)w * (size_t)h * (size_t)channels, i;
-    for (i = 0; i < n; i++) {
-        float v = px[i];
-        v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; /* the library already clamps: a no-op */
-        tmp[i] = (unsigned char)rintf(v * 255.0f);
-    }
-    if (!stbi_write_png(path, w, h, channels, tmp, w * channels)) {
-        cli_error("cannot write '%s'", path);
-        return CLI_FAIL;
-    }
-    return CLI_OK;
+    for (i = 0; i < n; i++) tmp[i] = cli_quantize(px[i]);
+    return cli_write_png_u8(path, tmp, w, h, channels);
 }
 
 /* loads the model file and creates the model; the buffer is borrowed by the model (free it after) */
@@ -705,6 +805,130 @@ static int cli_write_maps(const char *dir, const char *stem, int n, const char *
         }
     }
     return rc;
+}
+
+/* >>model */
+/* The default model: what `image`, `info` and `bench` run without --model. Its places are compiled in:
+   CMake defines SUPERMAT_CLI_DATADIR (the installed data folder, GNUInstallDirs' DATADIR/supermat),
+   SUPERMAT_CLI_DATADIR_FROM_BIN (the same relative to the installed executable's folder, for an install
+   that was moved) and SUPERMAT_CLI_SOURCE_DIR (the source tree, for a build that was not installed). */
+#ifndef SUPERMAT_CLI_DATADIR
+#define SUPERMAT_CLI_DATADIR "/usr/local/share/supermat"
+#endif
+#ifndef SUPERMAT_CLI_DATADIR_FROM_BIN
+#define SUPERMAT_CLI_DATADIR_FROM_BIN "../share/supermat"
+#endif
+#define CLI_DEFAULT_MODEL "supermat_default.safetensors"
+#define CLI_PATH_CAP 4096
+
+typedef struct cli_model_ref {
+    char path[CLI_PATH_CAP];
+    const char *from; /* "--model", "$SUPERMAT_MODEL", "installed", ... */
+} cli_model_ref;
+
+/* "<folder of this executable>/<rel>/<name>" with the leading ../ of rel taken off that folder;
+   0 when this system does not say where the executable is (/proc/self/exe is Linux's) */
+static int cli_exe_relative(const char *rel, const char *name, char *out, size_t cap) {
+#if defined(__linux__)
+    char dir[CLI_PATH_CAP], *slash;
+    ssize_t n = readlink("/proc/self/exe", dir, sizeof dir - 1);
+    int len;
+    if (n <= 0 || (size_t)n >= sizeof dir - 1) return 0;
+    dir[n] = 0;
+    if (!(slash = strrchr(dir, '/'))) return 0;
+    *slash = 0;
+    while (!strncmp(rel, "../", 3) || !strcmp(rel, "..")) {
+        if (!(slash = strrchr(dir, '/'))) return 0;
+        *slash = 0;
+        rel += rel[2] ? 3 : 2;
+    }
+    len = snprintf(out, cap, "%s/%s%s%s", dir, rel, rel[0] ? "/" : "", name);
+    return len > 0 && (size_t)len < cap;
+#else
+    (void)rel; (void)name; (void)out; (void)cap;
+    return 0;
+#endif
+}
+
+/* the places of steps 2 and 3, in order; returns how many (at most 3) */
+static int cli_default_places(char places[3][CLI_PATH_CAP], const char *what[3]) {
+    int n = 0, len;
+    if (cli_exe_relative(SUPERMAT_CLI_DATADIR_FROM_BIN, CLI_DEFAULT_MODEL, places[n], CLI_PATH_CAP))
+        what[n++] = "installed, beside this executable";
+    len = snprintf(places[n], CLI_PATH_CAP, "%s/%s", SUPERMAT_CLI_DATADIR, CLI_DEFAULT_MODEL);
+    if (len > 0 && len < CLI_PATH_CAP && (n == 0 || strcmp(places[0], places[n]))) what[n++] = "installed";
+#ifdef SUPERMAT_CLI_SOURCE_DIR
+    len = snprintf(places[n], CLI_PATH_CAP, "%s/models/%s", SUPERMAT_CLI_SOURCE_DIR, CLI_DEFAULT_MODEL);
+    if (len > 0 && len < CLI_PATH_CAP) what[n++] = "source tree";
+#endif
+    return n;
+}
+
+/* the DEFAULT MODEL part of `image`, `info` and `bench --help` */
+static void cli_print_default_model_help(void) {
+    char places[3][CLI_PATH_CAP];
+    const char *what[3];
+    int n = cli_default_places(places, what), i;
+    printf("\nDEFAULT MODEL\n"
+           "Without --model, the default model is used: the first of these that exists.\n"
+           "  1. the file the environment variable SUPERMAT_MODEL names, when it is set and not empty\n"
+           "     (a file that does not exist is an error: no fallback to 2 and 3)\n"
+           "  2. the installed model: <folder of this executable>/%s/%s\n"
+           "     (an install that was moved), then %s/%s\n"
+           "  3. the source tree's models/%s (a build that was not installed)\n"
+           "Here:\n", SUPERMAT_CLI_DATADIR_FROM_BIN, CLI_DEFAULT_MODEL, SUPERMAT_CLI_DATADIR, CLI_DEFAULT_MODEL, CLI_DEFAULT_MODEL);
+    for (i = 0; i < n; i++) printf("  %s (%s)\n", places[i], what[i]);
+    printf("`supermat info` without a FILE shows the default model.\n");
+}
+
+static int cli_is_file(const char *path) {
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* The model file a command runs: --model's (given) when there is one; else, when allow_default, the
+   default model (see cli_print_default_model_help). CLI_OK and *ref, or a message and CLI_FAIL
+   (SUPERMAT_MODEL names a missing file, or no default model is found) or CLI_USAGE (no --model and
+   !allow_default). One function for every command. */
+static int cli_model_path(const char *cmd, const char *given, int allow_default, cli_model_ref *ref) {
+    char places[3][CLI_PATH_CAP];
+    const char *what[3], *env;
+    int n, i;
+    ref->path[0] = 0;
+    ref->from = NULL;
+    if (given) {
+        if (strlen(given) >= sizeof ref->path) { cli_error("--model: the path is longer than %d bytes", CLI_PATH_CAP - 1); return CLI_FAIL; }
+        strcpy(ref->path, given);
+        ref->from = "--model";
+        return CLI_OK;
+    }
+    if (!allow_default) return cli_usage_error(cmd, "--model FILE is required (the default model is a supermat model, for `supermat image`)");
+    env = getenv("SUPERMAT_MODEL");
+    if (env && env[0]) {
+        struct stat st;
+        if (stat(env, &st) != 0) {
+            cli_error("SUPERMAT_MODEL is set to '%s': %s (give --model FILE, or unset SUPERMAT_MODEL for the default model)", env,
+                      strerror(errno));
+            return CLI_FAIL;
+        }
+        if (strlen(env) >= sizeof ref->path) { cli_error("SUPERMAT_MODEL: the path is longer than %d bytes", CLI_PATH_CAP - 1); return CLI_FAIL; }
+        strcpy(ref->path, env);
+        ref->from = "$SUPERMAT_MODEL";
+        return CLI_OK;
+    }
+    n = cli_default_places(places, what);
+    for (i = 0; i < n; i++)
+        if (cli_is_file(places[i])) {
+            strcpy(ref->path, places[i]);
+            ref->from = what[i];
+            return CLI_OK;
+        }
+    cli_error("no model: --model FILE was not given and there is no default model. Looked at, in order:");
+    fprintf(stderr, "  1. $SUPERMAT_MODEL: not set\n");
+    for (i = 0; i < n; i++)
+        fprintf(stderr, "  %s %s (%s): not found\n", !strcmp(what[i], "source tree") ? "3." : i == 0 ? "2." : "  ", places[i], what[i]);
+    fprintf(stderr, "Give --model FILE (a model file made by `supermat convert`) or set SUPERMAT_MODEL to one.\n");
+    return CLI_FAIL;
 }
 
 /* >>convert */
@@ -810,7 +1034,7 @@ static void cli_free_stems(char **stems, int n) {
 typedef struct cli_session_slot { int w, h; supermat_session *s; } cli_session_slot;
 
 static int cli_image(int argc, char **argv) {
-    const char *cmd = "image", *v, *model_path = NULL, *out_dir = NULL;
+    const char *cmd = "image", *v, *model_arg = NULL, *model_path = NULL, *out_dir = NULL;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
     int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2);
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
@@ -821,16 +1045,17 @@ static int cli_image(int argc, char **argv) {
     supermat_model *model = NULL;
     cli_session_slot *slots = NULL;
     int nslots = 0;
+    cli_model_ref mref;
 
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_image, stdout); free(imgs); return CLI_OK; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_image, stdout); cli_print_default_model_help(); free(imgs); return CLI_OK; }
         if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
-            model_path = v;
+            model_arg = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
             out_dir = v;
@@ -851,11 +1076,15 @@ static int cli_image(int argc, char **argv) {
             imgs[nimg++] = a;
         }
     }
-    if (!model_path) { free(imgs); return cli_usage_error(cmd, "--model FILE is required"); }
     if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
     if (!nimg) { free(imgs); return cli_usage_error(cmd, "no input image"); }
 
     rc = cli_make_stems(cmd, imgs, nimg, &stems);
+    if (rc == CLI_OK) rc = cli_model_path(cmd, model_arg, 1, &mref);
+    if (rc == CLI_OK) {
+        model_path = mref.path;
+        if (tty && !model_arg) fprintf(stderr, "model %s (the default model: %s)\n", model_path, mref.from);
+    }
     /* check every image before the (slow) model load */
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w, h, c;
@@ -1151,7 +1380,8 @@ static void cli_ring_cameras(int views, float *c2w) {
 }
 
 static int cli_views(int argc, char **argv) {
-    const char *cmd = "views", *v, *model_path = NULL, *cam_path = NULL, *out_dir = NULL;
+    const char *cmd = "views", *v, *model_arg = NULL, *model_path, *cam_path = NULL, *out_dir = NULL;
+    cli_model_ref mref;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
     int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
@@ -1175,7 +1405,7 @@ static int cli_views(int argc, char **argv) {
         if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
-            model_path = v;
+            model_arg = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--cameras", &v)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
             cam_path = v;
@@ -1199,7 +1429,8 @@ static int cli_views(int argc, char **argv) {
             imgs[nimg++] = a;
         }
     }
-    if (!model_path) { free(imgs); return cli_usage_error(cmd, "--model FILE is required"); }
+    if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) { free(imgs); return rc; }
+    model_path = mref.path;
     if (!cam_path) { free(imgs); return cli_usage_error(cmd, "--cameras meta.json is required"); }
     if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
     if (!nimg) { free(imgs); return cli_usage_error(cmd, "no view image"); }
@@ -1358,9 +1589,10 @@ static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
 }
 
 static int cli_refine(int argc, char **argv) {
-    const char *cmd = "refine", *v, *model_path = NULL, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
+    const char *cmd = "refine", *v, *model_arg = NULL, *model_path, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
     static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
     int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0;
+    cli_model_ref mref;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     char *stem = NULL;
     unsigned char *px[3] = {NULL, NULL, NULL}, *file = NULL, *tmp = NULL;
@@ -1382,7 +1614,7 @@ static int cli_refine(int argc, char **argv) {
         if (hit) continue;
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
-            model_path = v;
+            model_arg = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             out_dir = v;
@@ -1400,7 +1632,8 @@ static int cli_refine(int argc, char **argv) {
             return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
         }
     }
-    if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
+    if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) return rc;
+    model_path = mref.path;
     for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);
     if (!out_dir) return cli_usage_error(cmd, "--out DIR is required");
     stem = cli_stem(paths[0]);
@@ -1514,9 +1747,10 @@ static int cli_info(int argc, char **argv) {
     supermat_model_info mi;
     char meta[128];
     double create_s;
+    cli_model_ref mref;
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); return CLI_OK; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); cli_print_default_model_help(); return CLI_OK; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
@@ -1531,13 +1765,15 @@ static int cli_info(int argc, char **argv) {
             path = a;
         }
     }
-    if (!path) return cli_usage_error(cmd, "no model file");
+    if ((m = cli_model_path(cmd, path, 1, &mref)) != CLI_OK) return m;
+    if (!path) printf("default       %s (the default model: %s)\n", mref.path, mref.from);
+    path = mref.path;
     if (cli_read_file(path, &file, &size)) return CLI_FAIL;
 
     /* the file as it is: header, metadata, dtypes */
     r = supermat_safetensors_count(file, size, size, &ntens, &err);
     if (r != SUPERMAT_SUCCESS) {
-        char what[600];
+        char what[CLI_PATH_CAP + 64];
         snprintf(what, sizeof what, "'%s'", path);
         cli_lib_error(what, r, &err);
         cli_free_file(file);
@@ -1549,7 +1785,7 @@ static int cli_info(int argc, char **argv) {
         supermat_tensor_info ti;
         r = supermat_safetensors_tensor(file, size, size, i, &ti, &err);
         if (r != SUPERMAT_SUCCESS) {
-            char what[600];
+            char what[CLI_PATH_CAP + 64];
             snprintf(what, sizeof what, "'%s' tensor %d", path, i);
             cli_lib_error(what, r, &err);
             cli_free_file(file);
@@ -1578,7 +1814,7 @@ static int cli_info(int argc, char **argv) {
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;
     if (r != SUPERMAT_SUCCESS) {
-        char what[600];
+        char what[CLI_PATH_CAP + 64];
         snprintf(what, sizeof what, "model '%s'", path);
         cli_lib_error(what, r, &err);
         cli_free_file(file);
@@ -2026,6 +2262,10 @@ typedef struct cli_bi_input {
     unsigned char *mask, *pos;       /* uv-refine */
     unsigned char *fg;               /* nviews x np: 1 = foreground (alpha > 0; uv-refine: mask > 0.5) */
     supermat_image *ov[3];           /* supermat-mv: per-view output images, pointed at the buffers per run */
+    unsigned char *truth[3];         /* supermat: the --truth-* maps (8-bit, np x 3 / np x 1), NULL = not given */
+    unsigned char *gt_mask;          /* with a truth: 1 = an object pixel (input alpha >= 128) */
+    size_t gt_n;                     /* object pixels */
+    int any_truth;
 } cli_bi_input;
 
 static const char *const cli_bi_map_names[3] = {"albedo", "roughness", "metallic"};
@@ -2077,8 +2317,8 @@ typedef struct cli_bi_row {
     int mode, done;
     double seconds, speedup, flops;
     size_t peak_bytes;
-    int has[3], has_fg[3];
-    double psnr[3], psnr_fg[3], max_abs[3];
+    int has[3], has_fg[3], has_gt[3];
+    double psnr[3], psnr_fg[3], max_abs[3], gt_psnr[3];
 } cli_bi_row;
 
 static double cli_psnr(double sse, double n) {
@@ -2111,13 +2351,37 @@ static void cli_bi_compare(const cli_bi_input *in, int k, const float *ref, cons
     row->psnr_fg[k] = nfg ? cli_psnr(sse_fg, (double)nfg * c) : 0.0;
 }
 
+/* PSNR of map k against its truth file: the map quantised as `supermat image` writes it (cli_quantize),
+   over the object's pixels and the map's channels, values / 255. A NaN in the map gives NaN. */
+static void cli_bi_compare_truth(const cli_bi_input *in, int k, const float *got, cli_bi_row *row) {
+    int c = cli_map_channels[k], j, nan = 0;
+    const unsigned char *t = in->truth[k];
+    size_t p;
+    uint64_t sse = 0;
+    for (p = 0; p < in->np; p++) {
+        if (!in->gt_mask[p]) continue;
+        for (j = 0; j < c; j++) {
+            size_t at = p * (size_t)c + (size_t)j;
+            int d;
+            if (got[at] != got[at]) { nan = 1; continue; }
+            d = (int)cli_quantize(got[at]) - (int)t[at];
+            sse += (uint64_t)(d * d);
+        }
+    }
+    row->has_gt[k] = 1;
+    row->gt_psnr[k] = nan ? (double)NAN : cli_psnr((double)sse / (255.0 * 255.0), (double)in->gt_n * c);
+}
+
 static double cli_bi_peak; /* this machine's FMA peak (GFLOP/s) measured at the start, 0 = unknown */
 static void cli_bi_print_header(const cli_bi_input *in) {
     int k;
     printf("%-18s %9s %8s %9s %9s %8s %6s", "", "", "", "", "", "", "");
-    for (k = 0; k < in->nmaps; k++) printf(" | %-25s", cli_bi_map_name(in, k));
+    for (k = 0; k < in->nmaps; k++) printf(" | %-*s", in->any_truth ? 33 : 25, cli_bi_map_name(in, k));
     printf("\n%-18s %9s %8s %9s %9s %8s %6s", "mode", "seconds", "speedup", "peak MiB", "GFLOP", "GFLOP/s", "%peak");
-    for (k = 0; k < in->nmaps; k++) printf(" | %7s %7s %9s", "psnr", "psnr_fg", "max_abs");
+    for (k = 0; k < in->nmaps; k++) {
+        printf(" | %7s %7s %9s", "psnr", "psnr_fg", "max_abs");
+        if (in->any_truth) printf(" %7s", "gt_psnr");
+    }
     printf("\n");
 }
 
@@ -2129,11 +2393,16 @@ static void cli_bi_print_row(const cli_bi_input *in, const cli_bi_row *r) {
     if (cli_bi_peak > 0) printf(" %5.1f%%", 100.0 * gf / cli_bi_peak);
     else printf(" %6s", "-");
     for (k = 0; k < in->nmaps; k++) {
-        if (!r->has[k]) { printf(" | %7s %7s %9s", "-", "-", "-"); continue; }
-        printf(" | %7.2f", r->psnr[k]);
-        if (r->has_fg[k]) printf(" %7.2f", r->psnr_fg[k]);
+        if (!r->has[k]) printf(" | %7s %7s %9s", "-", "-", "-");
+        else {
+            printf(" | %7.2f", r->psnr[k]);
+            if (r->has_fg[k]) printf(" %7.2f", r->psnr_fg[k]);
+            else printf(" %7s", "-");
+            printf(" %9.3e", r->max_abs[k]);
+        }
+        if (!in->any_truth) continue;
+        if (r->has_gt[k]) printf(" %7.2f", r->gt_psnr[k]);
         else printf(" %7s", "-");
-        printf(" %9.3e", r->max_abs[k]);
     }
     printf("\n");
     fflush(stdout);
@@ -2147,7 +2416,7 @@ static void cli_json_number_or_null(FILE *f, int has, double v) {
 /* writes and closes f (opened before the runs, so that a bad path fails at once) */
 static int cli_bi_write_json(FILE *f, const char *path, const cli_bi_input *in, const cli_bi_row *rows, int nrows) {
     int i, k, q, first = 1;
-    static const char *const groups[3] = {"psnr", "psnr_fg", "max_abs"};
+    static const char *const groups[4] = {"psnr", "psnr_fg", "max_abs", "gt_psnr"};
     fputs("[\n", f);
     for (i = 0; i < nrows; i++) {
         const cli_bi_row *r = &rows[i];
@@ -2159,13 +2428,14 @@ static int cli_bi_write_json(FILE *f, const char *path, const cli_bi_input *in, 
         fputs(", \"fraction_of_peak\": ", f);
         cli_json_number_or_null(f, cli_bi_peak > 0 && r->seconds > 0, r->seconds > 0 ? r->flops / r->seconds / 1e9 / cli_bi_peak : 0.0);
         first = 0;
-        for (q = 0; q < 3; q++) {
+        for (q = 0; q < 4; q++) {
             fprintf(f, ", \"%s\": {", groups[q]);
             for (k = 0; k < in->nmaps; k++) {
                 fprintf(f, "%s\"%s\": ", k ? ", " : "", cli_bi_map_name(in, k));
                 if (q == 0) cli_json_number_or_null(f, r->has[k], r->psnr[k]);
                 else if (q == 1) cli_json_number_or_null(f, r->has[k] && r->has_fg[k], r->psnr_fg[k]);
-                else cli_json_number_or_null(f, r->has[k], r->max_abs[k]);
+                else if (q == 2) cli_json_number_or_null(f, r->has[k], r->max_abs[k]);
+                else cli_json_number_or_null(f, r->has_gt[k], r->gt_psnr[k]);
             }
             fputc('}', f);
         }
@@ -2178,6 +2448,7 @@ static int cli_bi_write_json(FILE *f, const char *path, const cli_bi_input *in, 
 
 typedef struct cli_bench_opts {
     const char *model_path, *json_path, *mask_path, *pos_path, *cam_path;
+    const char *truth_paths[3];      /* --truth-albedo, --truth-roughness, --truth-metallic (NULL = not given) */
     const char *images[CLI_MAX_VIEWS];
     int nimg, views, threads, repeats, nmodes, modes_all;
     int modes[CLI_MODE_COUNT];
@@ -2244,6 +2515,28 @@ static int cli_bench_image(const cli_bench_opts *o) {
             rc = CLI_FAIL;
         }
     }
+    for (k = 0; k < 3 && rc == CLI_OK; k++) { /* the truth files: readable, 8-bit, the image's size, colour / gray */
+        const char *p = o->truth_paths[k];
+        int iw, ih, c;
+        if (!p) continue;
+        in.any_truth = 1;
+        if (!stbi_info(p, &iw, &ih, &c)) {
+            cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], p, stbi_failure_reason());
+            rc = CLI_FAIL;
+        } else if (iw != w || ih != h) {
+            cli_error("the %s truth '%s' is %dx%d but the image '%s' is %dx%d: a truth map must have the image's size "
+                      "(supermat does not resize)", cli_bi_map_names[k], p, iw, ih, path0, w, h);
+            rc = CLI_FAIL;
+        } else if (stbi_is_16_bit(p)) {
+            cli_error("the %s truth '%s' has 16 bits per channel: give an 8-bit PNG (the maps are compared as "
+                      "`supermat image` writes them, 8-bit)", cli_bi_map_names[k], p);
+            rc = CLI_FAIL;
+        } else if (k == 0 ? c < 3 : c > 2) {
+            cli_error("the %s truth '%s' is %s: give an 8-bit %s PNG", cli_bi_map_names[k], p,
+                      c <= 2 ? "gray" : "in colour", k == 0 ? "RGB (sRGB)" : "gray");
+            rc = CLI_FAIL;
+        }
+    }
     if (rc == CLI_OK && o->json_path) {
         jf = fopen(o->json_path, "w");
         if (!jf) { cli_error("cannot write '%s': %s", o->json_path, strerror(errno)); rc = CLI_FAIL; }
@@ -2270,6 +2563,11 @@ static int cli_bench_image(const cli_bench_opts *o) {
             }
         } else if (o->mask_path || o->pos_path) {
             cli_error("--mask and --position are for a uv-refine model; model '%s' is a %s model", o->model_path, kn);
+            rc = CLI_FAIL;
+        }
+        if (rc == CLI_OK && in.any_truth && mi.kind != SUPERMAT_KIND_SUPERMAT) {
+            cli_error("--truth-albedo, --truth-roughness and --truth-metallic are for a supermat model (one image); "
+                      "model '%s' is a %s model", o->model_path, kn);
             rc = CLI_FAIL;
         }
         if (rc == CLI_OK && mi.kind == SUPERMAT_KIND_SUPERMAT_MV) {
@@ -2386,7 +2684,30 @@ static int cli_bench_image(const cli_bench_opts *o) {
             in.in[v].format = SUPERMAT_FORMAT_U8;
             for (p = 0; p < in.np; p++) fg[p] = uv ? in.mask[p] >= 128 /* > 0.5 */ : src[p * 4 + 3] > 0;
         }
-        for (k = 0; k < in.nmaps; k++) {
+        if (in.any_truth) { /* a supermat model: one view */
+            in.gt_mask = (unsigned char *)malloc(in.np);
+            if (!in.gt_mask) { cli_error("out of memory"); rc = CLI_FAIL; }
+            for (p = 0; rc == CLI_OK && p < in.np; p++) {
+                in.gt_mask[p] = px[0][p * 4 + 3] >= 128;
+                in.gt_n += in.gt_mask[p];
+            }
+            if (rc == CLI_OK && !in.gt_n) {
+                cli_error("image '%s' has no object pixels (alpha >= 128): nothing to compare the truth maps with", path0);
+                rc = CLI_FAIL;
+            }
+        }
+        for (k = 0; k < 3 && rc == CLI_OK; k++) {
+            const char *tp = o->truth_paths[k];
+            int iw = 0, ih = 0, c = 0;
+            if (!tp) continue;
+            in.truth[k] = k == 0 ? stbi_load(tp, &iw, &ih, &c, 3) : cli_load_gray(tp, &iw, &ih);
+            if (!in.truth[k]) { cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], tp, stbi_failure_reason()); rc = CLI_FAIL; }
+            else if (iw != w || ih != h) {
+                cli_error("the %s truth '%s' is %dx%d, not %dx%d as before (did it change?)", cli_bi_map_names[k], tp, iw, ih, w, h);
+                rc = CLI_FAIL;
+            }
+        }
+        for (k = 0; k < in.nmaps && rc == CLI_OK; k++) {
             nout[k] = in.np * (size_t)nviews * (size_t)cli_bi_channels(&in, k);
             ref[k] = (float *)malloc(nout[k] * sizeof(float));
             cur[k] = (float *)malloc(nout[k] * sizeof(float));
@@ -2418,6 +2739,11 @@ static int cli_bench_image(const cli_bench_opts *o) {
             long fma_iters = 0;
             cli_bi_peak = mi.kernel == SUPERMAT_KERNEL_AVX2 ? cli_fma_peak(&hook, 3, &fma_iters) : 0.0;
             if (cli_bi_peak > 0) printf("FMA peak %.1f GFLOP/s on %d thread%s (measured now; %%peak = GFLOP/s / this)\n", cli_bi_peak, hook.max_threads, hook.max_threads == 1 ? "" : "s");
+        }
+        if (in.any_truth) {
+            printf("truth   ");
+            for (k = 0; k < 3; k++) if (o->truth_paths[k]) printf(" %s %s", cli_bi_map_names[k], o->truth_paths[k]);
+            printf(" (%lu object pixels)\n", (unsigned long)in.gt_n);
         }
         printf("\n");
         cli_bi_print_header(&in);
@@ -2475,6 +2801,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
             row->peak_bytes = emi.model_bytes + sbytes;
             row->flops = fl.total;
             for (k = 0; k < in.nmaps; k++) if (maps[k]) cli_bi_compare(&in, k, ref[k], maps[k], row);
+            for (k = 0; k < in.nmaps; k++) if (maps[k] && in.truth[k]) cli_bi_compare_truth(&in, k, maps[k], row);
             cli_bi_print_row(&in, row);
         } else {
             fflush(stdout);
@@ -2493,6 +2820,10 @@ static int cli_bench_image(const cli_bench_opts *o) {
         printf("\nseconds: supermat_run only; speedup: f32 seconds / seconds; peak MiB: model + session arena (supermat_session_memory);\n"
                "psnr, psnr_fg (dB, capped at %.0f), max_abs: against the f32 maps (float, [0, 1]), all pixels and the foreground (%s)\n",
                CLI_PSNR_CAP, mi.kind == SUPERMAT_KIND_UV_REFINE ? "mask > 0.5" : "input alpha > 0");
+        if (in.any_truth)
+            printf("gt_psnr (dB, capped at %.0f): against the truth files, the maps quantised to 8 bits as `supermat image` writes them,\n"
+                   "over the object's pixels (input alpha >= 128); - where no truth was given or the mode does not compute the map\n",
+                   CLI_PSNR_CAP);
         if (jf) {
             FILE *f = jf;
             jf = NULL;
@@ -2505,7 +2836,8 @@ static int cli_bench_image(const cli_bench_opts *o) {
     }
 
     if (jf) { fclose(jf); remove(o->json_path); } /* nothing measured: no file */
-    for (k = 0; k < 3; k++) { free(ref[k]); free(cur[k]); free(in.ov[k]); }
+    for (k = 0; k < 3; k++) { free(ref[k]); free(cur[k]); free(in.ov[k]); if (in.truth[k]) stbi_image_free(in.truth[k]); }
+    free(in.gt_mask);
     for (i = 0; i < o->nimg; i++) if (px[i]) stbi_image_free(px[i]);
     if (in.mask) stbi_image_free(in.mask);
     if (in.pos) stbi_image_free(in.pos);
@@ -2521,7 +2853,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
 
 /* `supermat bench`: the options, then (a), (b), (c) above, or with --image cli_bench_image() */
 static int cli_bench(int argc, char **argv) {
-    const char *cmd = "bench", *v, *model_path = NULL, *json_path = NULL;
+    const char *cmd = "bench", *v, *model_arg = NULL, *model_path = NULL, *json_path = NULL;
     int w = 512, h = 512, threads = 0, repeats = 1, i, m, rc = CLI_OK, nrows = 0, rep, x, y, k;
     int views = 0, nviews = 1, pipeline_only = 0;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
@@ -2548,16 +2880,17 @@ static int cli_bench(int argc, char **argv) {
     char outs_s[64];
     cli_bench_opts bo;
     int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0;
+    cli_model_ref mref;
 
     memset(&bo, 0, sizeof bo);
     bo.modes_all = 1;
 
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); return CLI_OK; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); fputs(cli_usage_bench_truth, stdout); cli_print_default_model_help(); return CLI_OK; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
-            model_path = v;
+            model_arg = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--size", &v)) != 0) {
             if (m < 0 || cli_parse_size(cmd, v, &w, &h)) return CLI_USAGE;
             size_given = 1;
@@ -2596,24 +2929,37 @@ static int cli_bench(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--modes", &v)) != 0) {
             if (m < 0 || cli_parse_modes(cmd, v, bo.modes, &bo.nmodes, &bo.modes_all)) return CLI_USAGE;
             modes_given = 1;
+        } else if (!strncmp(a, "--truth-", 8)) {
+            static const char *const truth_opts[3] = {"--truth-albedo", "--truth-roughness", "--truth-metallic"};
+            for (k = 0; k < 3; k++) if ((m = cli_opt(cmd, argc, argv, &i, truth_opts[k], &v)) != 0) break;
+            if (k == 3) return cli_usage_error(cmd, "unknown option '%s' (--truth-albedo, --truth-roughness, --truth-metallic)", a);
+            if (m < 0) return CLI_USAGE;
+            if (!v[0]) return cli_usage_error(cmd, "%s: an empty file name", truth_opts[k]);
+            bo.truth_paths[k] = v;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else {
             return cli_usage_error(cmd, "unexpected argument '%s'", a);
         }
     }
-    if (!model_path) return cli_usage_error(cmd, "--model FILE is required");
     if (bo.nimg) {
         if (size_given) return cli_usage_error(cmd, "--size does not apply with --image (the image's own size is used)");
         if (outputs_given) return cli_usage_error(cmd, "--outputs does not apply with --image (the modes choose the outputs)");
         if (weights_given) return cli_usage_error(cmd, "--weights does not apply with --image (use --modes f16,bf16,int8)");
         if (pipeline_only) return cli_usage_error(cmd, "--pipeline-only does not apply with --image");
+        if ((rc = cli_model_path(cmd, model_arg, 1, &mref)) != CLI_OK) return rc;
+        model_path = mref.path;
         bo.model_path = model_path; bo.json_path = json_path; bo.views = views; bo.threads = threads; bo.repeats = repeats;
         bo.kernel = kernel;
         return cli_bench_image(&bo);
     }
     if (modes_given || bo.mask_path || bo.pos_path || bo.cam_path)
         return cli_usage_error(cmd, "%s needs --image", modes_given ? "--modes" : bo.mask_path ? "--mask" : bo.pos_path ? "--position" : "--cameras");
+    for (k = 0; k < 3; k++)
+        if (bo.truth_paths[k])
+            return cli_usage_error(cmd, "--truth-%s needs --image (it is compared with the maps of --image)", cli_bi_map_names[k]);
+    if ((rc = cli_model_path(cmd, model_arg, 1, &mref)) != CLI_OK) return rc;
+    model_path = mref.path;
     memset(&mi, 0, sizeof mi);
     memset(&fl, 0, sizeof fl);
 
@@ -2863,6 +3209,316 @@ static int cli_bench(int argc, char **argv) {
     return rc;
 }
 
+/* >>sheet */
+static const char cli_usage_sheet[] =
+    "usage: supermat sheet --out SHEET.png [--cell N] [--labels LIST] ROW...\n"
+    "\n"
+    "Puts pictures side by side in one PNG, a contact sheet. Each ROW is one row of the sheet: a comma\n"
+    "list of image files (read with stb_image: PNG, JPEG, BMP, TGA, ...), one per column; - leaves a\n"
+    "cell empty, and a row shorter than the longest leaves its last cells empty. For a picture and its\n"
+    "maps:\n"
+    "  supermat sheet --out sheet.png --labels input,albedo,roughness,metallic \\\n"
+    "      photo.png,out/photo_albedo.png,out/photo_roughness.png,out/photo_metallic.png\n"
+    "\n"
+    "Each image is resized to fit an N x N cell keeping its shape (square images fill it; a box\n"
+    "filter when shrinking, bilinear when enlarging) and centred in it. Transparent pixels show a\n"
+    "light checkerboard behind them; gray images are shown as gray. Cells are separated by 4-pixel\n"
+    "gutters on a white background: the sheet is 4 + C * (N + 4) pixels wide and 4 + R * (N + 4)\n"
+    "high for C columns and R rows, plus 8 * S + 4 rows for the labels when --labels is given\n"
+    "(S = 1 + N / 256, the text scale: 1 up to N = 255). The PNG is RGB, 8-bit, written as\n"
+    "SHEET.png.tmp and renamed when complete; on any error nothing is written.\n"
+    "\n"
+    "options:\n"
+    "  --out FILE        the PNG to write (required)\n"
+    "  --cell N          the cell size in pixels, 8 to 1024 (default 128)\n"
+    "  --labels LIST     comma list of column titles, printed above the columns in a small bitmap\n"
+    "                    font (letters, digits, space and . , _ - / ( ) : = + % ' ! ?; any other\n"
+    "                    character prints as ?); a title wider than its column is cut\n";
+
+/* 5x8 glyphs of the characters in cli_font_chars: 8 rows top to bottom (rows 0-6 above the
+   baseline, row 7 below it), bit 4 = the leftmost column */
+static const char cli_font_chars[] = " !%'()+,-./0123456789:=?ABCDEFGHIJKLMNOPQRSTUVWXYZ_abcdefghijklmnopqrstuvwxyz";
+static const unsigned char cli_font[][8] = {
+    {0x00,0x00,0x00,0x00,0x00,0x00,0x00,0x00}, {0x04,0x04,0x04,0x04,0x04,0x00,0x04,0x00}, {0x18,0x19,0x02,0x04,0x08,0x13,0x03,0x00}, {0x04,0x04,0x08,0x00,0x00,0x00,0x00,0x00},
+    {0x02,0x04,0x08,0x08,0x08,0x04,0x02,0x00}, {0x08,0x04,0x02,0x02,0x02,0x04,0x08,0x00}, {0x00,0x04,0x04,0x1f,0x04,0x04,0x00,0x00}, {0x00,0x00,0x00,0x00,0x00,0x06,0x04,0x08},
+    {0x00,0x00,0x00,0x1f,0x00,0x00,0x00,0x00}, {0x00,0x00,0x00,0x00,0x00,0x0c,0x0c,0x00}, {0x01,0x02,0x02,0x04,0x08,0x08,0x10,0x00}, {0x0e,0x11,0x13,0x15,0x19,0x11,0x0e,0x00},
+    {0x04,0x0c,0x04,0x04,0x04,0x04,0x0e,0x00}, {0x0e,0x11,0x01,0x02,0x04,0x08,0x1f,0x00}, {0x1f,0x02,0x04,0x02,0x01,0x11,0x0e,0x00}, {0x02,0x06,0x0a,0x12,0x1f,0x02,0x02,0x00},
+    {0x1f,0x10,0x1e,0x01,0x01,0x11,0x0e,0x00}, {0x06,0x08,0x10,0x1e,0x11,0x11,0x0e,0x00}, {0x1f,0x01,0x02,0x04,0x08,0x08,0x08,0x00}, {0x0e,0x11,0x11,0x0e,0x11,0x11,0x0e,0x00},
+    {0x0e,0x11,0x11,0x0f,0x01,0x02,0x0c,0x00}, {0x00,0x0c,0x0c,0x00,0x0c,0x0c,0x00,0x00}, {0x00,0x00,0x1f,0x00,0x1f,0x00,0x00,0x00}, {0x0e,0x11,0x01,0x02,0x04,0x00,0x04,0x00},
+    {0x0e,0x11,0x11,0x1f,0x11,0x11,0x11,0x00}, {0x1e,0x11,0x11,0x1e,0x11,0x11,0x1e,0x00}, {0x0e,0x11,0x10,0x10,0x10,0x11,0x0e,0x00}, {0x1c,0x12,0x11,0x11,0x11,0x12,0x1c,0x00},
+    {0x1f,0x10,0x10,0x1e,0x10,0x10,0x1f,0x00}, {0x1f,0x10,0x10,0x1e,0x10,0x10,0x10,0x00}, {0x0e,0x11,0x10,0x17,0x11,0x11,0x0f,0x00}, {0x11,0x11,0x11,0x1f,0x11,0x11,0x11,0x00},
+    {0x0e,0x04,0x04,0x04,0x04,0x04,0x0e,0x00}, {0x07,0x02,0x02,0x02,0x02,0x12,0x0c,0x00}, {0x11,0x12,0x14,0x18,0x14,0x12,0x11,0x00}, {0x10,0x10,0x10,0x10,0x10,0x10,0x1f,0x00},
+    {0x11,0x1b,0x15,0x15,0x11,0x11,0x11,0x00}, {0x11,0x11,0x19,0x15,0x13,0x11,0x11,0x00}, {0x0e,0x11,0x11,0x11,0x11,0x11,0x0e,0x00}, {0x1e,0x11,0x11,0x1e,0x10,0x10,0x10,0x00},
+    {0x0e,0x11,0x11,0x11,0x15,0x12,0x0d,0x00}, {0x1e,0x11,0x11,0x1e,0x14,0x12,0x11,0x00}, {0x0f,0x10,0x10,0x0e,0x01,0x01,0x1e,0x00}, {0x1f,0x04,0x04,0x04,0x04,0x04,0x04,0x00},
+    {0x11,0x11,0x11,0x11,0x11,0x11,0x0e,0x00}, {0x11,0x11,0x11,0x11,0x11,0x0a,0x04,0x00}, {0x11,0x11,0x11,0x15,0x15,0x15,0x0a,0x00}, {0x11,0x11,0x0a,0x04,0x0a,0x11,0x11,0x00},
+    {0x11,0x11,0x0a,0x04,0x04,0x04,0x04,0x00}, {0x1f,0x01,0x02,0x04,0x08,0x10,0x1f,0x00}, {0x00,0x00,0x00,0x00,0x00,0x00,0x00,0x1f}, {0x00,0x00,0x0e,0x01,0x0f,0x11,0x0f,0x00},
+    {0x10,0x10,0x16,0x19,0x11,0x11,0x1e,0x00}, {0x00,0x00,0x0e,0x10,0x10,0x11,0x0e,0x00}, {0x01,0x01,0x0d,0x13,0x11,0x11,0x0f,0x00}, {0x00,0x00,0x0e,0x11,0x1f,0x10,0x0e,0x00},
+    {0x06,0x09,0x08,0x1c,0x08,0x08,0x08,0x00}, {0x00,0x00,0x0f,0x11,0x11,0x0f,0x01,0x0e}, {0x10,0x10,0x16,0x19,0x11,0x11,0x11,0x00}, {0x04,0x00,0x0c,0x04,0x04,0x04,0x0e,0x00},
+    {0x02,0x00,0x06,0x02,0x02,0x02,0x12,0x0c}, {0x10,0x10,0x12,0x14,0x18,0x14,0x12,0x00}, {0x0c,0x04,0x04,0x04,0x04,0x04,0x0e,0x00}, {0x00,0x00,0x1a,0x15,0x15,0x11,0x11,0x00},
+    {0x00,0x00,0x16,0x19,0x11,0x11,0x11,0x00}, {0x00,0x00,0x0e,0x11,0x11,0x11,0x0e,0x00}, {0x00,0x00,0x1e,0x11,0x11,0x1e,0x10,0x10}, {0x00,0x00,0x0f,0x11,0x11,0x0f,0x01,0x01},
+    {0x00,0x00,0x16,0x19,0x10,0x10,0x10,0x00}, {0x00,0x00,0x0f,0x10,0x0e,0x01,0x1e,0x00}, {0x08,0x08,0x1c,0x08,0x08,0x09,0x06,0x00}, {0x00,0x00,0x11,0x11,0x11,0x13,0x0d,0x00},
+    {0x00,0x00,0x11,0x11,0x11,0x0a,0x04,0x00}, {0x00,0x00,0x11,0x11,0x15,0x15,0x0a,0x00}, {0x00,0x00,0x11,0x0a,0x04,0x0a,0x11,0x00}, {0x00,0x00,0x11,0x11,0x11,0x0f,0x01,0x0e},
+    {0x00,0x00,0x1f,0x02,0x04,0x08,0x1f,0x00},
+};
+#define CLI_SHEET_GUTTER 4
+#define CLI_SHEET_INK 40
+
+static const unsigned char *cli_glyph(char c) {
+    const char *p = c ? strchr(cli_font_chars, c) : NULL;
+    if (!p) p = strchr(cli_font_chars, '?');
+    return cli_font[p - cli_font_chars];
+}
+
+/* text of n characters at (x, y) (its top left) in scale s, clipped to the sheet (sw x sh, RGB) */
+static void cli_sheet_text(unsigned char *sheet, int sw, int sh, int x, int y, const char *text, int n, int s) {
+    int i, r, c, dy, dx;
+    for (i = 0; i < n; i++) {
+        const unsigned char *g = cli_glyph(text[i]);
+        for (r = 0; r < 8; r++)
+            for (c = 0; c < 5; c++) {
+                if (!(g[r] & (0x10 >> c))) continue;
+                for (dy = 0; dy < s; dy++)
+                    for (dx = 0; dx < s; dx++) {
+                        int px = x + (i * 6 + c) * s + dx, py = y + r * s + dy;
+                        unsigned char *p;
+                        if (px < 0 || py < 0 || px >= sw || py >= sh) continue;
+                        p = sheet + ((size_t)py * sw + px) * 3;
+                        p[0] = p[1] = p[2] = CLI_SHEET_INK;
+                    }
+            }
+    }
+}
+
+/* The source pixels and weights of each of dst outputs along one axis of src pixels: a box filter
+   (each source pixel weighted by how much of it the output pixel covers) when shrinking, bilinear
+   (pixel centres aligned, edges clamped) otherwise. idx and w hold dst * *taps entries. */
+static int cli_resample_axis(int src, int dst, int **idx, float **w, int *taps) {
+    double scale = (double)src / dst;
+    int o, k, t = src > dst ? (int)ceil(scale) + 1 : 2;
+    *idx = (int *)malloc(sizeof(int) * (size_t)dst * (size_t)t);
+    *w = (float *)malloc(sizeof(float) * (size_t)dst * (size_t)t);
+    *taps = t;
+    if (!*idx || !*w) { free(*idx); free(*w); *idx = NULL; *w = NULL; return CLI_FAIL; }
+    for (o = 0; o < dst; o++) {
+        int *ii = *idx + (size_t)o * t;
+        float *ww = *w + (size_t)o * t;
+        if (src > dst) {
+            double a = o * scale, b = a + scale;
+            int i0 = (int)floor(a);
+            for (k = 0; k < t; k++) {
+                int i = i0 + k;
+                double lo = a > i ? a : i, hi = b < i + 1 ? b : i + 1;
+                ii[k] = i < src ? i : src - 1;
+                ww[k] = hi > lo && i < src ? (float)((hi - lo) / scale) : 0.0f;
+            }
+        } else {
+            double c = (o + 0.5) * scale - 0.5, f;
+            int i0 = (int)floor(c);
+            f = c - i0;
+            ii[0] = i0 < 0 ? 0 : i0 > src - 1 ? src - 1 : i0;
+            ii[1] = i0 + 1 < 0 ? 0 : i0 + 1 > src - 1 ? src - 1 : i0 + 1;
+            ww[0] = (float)(1.0 - f);
+            ww[1] = (float)f;
+        }
+    }
+    return CLI_OK;
+}
+
+/* Draws px (w x h, RGBA 8-bit, straight alpha) resized to dw x dh with its top left at (x0, y0) of
+   the sheet (sw pixels wide, RGB), over a checkerboard of q-pixel squares. Resampled with alpha
+   premultiplied (no dark fringes), then composited. */
+static int cli_sheet_draw(unsigned char *sheet, int sw, int x0, int y0, const unsigned char *px, int w, int h, int dw, int dh, int q) {
+    int *ix = NULL, *iy = NULL, tx, ty, x, y, k, c;
+    float *wx = NULL, *wy = NULL, *tmp = NULL;
+    int rc = CLI_FAIL;
+    if (cli_resample_axis(w, dw, &ix, &wx, &tx) != CLI_OK || cli_resample_axis(h, dh, &iy, &wy, &ty) != CLI_OK) goto done;
+    tmp = (float *)malloc(sizeof(float) * 4 * (size_t)dw * (size_t)h);
+    if (!tmp) goto done;
+    for (y = 0; y < h; y++) /* horizontal: premultiplied RGBA in [0, 255] */
+        for (x = 0; x < dw; x++) {
+            float acc[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+            for (k = 0; k < tx; k++) {
+                const unsigned char *p = px + ((size_t)y * w + ix[(size_t)x * tx + k]) * 4;
+                float wt = wx[(size_t)x * tx + k], a = p[3] * (1.0f / 255.0f);
+                if (wt == 0.0f) continue;
+                for (c = 0; c < 3; c++) acc[c] += wt * p[c] * a;
+                acc[3] += wt * p[3];
+            }
+            memcpy(tmp + ((size_t)y * dw + x) * 4, acc, sizeof acc);
+        }
+    for (y = 0; y < dh; y++) /* vertical, then over the checkerboard */
+        for (x = 0; x < dw; x++) {
+            float acc[4] = {0.0f, 0.0f, 0.0f, 0.0f}, a, bg;
+            unsigned char *o = sheet + ((size_t)(y0 + y) * sw + (size_t)(x0 + x)) * 3;
+            for (k = 0; k < ty; k++) {
+                const float *p = tmp + ((size_t)iy[(size_t)y * ty + k] * dw + x) * 4;
+                float wt = wy[(size_t)y * ty + k];
+                for (c = 0; c < 4; c++) acc[c] += wt * p[c];
+            }
+            a = acc[3] * (1.0f / 255.0f);
+            a = a < 0.0f ? 0.0f : a > 1.0f ? 1.0f : a;
+            bg = ((x / q + y / q) & 1) ? 204.0f : 244.0f;
+            for (c = 0; c < 3; c++) {
+                float v = acc[c] + (1.0f - a) * bg;
+                o[c] = (unsigned char)(v < 0.0f ? 0 : v > 255.0f ? 255 : (int)(v + 0.5f));
+            }
+        }
+    rc = CLI_OK;
+done:
+    if (rc != CLI_OK) cli_error("out of memory resizing a %dx%d image", w, h);
+    free(ix); free(wx); free(iy); free(wy); free(tmp);
+    return rc;
+}
+
+/* the number of comma-separated entries of s */
+static int cli_count_commas(const char *s) {
+    int n = 1;
+    for (; *s; s++) n += *s == ',';
+    return n;
+}
+
+/* splits s (modified) at its commas into out[cli_count_commas(s)] */
+static void cli_split_commas(char *s, char **out) {
+    int n = 0;
+    for (;;) {
+        char *e = strchr(s, ',');
+        out[n++] = s;
+        if (!e) break;
+        *e = 0;
+        s = e + 1;
+    }
+}
+
+static int cli_sheet(int argc, char **argv) {
+    const char *cmd = "sheet", *v, *out_path = NULL, *labels_arg = NULL, **row_args;
+    int cell = 128, i, m, r, c, nrows = 0, ncols = 0, nlabels = 0, rc = CLI_OK, s, label_h, sw, sh, q;
+    char **row_bufs = NULL, ***cells = NULL, *labels_buf = NULL, **labels = NULL;
+    int *row_len = NULL;
+    unsigned char *sheet = NULL;
+    size_t npx;
+
+    row_args = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
+    if (!row_args) { cli_error("out of memory"); return CLI_FAIL; }
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_sheet, stdout); free(row_args); return CLI_OK; }
+        if (!strcmp(a, "--")) { for (i++; i < argc; i++) row_args[nrows++] = argv[i]; break; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) { free(row_args); return CLI_USAGE; }
+            out_path = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cell", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--cell", v, 8, 1024, &cell)) { free(row_args); return CLI_USAGE; }
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--labels", &v)) != 0) {
+            if (m < 0) { free(row_args); return CLI_USAGE; }
+            labels_arg = v;
+        } else if (a[0] == '-' && a[1]) {
+            free(row_args);
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            row_args[nrows++] = a;
+        }
+    }
+    if (!out_path) { free(row_args); return cli_usage_error(cmd, "--out SHEET.png is required"); }
+    if (!nrows) { free(row_args); return cli_usage_error(cmd, "no rows: give one or more ROWs, each a comma list of images (- for an empty cell)"); }
+
+    /* the rows, split at commas */
+    row_bufs = (char **)calloc((size_t)nrows, sizeof *row_bufs);
+    cells = (char ***)calloc((size_t)nrows, sizeof *cells);
+    row_len = (int *)calloc((size_t)nrows, sizeof *row_len);
+    if (!row_bufs || !cells || !row_len) { cli_error("out of memory"); rc = CLI_FAIL; goto done; }
+    for (r = 0; r < nrows; r++) {
+        int n;
+        row_bufs[r] = (char *)malloc(strlen(row_args[r]) + 1);
+        if (!row_bufs[r]) { cli_error("out of memory"); rc = CLI_FAIL; goto done; }
+        strcpy(row_bufs[r], row_args[r]);
+        n = cli_count_commas(row_bufs[r]);
+        cells[r] = (char **)malloc(sizeof(char *) * (size_t)n);
+        if (!cells[r]) { cli_error("out of memory"); rc = CLI_FAIL; goto done; }
+        cli_split_commas(row_bufs[r], cells[r]);
+        row_len[r] = n;
+        for (c = 0; c < n; c++)
+            if (!cells[r][c][0]) {
+                rc = cli_usage_error(cmd, "row %d ('%s'): entry %d is empty (use - for an empty cell)", r + 1, row_args[r], c + 1);
+                goto done;
+            }
+        if (n > ncols) ncols = n;
+    }
+    if (labels_arg) {
+        labels_buf = (char *)malloc(strlen(labels_arg) + 1);
+        if (!labels_buf) { cli_error("out of memory"); rc = CLI_FAIL; goto done; }
+        strcpy(labels_buf, labels_arg);
+        nlabels = cli_count_commas(labels_buf);
+        if (nlabels > ncols) {
+            rc = cli_usage_error(cmd, "--labels has %d titles but the sheet has %d column%s", nlabels, ncols, ncols == 1 ? "" : "s");
+            goto done;
+        }
+        labels = (char **)malloc(sizeof(char *) * (size_t)nlabels);
+        if (!labels) { cli_error("out of memory"); rc = CLI_FAIL; goto done; }
+        cli_split_commas(labels_buf, labels);
+    }
+
+    /* the layout */
+    s = 1 + cell / 256;
+    label_h = labels ? 8 * s + CLI_SHEET_GUTTER : 0;
+    if ((double)ncols * (cell + CLI_SHEET_GUTTER) + CLI_SHEET_GUTTER > 65535.0 ||
+        (double)nrows * (cell + CLI_SHEET_GUTTER) + CLI_SHEET_GUTTER + label_h > 65535.0 ||
+        ((double)ncols * (cell + CLI_SHEET_GUTTER) * 3.0 + 16.0) * ((double)nrows * (cell + CLI_SHEET_GUTTER) + 16.0 + label_h) > 1.0e9) {
+        rc = cli_usage_error(cmd, "%d rows x %d columns of %d pixels are too large for one PNG: use a smaller --cell", nrows, ncols, cell);
+        goto done;
+    }
+    sw = CLI_SHEET_GUTTER + ncols * (cell + CLI_SHEET_GUTTER);
+    sh = CLI_SHEET_GUTTER + label_h + nrows * (cell + CLI_SHEET_GUTTER);
+    q = cell / 16 > 4 ? cell / 16 : 4;
+
+    /* every image readable before any work */
+    for (r = 0; r < nrows; r++)
+        for (c = 0; c < row_len[r]; c++) {
+            int w, h, ch;
+            if (!strcmp(cells[r][c], "-")) continue;
+            if (!stbi_info(cells[r][c], &w, &h, &ch)) {
+                cli_error("cannot read image '%s': %s", cells[r][c], stbi_failure_reason());
+                rc = CLI_FAIL;
+                goto done;
+            }
+        }
+
+    npx = (size_t)sw * (size_t)sh;
+    sheet = (unsigned char *)malloc(npx * 3);
+    if (!sheet) { cli_error("out of memory for a %dx%d sheet", sw, sh); rc = CLI_FAIL; goto done; }
+    memset(sheet, 255, npx * 3);
+    for (c = 0; c < nlabels; c++) {
+        int n = (int)strlen(labels[c]), fit = (cell + s) / (6 * s), tw;
+        if (n > fit) n = fit;
+        tw = n * 6 * s - s;
+        cli_sheet_text(sheet, sw, sh, CLI_SHEET_GUTTER + c * (cell + CLI_SHEET_GUTTER) + (cell - tw) / 2, CLI_SHEET_GUTTER, labels[c], n, s);
+    }
+    for (r = 0; r < nrows && rc == CLI_OK; r++)
+        for (c = 0; c < row_len[r] && rc == CLI_OK; c++) {
+            int w = 0, h = 0, ch = 0, dw, dh, x0, y0;
+            unsigned char *px;
+            if (!strcmp(cells[r][c], "-")) continue;
+            px = stbi_load(cells[r][c], &w, &h, &ch, 4);
+            if (!px) { cli_error("cannot read image '%s': %s", cells[r][c], stbi_failure_reason()); rc = CLI_FAIL; break; }
+            if (w >= h) { dw = cell; dh = (int)((double)cell * h / w + 0.5); }
+            else { dh = cell; dw = (int)((double)cell * w / h + 0.5); }
+            if (dw < 1) dw = 1;
+            if (dh < 1) dh = 1;
+            x0 = CLI_SHEET_GUTTER + c * (cell + CLI_SHEET_GUTTER) + (cell - dw) / 2;
+            y0 = CLI_SHEET_GUTTER + label_h + r * (cell + CLI_SHEET_GUTTER) + (cell - dh) / 2;
+            rc = cli_sheet_draw(sheet, sw, x0, y0, px, w, h, dw, dh, q);
+            stbi_image_free(px);
+        }
+    if (rc == CLI_OK) rc = cli_write_png_u8(out_path, sheet, sw, sh, 3);
+    if (rc == CLI_OK) printf("wrote %s (%dx%d: %d row%s, %d column%s of %d pixels)\n", out_path, sw, sh, nrows, nrows == 1 ? "" : "s",
+                             ncols, ncols == 1 ? "" : "s", cell);
+
+done:
+    if (row_bufs) for (r = 0; r < nrows; r++) free(row_bufs[r]);
+    if (cells) for (r = 0; r < nrows; r++) free(cells[r]);
+    free(row_bufs); free(cells); free(row_len); free(labels_buf); free(labels); free(sheet); free(row_args);
+    return rc;
+}
+
 /* >>main */
 #ifdef SUPERMAT_CLI_MESH
 int supermat_cli_mesh(int argc, char **argv); /* tools/supermat_mesh.cpp (tinygltf), when built with it */
@@ -2883,6 +3539,7 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "refine")) return cli_refine(argc, argv);
     if (!strcmp(c, "info")) return cli_info(argc, argv);
     if (!strcmp(c, "bench")) return cli_bench(argc, argv);
+    if (!strcmp(c, "sheet")) return cli_sheet(argc, argv);
     if (!strcmp(c, "mesh")) {
 #ifdef SUPERMAT_CLI_MESH
         return supermat_cli_mesh(argc - 1, argv + 1);

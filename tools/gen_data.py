@@ -1,0 +1,543 @@
+#!/usr/bin/env python3
+"""Training data for supermat's default model: procedural objects rendered under image-based lighting,
+with the ground-truth material maps at the same pixels.  Deterministic by seed; numpy only.
+
+    /usr/bin/python3 tools/gen_data.py --hdri-dir HDRI --out DATA [--count 4000] [--size 128] [--jobs 2] [--seed 0]
+
+HDRI: a folder with the CC0 Poly Haven maps of the public repository pmndrs/drei-assets (hdri/*.hdr);
+the maps named in HELD_OUT are never used here (they light the evaluation).  No mesh or texture from
+anywhere else enters the data: every object and material is made here.
+
+Each sample (shards DATA/shard_NNNN.npz of `--shard` samples; a shard that exists is kept, so an
+interrupted run resumes):
+  rgba    uint8 HxWx4  the input: one object, straight alpha, lit by an environment map (random
+                       rotation, exposure and white balance; 30 % with a directional light and shadows),
+                       tone mapped as a renderer's "Standard" view (clip + sRGB)
+  albedo  uint8 HxWx3  ground truth, sRGB (glTF baseColor: a metal's albedo is its F0 colour)
+  rough   uint8 HxW    ground truth roughness, linear
+  metal   uint8 HxW    ground truth metallic, linear
+  normal  f16 HxWx3    unit normal (camera space: the camera looks down -Z), for re-render losses
+  env     int          index into the sorted training map names (meta.json), env_rot [3x3], exposure, wb
+Objects: 1-3 of superquadric / ellipsoid / torus / rounded box / capsule / displaced blob, smoothly
+united, randomly rotated, orthographic camera, 2x2 supersampling.  Materials in object space: fBm,
+Voronoi cells, stripes, checks, decals, worn edges (exposed metal under paint), roughness over
+[0.05, 1], metallic mostly binary with coloured metals.  Shading: tools/smrender.py (Cook-Torrance GGX,
+Smith, Schlick + Lambert, split-sum prefiltered environment).
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import smrender as R  # noqa: E402
+
+HELD_OUT = ("venice_sunset_1k", "studio_small_03_1k", "kiara_1_dawn_1k")
+
+
+# ----------------------------------------------------------------------------------------------------------
+# noise (object space)
+# ----------------------------------------------------------------------------------------------------------
+def _hash(ix, iy, iz, seed):
+    h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791) ^ (seed * 2654435761)
+    h &= 0xFFFFFFFF
+    h ^= h >> 13
+    h = (h * 1274126177) & 0xFFFFFFFF
+    h ^= h >> 16
+    return (h & 0xFFFFFF).astype(np.float32) / np.float32(0xFFFFFF)
+
+
+def vnoise(p, seed):
+    f = np.floor(p)
+    t = (p - f).astype(np.float32)
+    t = t * t * (3 - 2 * t)
+    i = f.astype(np.int64)
+    out = 0
+    for dx in (0, 1):
+        wx = t[..., 0] if dx else 1 - t[..., 0]
+        for dy in (0, 1):
+            wy = t[..., 1] if dy else 1 - t[..., 1]
+            for dz in (0, 1):
+                wz = t[..., 2] if dz else 1 - t[..., 2]
+                out = out + wx * wy * wz * _hash(i[..., 0] + dx, i[..., 1] + dy, i[..., 2] + dz, seed)
+    return out
+
+
+def fbm(p, seed, octaves=4, lac=2.0, gain=0.5):
+    s, a, norm = 0.0, 1.0, 0.0
+    for o in range(octaves):
+        s = s + a * vnoise(p * (lac ** o), seed + 17 * o)
+        norm += a
+        a *= gain
+    return s / norm
+
+
+def voronoi(p, seed):
+    """(cell id in [0,1), F1 distance, F2 - F1) of jittered-grid cells."""
+    f = np.floor(p).astype(np.int64)
+    best = np.full(p.shape[:-1], 1e9, np.float32)
+    second = np.full(p.shape[:-1], 1e9, np.float32)
+    cid = np.zeros(p.shape[:-1], np.float32)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                c = f + np.array([dx, dy, dz])
+                jit = np.stack([_hash(c[..., 0], c[..., 1], c[..., 2], seed + k) for k in range(3)], -1)
+                d = np.linalg.norm(c + jit - p, axis=-1).astype(np.float32)
+                closer = d < best
+                second = np.where(closer, best, np.minimum(second, d))
+                cid = np.where(closer, _hash(c[..., 0], c[..., 1], c[..., 2], seed + 9), cid)
+                best = np.minimum(best, d)
+    return cid, best, second - best
+
+
+def smoothstep(a, b, x):
+    t = np.clip((x - a) / (b - a), 0, 1)
+    return t * t * (3 - 2 * t)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# shapes
+# ----------------------------------------------------------------------------------------------------------
+def make_shape(rng):
+    kind = rng.choice(["superquadric", "ellipsoid", "torus", "roundbox", "capsule", "blob"],
+                      p=[0.2, 0.15, 0.15, 0.2, 0.12, 0.18])
+    sh = {"kind": str(kind), "rot": R.random_rotation(rng), "off": rng.uniform(-0.35, 0.35, 3).astype(np.float32)}
+    if kind == "superquadric":
+        sh["e"] = float(rng.choice([rng.uniform(1.2, 2.0), rng.uniform(2.5, 8.0)]))
+        sh["r"] = rng.uniform(0.35, 0.7, 3).astype(np.float32)
+        sh["bound"] = float(sh["r"].max() * 1.8)
+    elif kind == "ellipsoid":
+        sh["r"] = rng.uniform(0.3, 0.7, 3).astype(np.float32)
+        sh["bound"] = float(sh["r"].max())
+    elif kind == "torus":
+        sh["R"] = float(rng.uniform(0.35, 0.6))
+        sh["r"] = float(rng.uniform(0.08, 0.25))
+        sh["bound"] = sh["R"] + sh["r"]
+    elif kind == "roundbox":
+        sh["b"] = rng.uniform(0.2, 0.6, 3).astype(np.float32)
+        sh["rr"] = float(rng.uniform(0.01, 0.15))
+        sh["bound"] = float(np.linalg.norm(sh["b"]) + sh["rr"])
+    elif kind == "capsule":
+        sh["h"] = float(rng.uniform(0.1, 0.5))
+        sh["r"] = float(rng.uniform(0.15, 0.35))
+        sh["bound"] = sh["h"] + sh["r"]
+    else:
+        sh["r"] = float(rng.uniform(0.4, 0.6))
+        sh["amp"] = float(rng.uniform(0.05, 0.2))
+        sh["freq"] = float(rng.uniform(1.5, 4.0))
+        sh["seed"] = int(rng.integers(1 << 20))
+        sh["bound"] = sh["r"] + sh["amp"]
+    return sh
+
+
+def sdf_shape(sh, p):
+    q = (p - sh["off"]) @ sh["rot"]
+    k = sh["kind"]
+    if k == "superquadric":
+        e = sh["e"]
+        a = np.abs(q) / sh["r"] + 1e-9
+        f = np.power(np.power(a, e).sum(-1), 1.0 / e)
+        return (f - 1) * sh["r"].min() * 0.8
+    if k == "ellipsoid":
+        k0 = np.linalg.norm(q / sh["r"], axis=-1)
+        k1 = np.linalg.norm(q / (sh["r"] * sh["r"]), axis=-1)
+        return k0 * (k0 - 1) / np.maximum(k1, 1e-9)
+    if k == "torus":
+        xz = np.sqrt(q[..., 0] ** 2 + q[..., 2] ** 2) - sh["R"]
+        return np.sqrt(xz * xz + q[..., 1] ** 2) - sh["r"]
+    if k == "roundbox":
+        d = np.abs(q) - sh["b"]
+        return (np.linalg.norm(np.maximum(d, 0), axis=-1) + np.minimum(d.max(-1), 0) - sh["rr"])
+    if k == "capsule":
+        y = np.clip(q[..., 1], -sh["h"], sh["h"])
+        return np.sqrt(q[..., 0] ** 2 + (q[..., 1] - y) ** 2 + q[..., 2] ** 2) - sh["r"]
+    d = np.linalg.norm(q, axis=-1) - sh["r"]
+    return (d - sh["amp"] * (2 * fbm(q * sh["freq"], sh["seed"], 3) - 1)) * 0.7
+
+
+def smin(a, b, k):
+    if k <= 0:
+        return np.minimum(a, b)
+    h = np.clip(0.5 + 0.5 * (b - a) / k, 0, 1)
+    return b * (1 - h) + a * h - k * h * (1 - h)
+
+
+class Obj:
+    def __init__(self, rng):
+        n = int(rng.choice([1, 2, 3], p=[0.55, 0.3, 0.15]))
+        self.shapes = [make_shape(rng) for _ in range(n)]
+        if n == 1:
+            self.shapes[0]["off"][:] = 0
+        self.k = float(rng.choice([0.0, rng.uniform(0.02, 0.15)]))
+        self.rot = R.random_rotation(rng)
+        bound = max(np.linalg.norm(s["off"]) + s["bound"] for s in self.shapes)
+        self.scale = float(rng.uniform(0.6, 0.95) / bound)
+        self.center = np.array([*rng.uniform(-0.08, 0.08, 2), 0], np.float32)
+
+    def local(self, pw):
+        return ((pw - self.center) @ self.rot) / self.scale
+
+    def sdf_parts(self, pw):
+        q = self.local(pw)
+        return [sdf_shape(s, q) * self.scale for s in self.shapes]
+
+    def sdf(self, pw):
+        ds = self.sdf_parts(pw)
+        d = ds[0]
+        for e in ds[1:]:
+            d = smin(d, e, self.k * self.scale)
+        return d
+
+
+def frame(obj, extent, n=40):
+    """Centre the object and scale it so its silhouette spans `extent` of the frame (low-res trace)."""
+    for _ in range(2):
+        xs = (np.arange(n, dtype=np.float32) + 0.5) / n * 2.4 - 1.2
+        X, Y = np.meshgrid(xs, -xs)
+        o = np.stack([X.ravel(), Y.ravel(), np.full(n * n, 3.0, np.float32)], -1)
+        hit, _ = trace(obj, o, np.tile(np.array([0, 0, -1], np.float32), (n * n, 1)), steps=64, eps=1e-3)
+        if not hit.any():
+            return
+        lo, hi = o[hit, :2].min(0) - 1.2 / n, o[hit, :2].max(0) + 1.2 / n
+        f = extent / max((hi - lo).max() / 2, 1e-3)
+        mid = np.append((lo + hi) / 2, 0).astype(np.float32)
+        obj.center = ((obj.center - mid) * f).astype(np.float32)
+        obj.scale *= f
+
+
+def trace(obj, o, d, steps=96, tmax=6.0, eps=2e-4):
+    n = o.shape[0]
+    t = np.zeros(n, np.float32)
+    hit = np.zeros(n, bool)
+    act = np.arange(n)
+    for _ in range(steps):
+        if act.size == 0:
+            break
+        dist = obj.sdf(o[act] + d[act] * t[act, None])
+        t[act] += dist * 0.9
+        done = dist < eps
+        hit[act[done]] = True
+        act = act[~done & (t[act] < tmax)]
+    return hit, t
+
+
+def normals(obj, p, h=5e-4):
+    e = np.eye(3, dtype=np.float32) * h
+    g = np.stack([obj.sdf(p + e[i]) - obj.sdf(p - e[i]) for i in range(3)], -1)
+    return g / np.maximum(np.linalg.norm(g, axis=-1, keepdims=True), 1e-12)
+
+
+def soft_shadow(obj, p, l, k=12.0, steps=48):
+    vis = np.ones(p.shape[0], np.float32)
+    t = np.full(p.shape[0], 0.01, np.float32)
+    act = np.arange(p.shape[0])
+    for _ in range(steps):
+        if act.size == 0:
+            break
+        dist = obj.sdf(p[act] + l * t[act, None])
+        vis[act] = np.minimum(vis[act], np.clip(k * dist / t[act], 0, 1))
+        t[act] += np.clip(dist, 0.005, 0.2)
+        act = act[(vis[act] > 0.01) & (t[act] < 3.0)]
+    return vis
+
+
+# ----------------------------------------------------------------------------------------------------------
+# materials
+# ----------------------------------------------------------------------------------------------------------
+METALS = np.array([[1.000, 0.766, 0.336], [0.972, 0.960, 0.915], [0.955, 0.637, 0.538], [0.560, 0.570, 0.580],
+                   [0.913, 0.922, 0.924], [0.910, 0.780, 0.420], [0.550, 0.556, 0.554], [0.660, 0.610, 0.530]],
+                  np.float32)  # gold, silver, copper, iron, aluminium, brass, chromium, bronze (linear F0)
+
+
+def hsv2rgb(h, s, v):
+    i = int(h * 6) % 6
+    f = h * 6 - int(h * 6)
+    p, q, t = v * (1 - s), v * (1 - f * s), v * (1 - (1 - f) * s)
+    return np.array([(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)][i], np.float32)
+
+
+def palette(rng, n):
+    style = rng.choice(["earthy", "vivid", "pastel", "dark", "grey", "mixed"])
+    h0 = rng.random()
+    cols = []
+    for i in range(n):
+        h = (h0 + rng.normal(0, 0.08) + (0.5 * i if style == "vivid" and i % 2 else 0)) % 1.0
+        if style == "earthy":
+            s, v = rng.uniform(0.2, 0.6), rng.uniform(0.2, 0.75)
+        elif style == "vivid":
+            s, v = rng.uniform(0.6, 1.0), rng.uniform(0.5, 1.0)
+        elif style == "pastel":
+            s, v = rng.uniform(0.15, 0.4), rng.uniform(0.75, 0.98)
+        elif style == "dark":
+            s, v = rng.uniform(0.1, 0.7), rng.uniform(0.03, 0.3)
+        elif style == "grey":
+            s, v = rng.uniform(0, 0.08), rng.uniform(0.05, 0.95)
+        else:
+            s, v = rng.uniform(0, 1), rng.uniform(0.05, 1)
+        cols.append(hsv2rgb(h, s, v))
+    return np.array(cols)  # sRGB-space colours
+
+
+def make_material(rng):
+    m = {"pattern": str(rng.choice(["plain", "fbm", "voronoi", "stripes", "checks"], p=[0.15, 0.3, 0.2, 0.2, 0.15])),
+         "cols": palette(rng, 3), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
+         "dir": rng.normal(size=3).astype(np.float32), "rough": rng.uniform(0.05, 1.0, 2).astype(np.float32),
+         "rough_var": float(rng.uniform(0, 0.25)), "mode": str(rng.choice(["dielectric", "metal", "mask", "worn"],
+                                                                           p=[0.42, 0.2, 0.2, 0.18])),
+         "metal_col": METALS[rng.integers(len(METALS))].copy(), "decals": []}
+    m["dir"] /= np.linalg.norm(m["dir"])
+    if rng.random() < 0.25:  # anodised / coloured metal
+        m["metal_col"] = R.srgb_decode(hsv2rgb(rng.random(), rng.uniform(0.3, 0.8), rng.uniform(0.7, 1.0)))
+    for _ in range(int(rng.choice([0, 0, 1, 2, 3]))):
+        m["decals"].append((rng.normal(size=3).astype(np.float32) * 0.5, float(rng.uniform(0.08, 0.3)),
+                            palette(rng, 1)[0], float(rng.uniform(0.1, 0.9))))
+    return m
+
+
+def eval_material(m, q, curv):
+    """q: Nx3 object-space points; curv: N curvature proxy. -> linear albedo Nx3, rough N, metal N."""
+    n = q.shape[0]
+    cols = m["cols"]
+    f = m["freq"]
+    pat = m["pattern"]
+    if pat == "plain":
+        t = np.zeros(n, np.float32)
+    elif pat == "fbm":
+        t = smoothstep(0.35, 0.65, fbm(q * f * 0.5, m["seed"], 5))
+    elif pat == "voronoi":
+        cid, _, edge = voronoi(q * f * 0.6, m["seed"])
+        t = cid
+    elif pat == "stripes":
+        t = (np.sin((q @ m["dir"]) * f * np.pi) > 0).astype(np.float32)
+    else:
+        c = np.floor(q * f * 0.5).astype(np.int64).sum(-1)
+        t = (c & 1).astype(np.float32)
+    if pat == "voronoi":
+        idx = np.minimum((t * 3).astype(np.int64), 2)
+        alb = cols[idx]
+    else:
+        alb = cols[0][None] * (1 - t[:, None]) + cols[1][None] * t[:, None]
+    grain = fbm(q * 12.0, m["seed"] + 5, 3)
+    alb = alb * (0.85 + 0.3 * grain[:, None])
+    rough = m["rough"][0] * (1 - t) + m["rough"][1] * t + m["rough_var"] * (fbm(q * 4.0, m["seed"] + 7, 4) - 0.5)
+    metal = np.zeros(n, np.float32)
+    mode = m["mode"]
+    if mode == "metal":
+        metal[:] = 1
+    elif mode == "mask":
+        metal = (t > 0.5).astype(np.float32) if pat not in ("plain", "voronoi") else \
+            (fbm(q * f * 0.4, m["seed"] + 11, 4) > 0.5).astype(np.float32)
+    elif mode == "worn":
+        wear = (curv + 0.6 * (fbm(q * 6.0, m["seed"] + 13, 4) - 0.5)) > 0.55
+        metal = wear.astype(np.float32)
+    alb = np.clip(alb, 0, 1)
+    alb_lin = R.srgb_decode(alb)
+    mc = m["metal_col"] * (0.92 + 0.16 * grain[:, None])
+    alb_lin = np.where(metal[:, None] > 0.5, np.clip(mc, 0, 1), alb_lin)
+    if mode in ("worn", "mask"):
+        rough = np.where(metal > 0.5, np.clip(rough * 0.5, 0.05, 1), rough)
+    for c, r, col, rg in m["decals"]:
+        dm = smoothstep(r, r * 0.9, np.linalg.norm(q - c, axis=-1))
+        alb_lin = alb_lin * (1 - dm[:, None]) + R.srgb_decode(col)[None] * dm[:, None]
+        rough = rough * (1 - dm) + rg * dm
+        metal = metal * (1 - (dm > 0.5))
+    return alb_lin.astype(np.float32), np.clip(rough, 0.05, 1.0).astype(np.float32), metal
+
+
+# ----------------------------------------------------------------------------------------------------------
+# one sample
+# ----------------------------------------------------------------------------------------------------------
+def render_sample(rng, envs, size, ss=2):
+    obj = Obj(rng)
+    mats = [make_material(rng) for _ in obj.shapes]
+    if rng.random() < 0.3:  # one material for the whole group
+        mats = [mats[0]] * len(mats)
+    frame(obj, rng.uniform(0.55, 0.92))
+    S = size * ss
+    xs = (np.arange(S, dtype=np.float32) + 0.5) / S * 2 - 1
+    X, Y = np.meshgrid(xs, -xs)
+    o = np.stack([X.ravel(), Y.ravel(), np.full(S * S, 3.0, np.float32)], -1)
+    d = np.tile(np.array([0, 0, -1], np.float32), (S * S, 1))
+    hit, t = trace(obj, o, d)
+    idx = np.nonzero(hit)[0]
+    p = o[idx] + d[idx] * t[idx, None]
+    n = normals(obj, p)
+    # curvature proxy: how much the SDF bends around p (mean of 6 offsets), positive on convex edges
+    hh = 0.02
+    lap = sum(obj.sdf(p + np.eye(3, dtype=np.float32)[i] * s * hh) for i in range(3) for s in (-1, 1)) / 6
+    curv = np.clip(lap / hh * 4, -1, 1).astype(np.float32)
+    parts = np.stack(obj.sdf_parts(p), -1).argmin(-1)
+    q = obj.local(p)
+    alb = np.zeros((idx.size, 3), np.float32)
+    rough = np.zeros(idx.size, np.float32)
+    metal = np.zeros(idx.size, np.float32)
+    for k, m in enumerate(mats):
+        sel = parts == k
+        if sel.any():
+            alb[sel], rough[sel], metal[sel] = eval_material(m, q[sel], curv[sel])
+    gb = {"cov": hit.reshape(S, S).astype(np.float32)}
+    for key, val, ch in (("n", n, 3), ("p", p, 3), ("albedo", alb, 3), ("rough", rough, 1), ("metal", metal, 1)):
+        a = np.zeros((S * S, ch), np.float32)
+        a[idx] = val.reshape(idx.size, ch)
+        gb[key] = a.reshape(S, S, ch) if ch == 3 else a.reshape(S, S)
+    ei = int(rng.integers(len(envs)))
+    env_rot = R.rotation_y(rng.uniform(0, 2 * np.pi)) @ (R.rotation_y(0) if rng.random() < 0.7 else
+                                                         _tilt(rng))
+    sun = None
+    if rng.random() < 0.3:
+        ld = rng.normal(size=3)
+        ld[2] = abs(ld[2]) + 0.3
+        ld = (ld / np.linalg.norm(ld)).astype(np.float32)
+        vis = np.zeros(S * S, np.float32)
+        vis[idx] = soft_shadow(obj, p + n * 2e-3, ld)
+        amb = float(R.luminance(envs[ei].irr).mean())
+        sun = {"dir": ld, "rgb": np.array([1.0, 0.95, 0.85], np.float32) * amb * rng.uniform(1.0, 4.0),
+               "vis": vis.reshape(S, S)}
+    lin = R.shade(gb, envs[ei], env_rot, sun)
+    # supersample down: colour weighted by coverage (straight alpha), truth likewise
+    cov = R.box_down(gb["cov"], ss)
+    w = np.maximum(cov, 1e-8)
+
+    def down(a):
+        if a.ndim == 2:
+            return R.box_down(a * gb["cov"], ss) / w
+        return R.box_down(a * gb["cov"][..., None], ss) / w[..., None]
+
+    lin_d = down(lin)
+    key = rng.uniform(0.16, 0.32)
+    expo = R.auto_exposure(lin_d, cov, key) * float(2 ** rng.normal(0, 0.3))
+    wt = rng.uniform(-0.08, 0.08)
+    wb = np.array([1 + wt, 1 + rng.uniform(-0.03, 0.03), 1 - wt], np.float32)
+    wb /= wb.mean()
+    rgb = R.tonemap(lin_d, expo, wb)
+    alpha = cov
+    rgba = np.concatenate([np.where(alpha[..., None] > 0, rgb, 0), alpha[..., None]], -1)
+    nrm = down(gb["n"])
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-8)
+    q8 = lambda x: np.clip(np.round(x * 255), 0, 255).astype(np.uint8)  # noqa: E731
+    return {"rgba": q8(rgba), "albedo": q8(R.srgb_encode(down(gb["albedo"])) * (alpha[..., None] > 0)),
+            "rough": q8(down(gb["rough"]) * (alpha > 0)), "metal": q8(down(gb["metal"]) * (alpha > 0)),
+            "normal": (nrm * (alpha[..., None] > 0)).astype(np.float16), "env": ei, "env_rot": env_rot,
+            "exposure": np.float32(expo), "wb": wb}
+
+
+def _tilt(rng):
+    a = rng.uniform(-0.3, 0.3)
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]], np.float32)
+
+
+def env_paths(hdri_dir):
+    names = sorted(f for f in os.listdir(hdri_dir) if f.endswith(".hdr"))
+    train = [f for f in names if f[:-4] not in HELD_OUT]
+    if not train:
+        raise SystemExit(f"gen_data: no training .hdr maps in {hdri_dir}")
+    return [os.path.join(hdri_dir, f) for f in train]
+
+
+def make_shard(args, shard):
+    path = os.path.join(args.out, f"shard_{shard:04d}.npz")
+    if os.path.exists(path):
+        return path, 0.0
+    t0 = time.time()
+    envs = [R.EnvLight(p) for p in env_paths(args.hdri_dir)]
+    R.brdf_lut()
+    samples = []
+    first = shard * args.shard
+    for i in range(first, min(first + args.shard, args.count)):
+        rng = np.random.default_rng([args.seed, i])
+        for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
+            s = render_sample(rng, envs, args.size)
+            if s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
+                break
+        samples.append(s)
+    out = {k: np.stack([s[k] for s in samples]) for k in samples[0]}
+    tmp = path + ".tmp.npz"
+    np.savez(tmp, **out)
+    os.replace(tmp, path)
+    return path, time.time() - t0
+
+
+def write_examples(args):
+    """Pictures for the demo: <out>/objNN.png (RGBA) and objNN_gt_albedo/_gt_roughness/_gt_metallic.png."""
+    from PIL import Image
+    env = R.EnvLight(os.path.join(args.hdri_dir, args.example_env + ".hdr"))
+    for i in range(args.count):
+        rng = np.random.default_rng([args.seed, 1 << 30, i])   # a stream no training sample uses
+        s = render_sample(rng, [env], args.size)
+        stem = os.path.join(args.out, f"obj{i:02d}")
+        Image.fromarray(s["rgba"]).save(stem + ".png")
+        Image.fromarray(s["albedo"]).save(stem + "_gt_albedo.png")
+        Image.fromarray(s["rough"]).save(stem + "_gt_roughness.png")
+        Image.fromarray(s["metal"]).save(stem + "_gt_metallic.png")
+        print(stem + ".png", flush=True)
+
+
+def _make_shard_star(a):
+    return make_shard(*a)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--hdri-dir", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--count", type=int, default=4000)
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--shard", type=int, default=200)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--examples", action="store_true",
+                    help="write --count PNG pictures + truth maps into --out instead of shards, lit by the "
+                         "held-out map --example-env (for the demo and README)")
+    ap.add_argument("--example-env", default=HELD_OUT[0])
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    if args.examples:
+        write_examples(args)
+        return
+    paths = env_paths(args.hdri_dir)
+    for p in paths:  # prefilter once (cached beside the map) before the workers start
+        R.EnvLight(p)
+    meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard,
+            "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
+    with open(os.path.join(args.out, "meta.json"), "w") as f:
+        json.dump(meta, f, indent=1)
+    shards = list(range((args.count + args.shard - 1) // args.shard))
+    t0 = time.time()
+    made = 0
+    if args.jobs > 1:
+        from multiprocessing import Pool
+        with Pool(args.jobs) as pool:
+            for path, sec in pool.imap_unordered(_make_shard_star, [(args, s) for s in shards]):
+                made += sec > 0
+                print(f"{path} {sec:.1f} s", flush=True)
+    else:
+        for s in shards:
+            path, sec = make_shard(args, s)
+            made += sec > 0
+            print(f"{path} {sec:.1f} s", flush=True)
+    wall = time.time() - t0
+    # dataset statistics over object pixels (the evaluation's "dataset mean" baseline)
+    acc = {"albedo": np.zeros(3), "rough": 0.0, "metal": 0.0, "n": 0}
+    for s in shards:
+        z = np.load(os.path.join(args.out, f"shard_{s:04d}.npz"))
+        m = z["rgba"][..., 3] >= 128
+        acc["albedo"] += z["albedo"][m].astype(np.float64).sum(0) / 255
+        acc["rough"] += z["rough"][m].astype(np.float64).sum() / 255
+        acc["metal"] += z["metal"][m].astype(np.float64).sum() / 255
+        acc["n"] += int(m.sum())
+    stats = {"albedo_srgb_mean": (acc["albedo"] / acc["n"]).tolist(), "rough_mean": acc["rough"] / acc["n"],
+             "metal_mean": acc["metal"] / acc["n"], "pixels": acc["n"], "samples": args.count,
+             "seconds_this_run": wall, "shards_made": made, "jobs": args.jobs,
+             "seconds_per_1000": (wall / max(made * args.shard, 1)) * 1000 if made else None}
+    with open(os.path.join(args.out, "stats.json"), "w") as f:
+        json.dump(stats, f, indent=1)
+    print(json.dumps(stats))
+
+
+if __name__ == "__main__":
+    main()

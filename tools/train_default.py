@@ -1,0 +1,636 @@
+#!/usr/bin/env python3
+"""Train supermat's default model: the official SuperMat architecture at small widths, on the renders of
+tools/gen_data.py, in the official code (diffusers' AutoencoderKL / UNet2DConditionModel and SuperMat's own
+SuperMatAdapterWrapper, taken from the reference harness of ../shared/reference).
+
+    /usr/bin/python3 tools/train_default.py --data DATA --out RUN [--phases vae,latent,e2e,export]
+
+One command, from scratch or resumed: every phase checkpoints to RUN/ckpt_<phase>.pt every --ckpt-every
+seconds and at its end, and a phase that finished (RUN/<phase>.done) is skipped, so running the same
+command again after an interruption carries on where it stopped.  Seeds are fixed (--seed); with the
+same thread count a run is repeatable.
+
+Phases
+  vae     AutoencoderKL (SD layout, 4 latent channels, factor 8) on input pictures (composited over gray
+          0.5, as the pipeline feeds them) and on material maps (albedo, ORM = (1, roughness, metallic));
+          L1 + image-gradient L1 + a small KL term.  Its scaling factor is 1 / std of the latents and is
+          written into vae/config.json.
+  latent  the SuperMat UNet (two expert branches: the last up block and conv_out replicated by the
+          official SuperMatAdapterWrapper) run as the runtime runs it: one step at t = 999 of the trailing
+          DDIM schedule, zero latents, x0 = -sqrt(1 - alphas_cumprod[999]) * v; trained against the
+          latents of the ground-truth maps (cheap: no decoder).
+  e2e     the same UNet end to end on the decoded maps (VAE frozen): masked L1 + gradient L1 per map,
+          plus a re-render loss: predicted and true maps shaded (split-sum GGX, the shading of
+          tools/smrender.py) under another training environment map, tone mapped, L1.
+  export  the official release format: RUN/release/supermat.pth (torch.save of the UNet state dict) and
+          RUN/release/base/ (diffusers layout: vae/, text_encoder/, tokenizer/, scheduler/ v_prediction,
+          unet/config.json), every weight rounded to float16 so the f16 model file of `supermat convert
+          --precision f16` holds exactly the weights this framework runs.
+
+The text encoder is a small CLIP text model with fixed random weights (no pretrained one exists here);
+SuperMat only ever feeds it the empty prompt, so its output is one constant context the UNet learns with.
+
+Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
+HARNESS_DEPS (default ../shared/reference/out/deps, see ../shared/reference/README.md).
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+import zlib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REF = os.environ.get("SUPERMAT_REFERENCE", os.path.join(HERE, "..", "..", "shared", "reference"))
+sys.path.insert(0, REF)
+sys.path.insert(0, HERE)
+import harness_env  # noqa: E402,F401  (sys.path for diffusers / SuperMat / stubs)
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+import torch.nn.functional as F  # noqa: E402
+from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
+from src.adapters import SuperMatAdapterWrapper  # noqa: E402
+from transformers import CLIPTextConfig, CLIPTextModel, CLIPTokenizer  # noqa: E402
+from transformers.tokenization_clip import synthetic_clip_vocab  # noqa: E402
+
+import smrender as R  # noqa: E402
+
+# ----------------------------------------------------------------------------------------------------------
+# configuration: the official SD 2.1 configs at small widths
+# ----------------------------------------------------------------------------------------------------------
+UNET = {
+    "act_fn": "silu", "attention_head_dim": [2, 4, 4, 4], "block_out_channels": [48, 96, 96, 96],
+    "center_input_sample": False, "cross_attention_dim": 64,
+    "down_block_types": ["CrossAttnDownBlock2D", "CrossAttnDownBlock2D", "CrossAttnDownBlock2D", "DownBlock2D"],
+    "downsample_padding": 1, "dual_cross_attention": False, "flip_sin_to_cos": True, "freq_shift": 0,
+    "in_channels": 4, "layers_per_block": 2, "mid_block_scale_factor": 1, "norm_eps": 1e-05, "norm_num_groups": 16,
+    "num_class_embeds": None, "only_cross_attention": False, "out_channels": 4, "sample_size": 16,
+    "up_block_types": ["UpBlock2D", "CrossAttnUpBlock2D", "CrossAttnUpBlock2D", "CrossAttnUpBlock2D"],
+    "upcast_attention": True, "use_linear_projection": True,
+}
+VAE = {
+    "act_fn": "silu", "block_out_channels": [32, 64, 128, 128], "down_block_types": ["DownEncoderBlock2D"] * 4,
+    "in_channels": 3, "latent_channels": 4, "layers_per_block": 2, "norm_num_groups": 16, "out_channels": 3,
+    "sample_size": 128, "up_block_types": ["UpDecoderBlock2D"] * 4, "scaling_factor": 0.18215,
+}
+TEXT = {
+    "architectures": ["CLIPTextModel"], "attention_dropout": 0.0, "bos_token_id": 0, "dropout": 0.0,
+    "eos_token_id": 2, "hidden_act": "gelu", "hidden_size": 64, "initializer_factor": 1.0,
+    "initializer_range": 0.02, "intermediate_size": 128, "layer_norm_eps": 1e-05, "max_position_embeddings": 77,
+    "model_type": "clip_text_model", "num_attention_heads": 4, "num_hidden_layers": 2, "pad_token_id": 1,
+    "projection_dim": 64, "vocab_size": 49408,
+}
+SCHEDULER = {
+    "beta_end": 0.012, "beta_schedule": "scaled_linear", "beta_start": 0.00085, "clip_sample": False,
+    "num_train_timesteps": 1000, "prediction_type": "v_prediction", "set_alpha_to_one": False,
+    "skip_prk_steps": True, "steps_offset": 1, "trained_betas": None, "timestep_spacing": "trailing",
+}
+TOKENIZER_SPECIAL = {"bos_token": "<|startoftext|>", "eos_token": "<|endoftext|>", "pad_token": "!",
+                     "unk_token": "<|endoftext|>"}
+
+
+class _PipeShim:
+    def __init__(self, unet):
+        self.unet = unet
+
+
+def build_unet():
+    base = UNet2DConditionModel.from_config(UNET)
+    return SuperMatAdapterWrapper.convert(_PipeShim(base), use_camera_embeddings=False, replicate_num=2).unet
+
+
+def x0_coefficient():
+    """-sqrt(1 - alphas_cumprod[999]) exactly as diffusers' DDIM step computes it (float32)."""
+    s = DDIMScheduler.from_config(SCHEDULER)
+    s.set_timesteps(1)
+    t = int(s.timesteps[0])
+    assert t == 999, t
+    v = torch.ones(1, 1, 1, 1)
+    return float(s.step(v, t, torch.zeros_like(v)).pred_original_sample), t
+
+
+# ----------------------------------------------------------------------------------------------------------
+# data
+# ----------------------------------------------------------------------------------------------------------
+class Data:
+    def __init__(self, path, holdout=64):
+        shards = sorted(f for f in os.listdir(path) if f.startswith("shard_") and f.endswith(".npz")
+                        and ".tmp" not in f)
+        if not shards:
+            raise SystemExit(f"train_default: no shards in {path} (run tools/gen_data.py)")
+        parts = [np.load(os.path.join(path, f)) for f in shards]
+        self.rgba = np.concatenate([p["rgba"] for p in parts])
+        self.albedo = np.concatenate([p["albedo"] for p in parts])
+        self.rough = np.concatenate([p["rough"] for p in parts])
+        self.metal = np.concatenate([p["metal"] for p in parts])
+        self.normal = np.concatenate([p["normal"] for p in parts])
+        with open(os.path.join(path, "meta.json")) as f:
+            self.meta = json.load(f)
+        n = self.rgba.shape[0]
+        holdout = min(holdout, n // 4)
+        self.val = np.arange(n - holdout, n)     # the last samples are never trained on
+        self.train = np.arange(0, n - holdout)
+        print(f"data: {n} samples of {self.rgba.shape[1]}x{self.rgba.shape[2]} from {len(shards)} shards "
+              f"({len(self.train)} train, {len(self.val)} validation)", flush=True)
+
+    def batch(self, idx, aug_rng=None):
+        """Tensors in [0,1], NCHW: input (over gray 0.5), albedo, orm, mask, normal."""
+        a = torch.from_numpy(self.rgba[idx]).float().div_(255).permute(0, 3, 1, 2)
+        m = a[:, 3:4]
+        inp = a[:, :3] * m + 0.5 * (1 - m)
+        alb = torch.from_numpy(self.albedo[idx]).float().div_(255).permute(0, 3, 1, 2)
+        r = torch.from_numpy(self.rough[idx]).float().div_(255)[:, None]
+        mt = torch.from_numpy(self.metal[idx]).float().div_(255)[:, None]
+        orm = torch.cat([torch.ones_like(r), r, mt], 1)
+        # maps over gray 0.5 where there is no object, like the input
+        alb = alb * m + 0.5 * (1 - m)
+        orm = orm * m + 0.5 * (1 - m)
+        nrm = torch.from_numpy(self.normal[idx].astype(np.float32)).permute(0, 3, 1, 2)
+        b = {"inp": inp, "alb": alb, "orm": orm, "mask": m, "nrm": nrm}
+        if aug_rng is not None:
+            b = augment(b, aug_rng)
+        return b
+
+
+def augment(b, rng):
+    """Horizontal flips and quarter turns of the picture (normals turned with it)."""
+    out = {k: v.clone() for k, v in b.items()}
+    for i in range(b["inp"].shape[0]):
+        k = int(rng.integers(4))
+        flip = bool(rng.integers(2))
+        for key in out:
+            x = out[key][i]
+            if flip:
+                x = x.flip(-1)
+                if key == "nrm":
+                    x = x * torch.tensor([-1.0, 1, 1])[:, None, None]
+            if k:
+                x = torch.rot90(x, k, (-2, -1))
+                if key == "nrm":
+                    # rot90 by k quarter turns counter-clockwise in image space: rotate (x, y) the same way
+                    nx, ny = x[0].clone(), x[1].clone()
+                    for _ in range(k):
+                        nx, ny = -ny, nx
+                    x = torch.stack([nx, ny, x[2]])
+            out[key][i] = x
+    return out
+
+
+# ----------------------------------------------------------------------------------------------------------
+# shading in torch (the split-sum shading of tools/smrender.py, differentiable in the maps)
+# ----------------------------------------------------------------------------------------------------------
+class TorchEnv:
+    def __init__(self, env):
+        self.levels = [torch.from_numpy(l).permute(2, 0, 1)[None].float() for l in env.levels]
+        self.irr = torch.from_numpy(env.irr).permute(2, 0, 1)[None].float()
+
+    @staticmethod
+    def _sample(img, d):
+        # d: B,3,H,W unit directions -> B,3,H,W radiance (equirect, bilinear, u wraps approximately)
+        u = torch.atan2(d[:, 0], -d[:, 2]) / math.pi             # -1..1
+        v = torch.acos(d[:, 1].clamp(-1, 1)) / math.pi * 2 - 1  # -1..1
+        grid = torch.stack([u, v], -1)
+        return F.grid_sample(img.expand(d.shape[0], -1, -1, -1), grid, mode="bilinear", padding_mode="border",
+                             align_corners=False)
+
+    def specular(self, d, rough):
+        lv = torch.tensor(R.ROUGH_LEVELS)
+        out = 0
+        for i in range(len(lv)):
+            lo = lv[i - 1] if i > 0 else lv[0] - 1
+            hi = lv[i + 1] if i + 1 < len(lv) else lv[-1] + 1
+            w = torch.where(rough < lv[i], (rough - lo) / (lv[i] - lo), (hi - rough) / (hi - lv[i])).clamp(min=0)
+            out = out + w * self._sample(self.levels[i], d)
+        return out
+
+    def irradiance(self, n):
+        return self._sample(self.irr, n)
+
+
+_LUT_T = None
+
+
+def shade_t(env, rot, nrm, alb_srgb, rough, metal):
+    """nrm B3HW (camera space), alb in sRGB [0,1], rough/metal B1HW; rot 3x3 world->map."""
+    global _LUT_T
+    if _LUT_T is None:
+        _LUT_T = torch.from_numpy(R.brdf_lut()).permute(2, 0, 1)[None]  # 1,2,rough,nv
+    alb = torch.where(alb_srgb <= 0.04045, alb_srgb / 12.92, ((alb_srgb.clamp(min=0) + 0.055) / 1.055) ** 2.4)
+    rough = rough.clamp(0.02, 1)
+    nv = nrm[:, 2:3].clamp(1e-4, 1)
+    refl = 2 * nv * nrm - torch.tensor([0.0, 0, 1])[None, :, None, None]
+    rt = torch.as_tensor(rot, dtype=torch.float32)
+    rd = torch.einsum("ij,bjhw->bihw", rt, refl)
+    nd = torch.einsum("ij,bjhw->bihw", rt, nrm)
+    f0 = 0.04 * (1 - metal) + alb * metal
+    grid = torch.stack([nv[:, 0] * 2 - 1, rough[:, 0] * 2 - 1], -1)
+    ab = F.grid_sample(_LUT_T.expand(nrm.shape[0], -1, -1, -1), grid, align_corners=False, padding_mode="border")
+    spec = env.specular(rd, rough) * (f0 * ab[:, :1] + ab[:, 1:2])
+    fr = f0 + (torch.maximum(1 - rough, f0) - f0) * (1 - nv) ** 5
+    diff = (1 - fr) * (1 - metal) * alb / math.pi * env.irradiance(nd)
+    return diff + spec
+
+
+def tonemap_t(lin, expo):
+    x = (lin * expo).clamp(0, 1)
+    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * (x + 1e-8) ** (1 / 2.4) - 0.055)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# losses
+# ----------------------------------------------------------------------------------------------------------
+def grad_l1(a, b, w):
+    dxa, dxb = a[..., :, 1:] - a[..., :, :-1], b[..., :, 1:] - b[..., :, :-1]
+    dya, dyb = a[..., 1:, :] - a[..., :-1, :], b[..., 1:, :] - b[..., :-1, :]
+    wx = w[..., :, 1:] * w[..., :, :-1]
+    wy = w[..., 1:, :] * w[..., :-1, :]
+    return ((dxa - dxb).abs() * wx).mean() + ((dya - dyb).abs() * wy).mean()
+
+
+def psnr_masked(a, b, m):
+    mse = (((a - b) ** 2) * m).sum() / (m.sum() * a.shape[1]).clamp(min=1)
+    return float(10 * torch.log10(1 / mse.clamp(min=1e-10)))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# checkpoints
+# ----------------------------------------------------------------------------------------------------------
+def save_ckpt(path, **state):
+    tmp = path + ".tmp"
+    torch.save(state, tmp)
+    os.replace(tmp, path)
+
+
+def load_ckpt(path):
+    return torch.load(path, map_location="cpu") if os.path.exists(path) else None
+
+
+def lr_at(step, total, base, warm=100):
+    if step < warm:
+        return base * (step + 1) / warm
+    return base * 0.5 * (1 + math.cos(math.pi * min(1.0, (step - warm) / max(1, total - warm)))) * 0.95 + base * 0.05
+
+
+class Phase:
+    """Step loop with time-based checkpoints and resumption."""
+
+    def __init__(self, run, name, models, opt, total, ckpt_every, seed):
+        self.run, self.name, self.models, self.opt, self.total = run, name, models, opt, total
+        self.path = os.path.join(run, f"ckpt_{name}.pt")
+        self.ckpt_every = ckpt_every
+        self.step = 0
+        self.rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
+        self.log = open(os.path.join(run, f"log_{name}.txt"), "a")
+        st = load_ckpt(self.path)
+        if st is not None:
+            for k, m in models.items():
+                m.load_state_dict(st["models"][k])
+            opt.load_state_dict(st["opt"])
+            self.step = st["step"]
+            self.rng.bit_generator.state = st["rng"]
+            torch.set_rng_state(st["torch_rng"])
+            print(f"{name}: resumed at step {self.step}/{total}", flush=True)
+        self.last = time.time()
+        self.t0 = time.time()
+
+    def save(self):
+        save_ckpt(self.path, models={k: m.state_dict() for k, m in self.models.items()}, opt=self.opt.state_dict(),
+                  step=self.step, rng=self.rng.bit_generator.state, torch_rng=torch.get_rng_state())
+
+    def tick(self, msg):
+        self.step += 1
+        if self.step % 20 == 0 or self.step == self.total:
+            line = f"{self.name} {self.step}/{self.total} {time.time() - self.t0:.0f}s {msg}"
+            print(line, flush=True)
+            self.log.write(line + "\n")
+            self.log.flush()
+        if time.time() - self.last > self.ckpt_every:
+            self.save()
+            self.last = time.time()
+
+    def finish(self):
+        self.save()
+        open(os.path.join(self.run, f"{self.name}.done"), "w").write(f"{self.step}\n")
+
+
+def done(run, name):
+    return os.path.exists(os.path.join(run, f"{name}.done"))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# phases
+# ----------------------------------------------------------------------------------------------------------
+def make_vae():
+    return AutoencoderKL.from_config(VAE)
+
+
+def load_vae(run):
+    vae = make_vae()
+    st = load_ckpt(os.path.join(run, "ckpt_vae.pt"))
+    vae.load_state_dict(st["models"]["vae"])
+    with open(os.path.join(run, "vae_scaling.json")) as f:
+        sf = json.load(f)["scaling_factor"]
+    vae.register_to_config(scaling_factor=sf)
+    return vae.eval()
+
+
+def phase_vae(args, data):
+    torch.manual_seed(args.seed)
+    vae = make_vae()
+    opt = torch.optim.AdamW(vae.parameters(), lr=args.vae_lr, weight_decay=0.0)
+    ph = Phase(args.out, "vae", {"vae": vae}, opt, args.vae_steps, args.ckpt_every, args.seed)
+    vae.train()
+    while ph.step < ph.total:
+        for g in opt.param_groups:
+            g["lr"] = lr_at(ph.step, ph.total, args.vae_lr)
+        idx = ph.rng.choice(data.train, args.vae_batch, replace=False)
+        b = data.batch(idx, ph.rng)
+        kind = torch.from_numpy(ph.rng.choice(3, args.vae_batch, p=[0.4, 0.3, 0.3]))[:, None, None, None]
+        x = torch.where(kind == 0, b["inp"], torch.where(kind == 1, b["alb"], b["orm"])) * 2 - 1
+        post = vae.encode(x).latent_dist
+        z = post.sample()
+        y = vae.decode(z).sample
+        w = 0.25 + 0.75 * b["mask"]   # the object matters most; the background must stay plain too
+        rec = ((y - x).abs() * w).mean()
+        kl = post.kl().mean() / x[0].numel()
+        loss = rec + 0.5 * grad_l1(y, x, w) + args.vae_kl * kl
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(vae.parameters(), 1.0)
+        opt.step()
+        ph.tick(f"rec {rec.item():.4f} kl {kl.item():.3f}")
+    ph.finish()
+    # scaling factor: 1 / std of the latents (mode) of the three kinds of image
+    vae.eval()
+    zs = []
+    with torch.no_grad():
+        for i in range(0, min(len(data.train), 512), 32):
+            b = data.batch(data.train[i:i + 32])
+            for k in ("inp", "alb", "orm"):
+                zs.append(vae.encode(b[k] * 2 - 1).latent_dist.mode())
+    sf = float(1.0 / torch.cat(zs).std())
+    with open(os.path.join(args.out, "vae_scaling.json"), "w") as f:
+        json.dump({"scaling_factor": sf}, f)
+    print(f"vae: scaling factor {sf:.5f}", flush=True)
+
+
+@torch.no_grad()
+def vae_report(args, data, vae):
+    res = {}
+    b = data.batch(data.val)
+    for k in ("inp", "alb", "orm"):
+        y = (vae.decode(vae.encode(b[k] * 2 - 1).latent_dist.mode()).sample / 2 + 0.5).clamp(0, 1)
+        y = torch.round(y * 255) / 255
+        res[k] = {"psnr_object": psnr_masked(y, b[k], b["mask"]),
+                  "psnr_image": psnr_masked(y, b[k], torch.ones_like(b["mask"]))}
+    print("vae reconstruction PSNR (validation):", json.dumps(res), flush=True)
+    return res
+
+
+def context(run):
+    p = os.path.join(run, "release", "base", "empty_prompt_embeds.npy")
+    return torch.from_numpy(np.load(p))
+
+
+def unet_forward(unet, z_in, ctx, coef):
+    out = unet(z_in, 999, encoder_hidden_states=ctx.expand(z_in.shape[0], -1, -1)).sample
+    return [coef * v for v in out]
+
+
+@torch.no_grad()
+def encode_all(vae, data, idx, sf, flip=False, bs=32):
+    """Latents (mode x scaling factor) of the input, albedo and ORM images, optionally mirrored."""
+    out = {"inp": [], "alb": [], "orm": []}
+    for i in range(0, len(idx), bs):
+        b = data.batch(idx[i:i + bs])
+        for k in out:
+            x = b[k].flip(-1) if flip else b[k]
+            out[k].append(vae.encode(x * 2 - 1).latent_dist.mode() * sf)
+    return tuple(torch.cat(out[k]) for k in ("inp", "alb", "orm"))
+
+
+def phase_latent(args, data):
+    vae = load_vae(args.out)
+    sf = vae.config.scaling_factor
+    cache = os.path.join(args.out, "latents.pt")
+    if os.path.exists(cache):
+        lat = torch.load(cache)
+    else:
+        t0 = time.time()
+        lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in (False, True)}
+        torch.save(lat, cache + ".tmp")
+        os.replace(cache + ".tmp", cache)
+        print(f"latent: encoded {len(data.train)} x 3 images x 2 flips in {time.time() - t0:.0f} s", flush=True)
+    ctx = context(args.out)
+    coef, _ = x0_coefficient()
+    torch.manual_seed(args.seed + 1)
+    unet = build_unet()
+    opt = torch.optim.AdamW(unet.parameters(), lr=args.unet_lr, weight_decay=0.0)
+    ph = Phase(args.out, "latent", {"unet": unet}, opt, args.latent_steps, args.ckpt_every, args.seed)
+    unet.train()
+    n = len(data.train)
+    while ph.step < ph.total:
+        for g in opt.param_groups:
+            g["lr"] = lr_at(ph.step, ph.total, args.unet_lr)
+        j = torch.from_numpy(ph.rng.choice(n, args.latent_batch, replace=False))
+        flip = bool(ph.rng.integers(2))
+        zi, za, zo = (t[j] for t in lat[flip])
+        x0a, x0o = unet_forward(unet, zi, ctx, coef)
+        la = F.mse_loss(x0a, za)
+        lo = F.mse_loss(x0o, zo)
+        loss = la + lo
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(unet.parameters(), 1.0)
+        opt.step()
+        ph.tick(f"albedo {la.item():.4f} orm {lo.item():.4f}")
+    ph.finish()
+
+
+def map_losses(pa, po, b):
+    m = b["mask"]
+    w = 0.1 + 0.9 * m
+    la = ((pa - b["alb"]).abs() * w).mean() + grad_l1(pa, b["alb"], m)
+    lr = ((po[:, 1:2] - b["orm"][:, 1:2]).abs() * w).mean() + grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
+    lm = ((po[:, 2:3] - b["orm"][:, 2:3]).abs() * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
+    lo = ((po[:, 0:1] - 1).abs() * m).mean()
+    return la, lr, lm, lo
+
+
+def phase_e2e(args, data):
+    vae = load_vae(args.out)
+    for p in vae.parameters():
+        p.requires_grad_(False)
+    sf = vae.config.scaling_factor
+    ctx = context(args.out)
+    coef, _ = x0_coefficient()
+    unet = build_unet()
+    unet.load_state_dict(load_ckpt(os.path.join(args.out, "ckpt_latent.pt"))["models"]["unet"])
+    envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
+    opt = torch.optim.AdamW(unet.parameters(), lr=args.e2e_lr, weight_decay=0.0)
+    ph = Phase(args.out, "e2e", {"unet": unet}, opt, args.e2e_steps, args.ckpt_every, args.seed)
+    unet.train()
+    while ph.step < ph.total:
+        for g in opt.param_groups:
+            g["lr"] = lr_at(ph.step, ph.total, args.e2e_lr, warm=20)
+        idx = ph.rng.choice(data.train, args.e2e_batch, replace=False)
+        b = data.batch(idx, ph.rng)
+        with torch.no_grad():
+            zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode() * sf
+        x0a, x0o = unet_forward(unet, zi, ctx, coef)
+        pa = (vae.decode(x0a / sf).sample / 2 + 0.5).clamp(0, 1)
+        po = (vae.decode(x0o / sf).sample / 2 + 0.5).clamp(0, 1)
+        la, lr, lm, lo = map_losses(pa, po, b)
+        # re-render under another environment map (random rotation), both tone mapped the same way
+        env = envs[int(ph.rng.integers(len(envs)))]
+        rot = R.rotation_y(ph.rng.uniform(0, 2 * np.pi))
+        m = b["mask"]
+        with torch.no_grad():
+            gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
+            lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722])[None, :, None, None]).sum(1, keepdim=True)
+            med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0)
+                               for i in range(lum.shape[0])])
+            expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
+            gt_img = tonemap_t(gt_lin, expo)
+        pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
+        lrr = ((pr_img - gt_img).abs() * m).mean()
+        loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(unet.parameters(), 1.0)
+        opt.step()
+        ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
+    ph.finish()
+
+
+@torch.no_grad()
+def evaluate(args, data, unet, vae, tag):
+    ctx = context(args.out)
+    coef, _ = x0_coefficient()
+    sf = vae.config.scaling_factor
+    unet.eval()
+    b = data.batch(data.val)
+    zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode() * sf
+    x0a, x0o = unet_forward(unet, zi, ctx, coef)
+    pa = (vae.decode(x0a / sf).sample / 2 + 0.5).clamp(0, 1)
+    po = (vae.decode(x0o / sf).sample / 2 + 0.5).clamp(0, 1)
+    q = lambda x: torch.round(x * 255) / 255  # noqa: E731
+    m = b["mask"]
+    res = {"albedo": psnr_masked(q(pa), b["alb"], m), "roughness": psnr_masked(q(po[:, 1:2]), b["orm"][:, 1:2], m),
+           "metallic": psnr_masked(q(po[:, 2:3]), b["orm"][:, 2:3], m)}
+    print(f"validation PSNR ({tag}, {len(data.val)} held-out renders):", json.dumps(res), flush=True)
+    return res
+
+
+# ----------------------------------------------------------------------------------------------------------
+# release (official format)
+# ----------------------------------------------------------------------------------------------------------
+def f16_round_(module):
+    with torch.no_grad():
+        for p in module.state_dict().values():
+            if p.dtype == torch.float32:
+                p.copy_(p.half().float())
+
+
+def write_base(run, seed):
+    """diffusers-layout base folder: text encoder (fixed random), tokenizer, scheduler, unet config."""
+    base = os.path.join(run, "release", "base")
+    if os.path.exists(os.path.join(base, "empty_prompt_embeds.npy")):
+        return base
+    os.makedirs(base, exist_ok=True)
+    tok_dir = os.path.join(base, "tokenizer")
+    os.makedirs(tok_dir, exist_ok=True)
+    with open(os.path.join(tok_dir, "vocab.json"), "w", encoding="utf-8") as f:
+        json.dump(synthetic_clip_vocab(TEXT["vocab_size"]), f, ensure_ascii=False)
+    with open(os.path.join(tok_dir, "merges.txt"), "w", encoding="utf-8") as f:
+        f.write("#version: 0.2\n")
+    with open(os.path.join(tok_dir, "special_tokens_map.json"), "w") as f:
+        json.dump(TOKENIZER_SPECIAL, f, indent=2)
+    with open(os.path.join(tok_dir, "tokenizer_config.json"), "w") as f:
+        json.dump(dict(TOKENIZER_SPECIAL, tokenizer_class="CLIPTokenizer", model_max_length=77, do_lower_case=True),
+                  f, indent=2)
+    tokenizer = CLIPTokenizer.from_pretrained(tok_dir)
+    torch.manual_seed(seed + 7)
+    text = CLIPTextModel(CLIPTextConfig(**TEXT)).eval()
+    f16_round_(text)
+    text.save_pretrained(os.path.join(base, "text_encoder"))
+    sched = DDIMScheduler.from_config(SCHEDULER)
+    sched.save_pretrained(os.path.join(base, "scheduler"))
+    os.makedirs(os.path.join(base, "unet"), exist_ok=True)
+    UNet2DConditionModel.from_config(UNET).save_config(os.path.join(base, "unet"))
+    with open(os.path.join(base, "model_index.json"), "w") as f:
+        json.dump({"_class_name": "StableDiffusionPipeline", "_diffusers_version": "0.31.0",
+                   "feature_extractor": [None, None], "requires_safety_checker": False,
+                   "safety_checker": [None, None], "scheduler": ["diffusers", "DDIMScheduler"],
+                   "text_encoder": ["transformers", "CLIPTextModel"], "tokenizer": ["transformers", "CLIPTokenizer"],
+                   "unet": ["diffusers", "UNet2DConditionModel"], "vae": ["diffusers", "AutoencoderKL"]}, f, indent=2)
+    ids = tokenizer("", max_length=tokenizer.model_max_length, padding="max_length", truncation=True,
+                    return_tensors="pt")["input_ids"]
+    with torch.no_grad():
+        ehs = text(ids, return_dict=False)[0].float()
+    np.save(os.path.join(base, "empty_prompt_embeds.npy"), ehs.numpy())
+    return base
+
+
+def phase_export(args, data):
+    base = os.path.join(args.out, "release", "base")
+    vae = load_vae(args.out)
+    f16_round_(vae)
+    vae.save_pretrained(os.path.join(base, "vae"), safe_serialization=True)
+    src = "e2e" if done(args.out, "e2e") else "latent"
+    unet = build_unet()
+    unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
+    f16_round_(unet)
+    torch.save(unet.state_dict(), os.path.join(args.out, "release", "supermat.pth"))
+    report = {"unet_from": src, "unet_params": sum(p.numel() for p in unet.parameters()),
+              "vae_params": sum(p.numel() for p in vae.parameters()), "unet_config": UNET, "vae_config": dict(VAE),
+              "scaling_factor": vae.config.scaling_factor, "vae_psnr": vae_report(args, data, vae),
+              "validation_psnr": evaluate(args, data, unet, vae, src)}
+    report["vae_config"]["scaling_factor"] = vae.config.scaling_factor
+    with open(os.path.join(args.out, "release", "report.json"), "w") as f:
+        json.dump(report, f, indent=1)
+    print(f"export: {args.out}/release (supermat.pth + base/), UNet {report['unet_params']} + VAE "
+          f"{report['vae_params']} parameters", flush=True)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--hdri-dir", default=None, help="the maps gen_data.py used (default: from DATA/meta.json)")
+    ap.add_argument("--phases", default="vae,latent,e2e,export")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--ckpt-every", type=float, default=120.0, help="seconds between checkpoints")
+    ap.add_argument("--vae-steps", type=int, default=1200)
+    ap.add_argument("--vae-batch", type=int, default=8)
+    ap.add_argument("--vae-lr", type=float, default=4e-4)
+    ap.add_argument("--vae-kl", type=float, default=1e-4)
+    ap.add_argument("--latent-steps", type=int, default=1500)
+    ap.add_argument("--latent-batch", type=int, default=16)
+    ap.add_argument("--unet-lr", type=float, default=4e-4)
+    ap.add_argument("--e2e-steps", type=int, default=500)
+    ap.add_argument("--e2e-batch", type=int, default=8)
+    ap.add_argument("--e2e-lr", type=float, default=1e-4)
+    ap.add_argument("--rerender-weight", type=float, default=0.5)
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    os.makedirs(args.out, exist_ok=True)
+    data = Data(args.data)
+    if args.hdri_dir is None:
+        args.hdri_dir = data.meta.get("hdri_dir", "")
+    write_base(args.out, args.seed)
+    with open(os.path.join(args.out, "args.json"), "w") as f:
+        json.dump(vars(args), f, indent=1)
+    for name in args.phases.split(","):
+        if name != "export" and done(args.out, name):
+            print(f"{name}: done already", flush=True)
+            continue
+        t0 = time.time()
+        {"vae": phase_vae, "latent": phase_latent, "e2e": phase_e2e, "export": phase_export}[name](args, data)
+        print(f"{name}: {time.time() - t0:.0f} s this run", flush=True)
+
+
+if __name__ == "__main__":
+    main()
