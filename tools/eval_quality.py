@@ -43,12 +43,13 @@ What it does
   _metallic.png (8-bit gray), and DIR/index.txt (the stems, one a line); size 128 unless --size.
 
 Run (from the repository root, with Debian's python3: numpy, Pillow, scipy):
-  G=/work/.mirror/sbtron+glTF-Sample-Models/repo/.git
-  for a in Avocado WaterBottle; do git --git-dir=$G archive HEAD 2.0/$a/glTF | tar -x -C /work/scratch/gltf; done
-  python3 tools/eval_quality.py --assets /work/scratch/gltf/2.0/{Avocado,WaterBottle}/glTF/*.gltf \
-      --model default=supermat.safetensors --model tiny=/work/scratch/tiny.safetensors \
-      --dataset-stats stats.json --json quality.json --sheets sheets/
-  python3 tools/eval_quality.py --assets ... --write-slice tests/data/quality --slice-views 2
+  G=$MIRROR_DIR/sbtron+glTF-Sample-Models/repo       # the bare mirror `fetch` makes of the public repository
+  for a in Avocado WaterBottle; do git --git-dir=$G archive HEAD 2.0/$a/glTF | tar -x -C $WORK/gltf; done
+  python3 tools/eval_quality.py --assets $WORK/gltf/2.0/{Avocado,WaterBottle}/glTF/*.gltf --hdri-dir $WORK/hdri \
+      --model default=models/supermat_default.safetensors --model tiny=$WORK/tiny.safetensors \
+      --dataset-stats DATA/stats.json --json quality.json --sheets sheets/   # DATA: gen_data.py --out
+  python3 tools/eval_quality.py --assets .../Avocado.gltf .../WaterBottle.gltf --hdri-dir $WORK/hdri \
+      --write-slice tests/data/eval --slice-views 4        # the committed CI slice
 
 Data and licences
   * assets: glTF 2.0 sample models of KhronosGroup/glTF-Sample-Models, evaluation only (never training).
@@ -712,7 +713,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--env-in", default=HELD_OUT_ENVS[0], help="held-out map lighting the input")
     ap.add_argument("--env-relight", default=HELD_OUT_ENVS[1], help="held-out map of the re-render check")
-    ap.add_argument("--hdri-dir", default="/work/scratch/hdri")
+    ap.add_argument("--hdri-dir", required=True, help="folder with the held-out .hdr maps (pmndrs/drei-assets hdri/)")
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
     ap.add_argument("--work", help="folder for the inputs and predicted maps (default: a temporary one)")
     ap.add_argument("--threads", type=int, default=0, help="supermat threads (default 0 = all cores)")

@@ -296,6 +296,13 @@ class Phase:
         self.last = time.time()
         self.t0 = time.time()
 
+    def update(self, loss, params, clip=1.0):
+        """One optimiser step: gradients of loss, clipped to norm `clip`."""
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(params, clip)
+        self.opt.step()
+
     def save(self):
         save_ckpt(self.path, models={k: m.state_dict() for k, m in self.models.items()}, opt=self.opt.state_dict(),
                   step=self.step, rng=self.rng.bit_generator.state, torch_rng=torch.get_rng_state())
@@ -362,10 +369,7 @@ def phase_vae(args, data, name="vae", steps=None, crop=0):
         rec = ((y - x).abs() * w).mean()
         kl = post.kl().mean() / x[0].numel()
         loss = rec + 0.5 * grad_l1(y, x, w) + args.vae_kl * kl
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(vae.parameters(), 1.0)
-        opt.step()
+        ph.update(loss, vae.parameters())
         ph.tick(f"rec {rec.item():.4f} kl {kl.item():.3f}")
     ph.finish()
     # scaling factor: 1 / std of the latents (mode) of the three kinds of image
@@ -457,10 +461,7 @@ def phase_latent(args, data):
         la = F.mse_loss(x0a, za)
         lo = F.mse_loss(x0o, zo)
         loss = la + lo
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(unet.parameters(), 1.0)
-        opt.step()
+        ph.update(loss, unet.parameters())
         ph.tick(f"albedo {la.item():.4f} orm {lo.item():.4f}")
     ph.finish()
 
@@ -513,10 +514,7 @@ def phase_e2e(args, data):
         pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
         lrr = ((pr_img - gt_img).abs() * m).mean()
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(unet.parameters(), 1.0)
-        opt.step()
+        ph.update(loss, unet.parameters())
         ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
     ph.finish()
 
