@@ -32,7 +32,7 @@ Phases
 The text encoder is a small CLIP text model with fixed random weights (no pretrained one exists here);
 SuperMat only ever feeds it the empty prompt, so its output is one constant context the UNet learns with.
 
-Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
+--device cuda trains on a GPU where there is one (never required). Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
 HARNESS_DEPS (default ../shared/reference/out/deps, see ../shared/reference/README.md).
 """
 import argparse
@@ -92,6 +92,9 @@ TOKENIZER_SPECIAL = {"bos_token": "<|startoftext|>", "eos_token": "<|endoftext|>
                      "unk_token": "<|endoftext|>"}
 
 
+DEV = torch.device("cpu")  # --device: where the models and batches live
+
+
 class _PipeShim:
     def __init__(self, unet):
         self.unet = unet
@@ -99,7 +102,7 @@ class _PipeShim:
 
 def build_unet():
     base = UNet2DConditionModel.from_config(UNET)
-    return SuperMatAdapterWrapper.convert(_PipeShim(base), use_camera_embeddings=False, replicate_num=2).unet
+    return SuperMatAdapterWrapper.convert(_PipeShim(base), use_camera_embeddings=False, replicate_num=2).unet.to(DEV)
 
 
 def x0_coefficient():
@@ -152,7 +155,7 @@ class Data:
         b = {"inp": inp, "alb": alb, "orm": orm, "mask": m, "nrm": nrm}
         if aug_rng is not None:
             b = augment(b, aug_rng)
-        return b
+        return {k: v.to(DEV) for k, v in b.items()}
 
 
 def augment(b, rng):
@@ -184,8 +187,8 @@ def augment(b, rng):
 # ----------------------------------------------------------------------------------------------------------
 class TorchEnv:
     def __init__(self, env):
-        self.levels = [torch.from_numpy(l).permute(2, 0, 1)[None].float() for l in env.levels]
-        self.irr = torch.from_numpy(env.irr).permute(2, 0, 1)[None].float()
+        self.levels = [torch.from_numpy(l).permute(2, 0, 1)[None].float().to(DEV) for l in env.levels]
+        self.irr = torch.from_numpy(env.irr).permute(2, 0, 1)[None].float().to(DEV)
 
     @staticmethod
     def _sample(img, d):
@@ -197,7 +200,7 @@ class TorchEnv:
                              align_corners=False)
 
     def specular(self, d, rough):
-        lv = torch.tensor(R.ROUGH_LEVELS)
+        lv = torch.tensor(R.ROUGH_LEVELS, device=DEV)
         out = 0
         for i in range(len(lv)):
             lo = lv[i - 1] if i > 0 else lv[0] - 1
@@ -217,12 +220,12 @@ def shade_t(env, rot, nrm, alb_srgb, rough, metal):
     """nrm B3HW (camera space), alb in sRGB [0,1], rough/metal B1HW; rot 3x3 world->map."""
     global _LUT_T
     if _LUT_T is None:
-        _LUT_T = torch.from_numpy(R.brdf_lut()).permute(2, 0, 1)[None]  # 1,2,rough,nv
+        _LUT_T = torch.from_numpy(R.brdf_lut()).permute(2, 0, 1)[None].to(DEV)  # 1,2,rough,nv
     alb = torch.where(alb_srgb <= 0.04045, alb_srgb / 12.92, ((alb_srgb.clamp(min=0) + 0.055) / 1.055) ** 2.4)
     rough = rough.clamp(0.02, 1)
     nv = nrm[:, 2:3].clamp(1e-4, 1)
-    refl = 2 * nv * nrm - torch.tensor([0.0, 0, 1])[None, :, None, None]
-    rt = torch.as_tensor(rot, dtype=torch.float32)
+    refl = 2 * nv * nrm - torch.tensor([0.0, 0, 1], device=DEV)[None, :, None, None]
+    rt = torch.as_tensor(rot, dtype=torch.float32, device=DEV)
     rd = torch.einsum("ij,bjhw->bihw", rt, refl)
     nd = torch.einsum("ij,bjhw->bihw", rt, nrm)
     f0 = 0.04 * (1 - metal) + alb * metal
@@ -331,7 +334,7 @@ def done(run, name):
 # phases
 # ----------------------------------------------------------------------------------------------------------
 def make_vae():
-    return AutoencoderKL.from_config(VAE)
+    return AutoencoderKL.from_config(VAE).to(DEV)
 
 
 def load_vae(run):
@@ -360,7 +363,7 @@ def phase_vae(args, data, name="vae", steps=None, crop=0):
         if crop:
             y0, x0 = (int(v) * 8 for v in ph.rng.integers(0, (b["inp"].shape[-1] - crop) // 8 + 1, 2))
             b = {k: v[..., y0:y0 + crop, x0:x0 + crop] for k, v in b.items()}
-        kind = torch.from_numpy(ph.rng.choice(3, args.vae_batch, p=[0.4, 0.3, 0.3]))[:, None, None, None]
+        kind = torch.from_numpy(ph.rng.choice(3, args.vae_batch, p=[0.4, 0.3, 0.3])).to(DEV)[:, None, None, None]
         x = torch.where(kind == 0, b["inp"], torch.where(kind == 1, b["alb"], b["orm"])) * 2 - 1
         post = vae.encode(x).latent_dist
         z = post.sample()
@@ -411,7 +414,7 @@ def vae_report(args, data, vae):
 
 def context(run):
     p = os.path.join(run, "release", "base", "empty_prompt_embeds.npy")
-    return torch.from_numpy(np.load(p))
+    return torch.from_numpy(np.load(p)).to(DEV)
 
 
 def unet_forward(unet, z_in, ctx, coef):
@@ -436,11 +439,11 @@ def phase_latent(args, data):
     sf = vae.config.scaling_factor
     cache = os.path.join(args.out, "latents.pt")
     if os.path.exists(cache):
-        lat = torch.load(cache)
+        lat = {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu").items()}
     else:
         t0 = time.time()
         lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in (False, True)}
-        torch.save(lat, cache + ".tmp")
+        torch.save({k: tuple(t.cpu() for t in v) for k, v in lat.items()}, cache + ".tmp")
         os.replace(cache + ".tmp", cache)
         print(f"latent: encoded {len(data.train)} x 3 images x 2 flips in {time.time() - t0:.0f} s", flush=True)
     ctx = context(args.out)
@@ -454,7 +457,7 @@ def phase_latent(args, data):
     while ph.step < ph.total:
         for g in opt.param_groups:
             g["lr"] = lr_at(ph.step, ph.total, args.unet_lr)
-        j = torch.from_numpy(ph.rng.choice(n, args.latent_batch, replace=False))
+        j = torch.from_numpy(ph.rng.choice(n, args.latent_batch, replace=False)).to(DEV)
         flip = bool(ph.rng.integers(2))
         zi, za, zo = (t[j] for t in lat[flip])
         x0a, x0o = unet_forward(unet, zi, ctx, coef)
@@ -506,8 +509,8 @@ def phase_e2e(args, data):
         m = b["mask"]
         with torch.no_grad():
             gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
-            lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722])[None, :, None, None]).sum(1, keepdim=True)
-            med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0)
+            lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722], device=DEV)[None, :, None, None]).sum(1, keepdim=True)
+            med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0, device=DEV)
                                for i in range(lum.shape[0])])
             expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
             gt_img = tonemap_t(gt_lin, expo)
@@ -592,12 +595,13 @@ def phase_export(args, data):
     base = os.path.join(args.out, "release", "base")
     vae = load_vae(args.out)
     f16_round_(vae)
-    vae.save_pretrained(os.path.join(base, "vae"), safe_serialization=True)
+    vae.to("cpu").save_pretrained(os.path.join(base, "vae"), safe_serialization=True)
+    vae.to(DEV)
     src = "e2e" if done(args.out, "e2e") else "latent"
     unet = build_unet()
     unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
     f16_round_(unet)
-    torch.save(unet.state_dict(), os.path.join(args.out, "release", "supermat.pth"))
+    torch.save({k: v.cpu() for k, v in unet.state_dict().items()}, os.path.join(args.out, "release", "supermat.pth"))
     report = {"unet_from": src, "unet_params": sum(p.numel() for p in unet.parameters()),
               "vae_params": sum(p.numel() for p in vae.parameters()), "unet_config": UNET, "vae_config": dict(VAE),
               "scaling_factor": vae.config.scaling_factor, "vae_psnr": vae_report(args, data, vae),
@@ -617,6 +621,7 @@ def main():
     ap.add_argument("--phases", default="vae,vae_crops,latent,e2e,export")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--device", default="cpu", help="torch device, e.g. cuda (never required; CI and the defaults use the CPU)")
     ap.add_argument("--ckpt-every", type=float, default=120.0, help="seconds between checkpoints")
     ap.add_argument("--vae-steps", type=int, default=700)
     ap.add_argument("--vae-crop-steps", type=int, default=1600)
@@ -632,6 +637,8 @@ def main():
     ap.add_argument("--rerender-weight", type=float, default=0.5)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    global DEV
+    DEV = torch.device(args.device)
     os.makedirs(args.out, exist_ok=True)
     data = Data(args.data)
     if args.hdri_dir is None:
