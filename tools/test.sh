@@ -16,7 +16,8 @@ fi
 jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== gcc, Release, -Werror"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON >/dev/null
+# UV tests on explicitly: `bash tools/demo.sh` configures the same build/ folder with them off
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON >/dev/null
 cmake --build build -j"$jobs"
 (cd build && ctest --output-on-failure -j"$jobs")
 
