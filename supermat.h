@@ -60,7 +60,8 @@
  *
  * CONFIGURATION MACROS (define before including the implementation)
  *   SUPERMAT_CONFIG_HEADER "file.h"  included first, to set the macros below in one place
- *   SUPERMAT_STATIC                   make every function static (private copy per translation unit)
+ *   SUPERMAT_STATIC                   make every function static (private copy per translation unit;
+ *                                     marked unused for gcc/clang: no warning for the ones a file skips)
  *   SUPERMAT_API                      decoration for public functions (default extern / static)
  *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
  *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only)
@@ -77,7 +78,8 @@
  * THREADS
  *   A model is immutable and can be shared by any number of sessions on any threads. A session is used
  *   by one thread at a time. Work is spread through a caller's blocking parallel-for hook; without one,
- *   a small built-in pthreads pool is created per session (threads = 0 means all cores, 1 means none).
+ *   a small built-in pthreads pool is created per session (threads = 0 means all cores the process may
+ *   use: affinity and cgroup quota, see supermat_default_threads; 1 means none).
  *   Work is split over outputs and every sum runs in a fixed order, so results are bit-identical for
  *   any thread count.
  *
@@ -135,7 +137,12 @@
 
 #ifndef SUPERMAT_API
 #ifdef SUPERMAT_STATIC
+/* a private copy per translation unit: functions a file does not call are not worth a warning */
+#if defined(__GNUC__) || defined(__clang__)
+#define SUPERMAT_API static __attribute__((unused))
+#else
 #define SUPERMAT_API static
+#endif
 #else
 #define SUPERMAT_API extern
 #endif
@@ -422,6 +429,12 @@ SUPERMAT_API supermat_result supermat_pool_create(int threads, const supermat_al
 SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
 
 /* ---- introspection for tools and benchmarks --------------------------------------------------- */
+/* The thread count that threads = 0 stands for: the online cores, fewer when the process's CPU
+ * affinity mask (Linux: Cpus_allowed_list of /proc/self/status, as `taskset` sets it) or its cgroup CPU
+ * quota (cgroup v2 cpu.max along the process's cgroup path, v1 cpu.cfs_quota_us / cpu.cfs_period_us,
+ * rounded up: a container limited to 1.5 CPUs gets 2) allows fewer; at most 64, at least 1; 1 without
+ * pthreads. */
+SUPERMAT_API int supermat_default_threads(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
@@ -454,7 +467,11 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #include <string.h>
 
 #ifdef SUPERMAT_STATIC
+#if defined(__GNUC__) || defined(__clang__)
+#define SUPERMAT__DEF static __attribute__((unused))
+#else
 #define SUPERMAT__DEF static
+#endif
 #else
 #define SUPERMAT__DEF
 #endif
@@ -485,6 +502,114 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 
 #define SUPERMAT__MIN(a, b) ((a) < (b) ? (a) : (b))
 #define SUPERMAT__MAX(a, b) ((a) > (b) ? (a) : (b))
+
+/* >>cpus: the default thread count */
+#if SUPERMAT__HAS_PTHREADS && defined(__linux__)
+/* "0-3,8,10-11" -> 7; -1 when the text is not a CPU list */
+static int supermat__cpu_list_count(const char *s) {
+    int n = 0;
+    while (*s == ' ' || *s == '\t') s++;
+    while (*s >= '0' && *s <= '9') {
+        long a = strtol(s, (char **)&s, 10), b = a;
+        if (*s == '-') {
+            s++;
+            if (*s < '0' || *s > '9') return -1;
+            b = strtol(s, (char **)&s, 10);
+        }
+        if (b < a || b - a > 1 << 20) return -1;
+        n += (int)(b - a + 1);
+        if (*s != ',') break;
+        s++;
+    }
+    while (*s == ' ' || *s == '\t' || *s == '\n' || *s == '\r') s++;
+    return (n > 0 && *s == 0) ? n : -1;
+}
+
+/* cgroup v2 "max 100000" -> 0 (no limit), "150000 100000" -> 2 (rounded up); v1 gives quota and period
+ * as two texts; -1 when unreadable */
+static int supermat__cpu_quota(const char *quota, const char *period) {
+    double q, p;
+    char *e;
+    while (*quota == ' ') quota++;
+    if (!strncmp(quota, "max", 3)) return 0;
+    q = strtod(quota, &e);
+    if (e == quota) return -1;
+    if (!period) period = e;
+    p = strtod(period, &e);
+    if (e == period) return -1;
+    if (q <= 0) return 0; /* v1: -1 = no limit */
+    if (p <= 0) return -1;
+    q = ceil(q / p);
+    return q < 1 ? 1 : q > 4096 ? 4096 : (int)q;
+}
+
+static int supermat__read_small(const char *path, char *buf, size_t cap) {
+    FILE *f = fopen(path, "r");
+    size_t n;
+    if (!f) return 0;
+    n = fread(buf, 1, cap - 1, f);
+    fclose(f);
+    buf[n] = 0;
+    return n > 0;
+}
+#endif
+
+static int supermat__cpu_count(void) {
+    long n = 1;
+#if SUPERMAT__HAS_PTHREADS
+    n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n < 1) n = 1;
+#if defined(__linux__)
+    {
+        char buf[4096], path[1024];
+        const char *line;
+        int k;
+        if (supermat__read_small("/proc/self/status", buf, sizeof buf) && (line = strstr(buf, "Cpus_allowed_list:"))) {
+            char list[1024];
+            size_t i = 0;
+            line += 18;
+            while (line[i] && line[i] != '\n' && i + 1 < sizeof list) { list[i] = line[i]; i++; }
+            list[i] = 0;
+            k = supermat__cpu_list_count(list);
+            if (k > 0 && k < n) n = k;
+        }
+        /* cgroup v2: "0::/path" in /proc/self/cgroup; the limit is the smallest along the path */
+        if (supermat__read_small("/proc/self/cgroup", buf, sizeof buf) && (line = strstr(buf, "0::/"))) {
+            size_t len = 0;
+            line += 3;
+            while (line[len] && line[len] != '\n') len++;
+            if (len < sizeof path - 40) {
+                char q[128];
+                for (;;) {
+                    snprintf(path, sizeof path, "/sys/fs/cgroup%.*s%scpu.max", (int)len, line,
+                             len > 0 && line[len - 1] == '/' ? "" : "/");
+                    if (supermat__read_small(path, q, sizeof q) && (k = supermat__cpu_quota(q, NULL)) > 0 && k < n) n = k;
+                    if (len <= 1) break;
+                    while (len > 1 && line[len - 1] != '/') len--;  /* the parent */
+                    if (len > 1) len--;
+                }
+            }
+        }
+        {   /* cgroup v1 */
+            static const char *dirs[] = {"/sys/fs/cgroup/cpu,cpuacct/", "/sys/fs/cgroup/cpu/"};
+            int d;
+            for (d = 0; d < 2; d++) {
+                char q[64], p[64];
+                snprintf(path, sizeof path, "%scpu.cfs_quota_us", dirs[d]);
+                if (!supermat__read_small(path, q, sizeof q)) continue;
+                snprintf(path, sizeof path, "%scpu.cfs_period_us", dirs[d]);
+                if (!supermat__read_small(path, p, sizeof p)) continue;
+                if ((k = supermat__cpu_quota(q, p)) > 0 && k < n) n = k;
+                break;
+            }
+        }
+    }
+#endif
+#endif
+    return (int)SUPERMAT__MIN(n, 64);
+}
+
+SUPERMAT__DEF int supermat_default_threads(void) { return supermat__cpu_count(); }
 
 /* >>errors */
 SUPERMAT__DEF const char *supermat_result_string(supermat_result r) {
@@ -1319,10 +1444,7 @@ SUPERMAT__DEF supermat_result supermat_pool_create(int threads, const supermat_a
     int i;
     if (!out || !hook) return SUPERMAT_ERROR_INVALID_ARGUMENT;
     *out = NULL;
-    if (threads <= 0) {
-        long n = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = n > 0 ? (int)n : 1;
-    }
+    if (threads <= 0) threads = supermat__cpu_count();
     if (threads > 64) threads = 64;
     p = (supermat_pool *)supermat__alloc(&a, sizeof *p + sizeof(supermat__pool_arg) * (size_t)threads);
     if (!p) return SUPERMAT_ERROR_OUT_OF_MEMORY;
@@ -3629,7 +3751,7 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
 static int supermat__threads_for(const supermat_session_desc *d) {
     if (d->threading.parallel_for) return d->threading.max_threads;
 #if SUPERMAT__HAS_PTHREADS
-    if (d->threads == 0) { long n = sysconf(_SC_NPROCESSORS_ONLN); return n > 0 ? (int)SUPERMAT__MIN(n, 64) : 1; }
+    if (d->threads == 0) return supermat__cpu_count();
     return SUPERMAT__MIN(d->threads, 64);
 #else
     return 1;

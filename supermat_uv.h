@@ -282,7 +282,11 @@ SUPERMAT_API supermat_result supermat_uv_bake(const supermat_uv_bake_desc *desc,
 #include <string.h>
 
 #ifdef SUPERMAT_STATIC
+#if defined(__GNUC__) || defined(__clang__)
+#define SUPERMAT_UV__DEF static __attribute__((unused))
+#else
 #define SUPERMAT_UV__DEF static
+#endif
 #else
 #define SUPERMAT_UV__DEF
 #endif
