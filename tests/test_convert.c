@@ -1010,6 +1010,40 @@ static void tc_write_text(const char *path, const char *text) {
     tc_track(path);
 }
 
+/* the scheduler: what SuperMat was trained with, or a refusal naming scheduler_config.json */
+static void test_scheduler(const char *dir, const char *base) {
+    static const struct { const char *json, *needle; } bad[] = {
+        {"{\"num_train_timesteps\": 1000, \"beta_schedule\": \"scaled_linear\", \"beta_start\": 0.00085, \"beta_end\": 0.012, \"prediction_type\": \"epsilon\"}", "epsilon"},
+        {"{\"num_train_timesteps\": 1000, \"beta_schedule\": \"scaled_linear\", \"beta_start\": 0.00085, \"beta_end\": 0.012}", "absent"},
+        {"{\"prediction_type\": \"sample\"}", "sample"},
+        {"{\"prediction_type\": \"v_prediction\", \"clip_sample\": true}", "clip_sample"},
+        {"{\"prediction_type\": \"v_prediction\", \"thresholding\": true}", "thresholding"},
+        {"{\"prediction_type\": \"v_prediction\", \"rescale_betas_zero_snr\": true}", "rescale_betas_zero_snr"},
+        {"{\"prediction_type\": \"v_prediction\", \"clip_sample\": 1}", "clip_sample"},
+    };
+    char dst[300], p[400], ck[700], out[300], err[512];
+    int i, r;
+    snprintf(dst, sizeof dst, TMP "/base_sched");
+    tc_make_base(base, dst, NULL);
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    snprintf(p, sizeof p, "%s/scheduler/scheduler_config.json", dst);
+    snprintf(out, sizeof out, TMP "/sched.safetensors");
+    for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++) {
+        tc_write_text(p, bad[i].json);
+        remove(out);
+        r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+        TU_CHECK(r != 0 && strstr(err, bad[i].needle) && strstr(err, "scheduler_config.json") && !tc_exists(out),
+                 "scheduler %d (%s): r=%d '%s'", i, bad[i].needle, r, r ? err : "converted");
+    }
+    /* false flags and another timestep_spacing (the pipeline overrides it with trailing) convert */
+    tc_write_text(p, "{\"prediction_type\": \"v_prediction\", \"clip_sample\": false, \"thresholding\": false, "
+                     "\"rescale_betas_zero_snr\": false, \"timestep_spacing\": \"leading\", \"beta_schedule\": \"scaled_linear\", "
+                     "\"beta_start\": 0.00085, \"beta_end\": 0.012, \"steps_offset\": 1, \"set_alpha_to_one\": false}");
+    r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r == 0, "v_prediction scheduler: %s", err);
+    tc_track(out);
+}
+
 static void test_tokenizer(const char *base) {
     char dst[300], p[400], err[512];
     float *c0 = NULL, *c = NULL;
@@ -1168,6 +1202,8 @@ int main(int argc, char **argv) {
     printf("text encoder\n");
     test_text_encoder(base);
     test_tokenizer(base);
+    printf("scheduler\n");
+    test_scheduler(dir, base);
     printf("conversions\n");
     for (k = 0; k < 3; k++) {
         double secs;

@@ -2429,8 +2429,27 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     sm__meta_add(ms, "sched.beta_end", "%.9g", x);
     if ((r = sm__jstr(&sc, "beta_schedule", "linear", buf, sizeof buf, err, cap))) goto done;
     sm__meta_add(ms, "sched.beta_schedule", "%s", buf);
+    /* SuperMat was trained (and is run) as v-prediction at the trailing timestep 999: an epsilon base
+     * (Stable Diffusion 2.1-base, diffusers' default when the key is absent) would convert into maps off
+     * by up to 0.95, so refuse it, and the options that would change the one DDIM step */
     if ((r = sm__jstr(&sc, "prediction_type", "epsilon", buf, sizeof buf, err, cap))) goto done;
+    if (strcmp(buf, "v_prediction")) {
+        r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "%s: prediction_type is \"%s\"%s, but SuperMat is fine-tuned from a v_prediction model (Stable Diffusion 2.1, 768): the base folder is the wrong model (2.1-base?)",
+                    sc.file, buf, sm__jnull(&sc, sm__jfind(&sc, "prediction_type")) ? " (absent: diffusers' default)" : "");
+        goto done;
+    }
     sm__meta_add(ms, "sched.prediction_type", "%s", buf);
+    {
+        static const char *const off[] = {"clip_sample", "thresholding", "rescale_betas_zero_snr"};
+        int k;
+        for (k = 0; k < 3; k++) {
+            if ((r = sm__jbool(&sc, off[k], 0, &v, err, cap))) goto done;
+            if (v) {
+                r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "%s: \"%s\" is true; SuperMat's one DDIM step runs without it (the runtime has no such option)", sc.file, off[k]);
+                goto done;
+            }
+        }
+    }
     if ((r = sm__jint(&sc, "steps_offset", 0, 0, 0, 1000000, &v, err, cap))) goto done;
     sm__meta_add(ms, "sched.steps_offset", "%d", v);
     if ((r = sm__jbool(&sc, "set_alpha_to_one", 1, &v, err, cap))) goto done;
