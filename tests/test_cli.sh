@@ -14,7 +14,9 @@
 # (SUPERMAT_MODEL is removed from the environment of every other run). `sheet`: the PNG size of a
 # 2-row sheet with labels and of one without, and its errors (a missing input: exit 1, nothing written,
 # an older sheet untouched; bad rows, --cell and --labels: exit 2). A PNG write that fails (a file size
-# limit) exits 1 and leaves no file, for `sheet` and `image`.
+# limit) exits 1 and leaves no file, for `sheet` and `image`. The overwrite policy: existing outputs
+# (files, live and dangling symbolic links) refused before any work, --skip-existing, --force (a link is
+# replaced, its target untouched), `convert` likewise.
 # Then the same for the multi-view and UV-refine models: converts both, runs `views` (6 views, 3 views,
 # one view with a numeric index and a flat matrix) and `refine`, compares their --float maps with the
 # official goldens (max abs error 1e-4, tests/pfm_npy_diff.c built with ${CC:-cc}), checks the camera
@@ -313,7 +315,7 @@ run sheet --out "$T/sheets/plain.png" "$SPHERE,$RING" "$DATA/img/box_40.png"
 check "sheet without labels, default cell exits 0" [ $RC -eq 0 ]
 check_png "$T/sheets/plain.png" 268 268 2
 cp "$SH" "$T/sheets/before.png"
-run sheet --out "$SH" "$SPHERE,$T/no_such_picture.png"
+run sheet --force --out "$SH" "$SPHERE,$T/no_such_picture.png"
 check "sheet with a missing input exits 1" [ $RC -eq 1 ]
 check "sheet with a missing input: the message names it" grep -q 'no_such_picture.png' "$T/err"
 check "sheet with a missing input: the old sheet is untouched" cmp -s "$SH" "$T/sheets/before.png"
@@ -357,6 +359,55 @@ check "image whose write fails exits 1" [ $RC -eq 1 ]
 check "image whose write fails: the message names the file" grep -q "cannot write '.*sphere_64_albedo.png'" "$T/err"
 absent "$T/limited/sphere_64_albedo.png"
 absent "$T/limited/sphere_64_albedo.png.tmp"
+
+# ---- the overwrite policy (every command): refuse / --force / --skip-existing -------------------
+OW=$T/overwrite
+run image --model "$MODEL" --out "$OW" "$SPHERE"
+check "image into a new folder exits 0" [ $RC -eq 0 ]
+printf 'mine\n' >"$OW/sphere_64_roughness.png"
+cp "$OW/sphere_64_albedo.png" "$T/ow_albedo_before.png"
+run image --model "$MODEL" --out "$OW" "$SPHERE"
+check "image over existing maps exits 1" [ $RC -eq 1 ]
+check "image over existing maps: the message names the file and the options" grep -q "sphere_64_albedo.png' exists and was not written by this run: --force replaces it, --skip-existing keeps it" "$T/err"
+check "image over existing maps: a user's file is untouched" grep -q mine "$OW/sphere_64_roughness.png"
+check "image over existing maps: the maps are untouched" cmp -s "$OW/sphere_64_albedo.png" "$T/ow_albedo_before.png"
+absent "$OW/sphere_64_albedo.png.tmp"
+run image --model "$MODEL" --out "$OW" --skip-existing "$SPHERE"
+check "--skip-existing exits 0" [ $RC -eq 0 ]
+check "--skip-existing: the picture is not run" grep -q "kept the maps of '.*sphere_64.png'" "$T/err"
+check "--skip-existing: a user's file is kept" grep -q mine "$OW/sphere_64_roughness.png"
+rm "$OW/sphere_64_metallic.png"
+run image --model "$MODEL" --out "$OW" --skip-existing "$SPHERE"
+check "--skip-existing with one map missing exits 0" [ $RC -eq 0 ]
+check_png "$OW/sphere_64_metallic.png" 64 64 0
+check "--skip-existing with one map missing: the others are kept" grep -q mine "$OW/sphere_64_roughness.png"
+run image --model "$MODEL" --out "$OW" "$SPHERE" --force
+check "--force exits 0" [ $RC -eq 0 ]
+check_png "$OW/sphere_64_roughness.png" 64 64 0
+run image --model "$MODEL" --out "$OW" --force --skip-existing "$SPHERE"
+check "--force with --skip-existing exits 2" [ $RC -eq 2 ]
+# symbolic links, live or dangling: refused; --force replaces the link itself, never its target
+printf 'target\n' >"$T/ow_target"
+rm "$OW/sphere_64_albedo.png"
+ln -s "$T/ow_target" "$OW/sphere_64_albedo.png"
+run image --model "$MODEL" --out "$OW" "$SPHERE"
+check "a symbolic link among the outputs exits 1" [ $RC -eq 1 ]
+check "a symbolic link among the outputs: said so" grep -q "sphere_64_albedo.png' exists (a symbolic link)" "$T/err"
+check "a symbolic link among the outputs: its target is untouched" grep -qx target "$T/ow_target"
+run image --model "$MODEL" --out "$OW" --force "$SPHERE"
+check "--force over a symbolic link exits 0" [ $RC -eq 0 ]
+check "--force over a symbolic link: the link is now the file" [ ! -L "$OW/sphere_64_albedo.png" ]
+check_png "$OW/sphere_64_albedo.png" 64 64 2
+check "--force over a symbolic link: its target is untouched" grep -qx target "$T/ow_target"
+ln -s "$T/ow_nowhere.png" "$T/ow_dangling.png"
+run sheet --out "$T/ow_dangling.png" "$SPHERE"
+check "sheet over a dangling symbolic link exits 1" [ $RC -eq 1 ]
+absent "$T/ow_nowhere.png"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL"
+check "convert over an existing model exits 1" [ $RC -eq 1 ]
+check "convert over an existing model: the message names it" grep -q "tiny.safetensors' exists" "$T/err"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL" --skip-existing
+check "convert --skip-existing over an existing model exits 0" [ $RC -eq 0 ]
 
 # ---- bad input --------------------------------------------------------------------------------
 # a valid 30x30 8-bit gray PNG (zlib stream and CRCs included)

@@ -50,7 +50,7 @@ if [ -n "${MODEL_PTH:-}" ]; then
     echo "demo: MODEL_PTH needs BASE_DIR, the Stable Diffusion 2.1 folder (diffusers layout)" >&2
     exit 2
   fi
-  "$SM" convert --kind supermat --unet "$MODEL_PTH" --base "$BASE_DIR" --out out/model.safetensors
+  "$SM" convert --force --kind supermat --unet "$MODEL_PTH" --base "$BASE_DIR" --out out/model.safetensors
   model=(--model out/model.safetensors)
   echo "model: out/model.safetensors (converted from $MODEL_PTH)"
 else
@@ -63,7 +63,8 @@ else
 fi
 
 # the maps
-"$SM" image ${model[@]+"${model[@]}"} --out out "${pics[@]}"
+# out/ is the demo's own folder: --force replaces the maps of an earlier run
+"$SM" image --force ${model[@]+"${model[@]}"} --out out "${pics[@]}"
 
 # the sheet: picture, albedo, roughness, metallic (+ the true maps when there are any)
 gt=0
@@ -83,7 +84,7 @@ for p in "${pics[@]}"; do
 done
 labels="input,albedo,roughness,metallic"
 [ $gt = 1 ] && labels="$labels,true albedo,true roughness,true metallic"
-"$SM" sheet --out out/sheet.png --cell 160 --labels "$labels" "${rows[@]}" >/dev/null
+"$SM" sheet --force --out out/sheet.png --cell 160 --labels "$labels" "${rows[@]}" >/dev/null
 
 echo
 echo "maps (${#pics[@]} picture$([ ${#pics[@]} -eq 1 ] || echo s)):"

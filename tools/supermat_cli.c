@@ -186,6 +186,12 @@ static const char cli_usage_main[] =
     "  supermat COMMAND --help   the options of a command\n"
     "  supermat --version        the version\n"
     "\n"
+    "outputs, every command: a file that exists and was not written by this run is not replaced (exit 1,\n"
+    "before any work on that input), symbolic links included; each file is written as FILE.tmp and\n"
+    "renamed (linked) into place when complete, so a failed write leaves the old file or none.\n"
+    "  --force                replace existing files (a symbolic link itself, not its target)\n"
+    "  --skip-existing        keep existing files and go on (an input whose maps all exist is not run)\n"
+    "\n"
     "exit status: 0 ok, 1 runtime error, 2 usage error\n";
 
 static const char cli_usage_convert[] =
@@ -627,6 +633,48 @@ static char *cli_stem(const char *path) {
     return s;
 }
 
+/* The overwrite policy of every output file (main() takes --force / --skip-existing before any command
+   sees its options): by default a path that exists -- a file, a symbolic link (live or dangling), anything
+   -- and that this run did not write is refused before anything is written, and the final step links
+   PATH.tmp to PATH without replacing anything (link(): atomic, so a file that appears meanwhile is not
+   clobbered either). --force replaces it (a symbolic link itself is replaced, its target untouched);
+   --skip-existing keeps it and goes on. A path this run wrote itself may be written again. */
+enum { CLI_POLICY_REFUSE = 0, CLI_POLICY_FORCE, CLI_POLICY_SKIP };
+static int cli_policy = CLI_POLICY_REFUSE;
+static char **cli_written;
+static size_t cli_nwritten, cli_capwritten;
+#define CLI_SKIPPED 3 /* cli_out_allowed: keep the existing file (not an exit status) */
+
+static int cli_wrote(const char *path) {
+    size_t i;
+    for (i = 0; i < cli_nwritten; i++) if (!strcmp(cli_written[i], path)) return 1;
+    return 0;
+}
+
+static void cli_note_written(const char *path) {
+    size_t n = strlen(path) + 1;
+    char *c;
+    if (cli_wrote(path)) return;
+    if (cli_nwritten == cli_capwritten) {
+        size_t cap = cli_capwritten ? 2 * cli_capwritten : 64;
+        char **w = (char **)realloc(cli_written, cap * sizeof *w);
+        if (!w) return; /* only loses the right to rewrite it in this run */
+        cli_written = w;
+        cli_capwritten = cap;
+    }
+    if ((c = (char *)malloc(n)) != NULL) { memcpy(c, path, n); cli_written[cli_nwritten++] = c; }
+}
+
+/* CLI_OK: write PATH; CLI_SKIPPED: keep it (--skip-existing); CLI_FAIL: refused, with the message */
+static int cli_out_allowed(const char *path) {
+    struct stat st;
+    if (lstat(path, &st) != 0 || cli_wrote(path) || cli_policy == CLI_POLICY_FORCE) return CLI_OK;
+    if (cli_policy == CLI_POLICY_SKIP) return CLI_SKIPPED;
+    cli_error("'%s' exists%s and was not written by this run: --force replaces it, --skip-existing keeps it",
+              path, S_ISLNK(st.st_mode) ? " (a symbolic link)" : S_ISDIR(st.st_mode) ? " (a folder)" : "");
+    return CLI_FAIL;
+}
+
 /* Output files are written to PATH.tmp and renamed to PATH once complete and closed without error:
    a failed write leaves neither a half-written PATH nor PATH.tmp (and keeps an older PATH as it was). */
 typedef struct cli_out {
@@ -634,12 +682,19 @@ typedef struct cli_out {
     char *tmp;       /* PATH.tmp */
     const char *path;
     int err;         /* the first errno of a failed write, or -1; 0 while all is well */
+    int skip;        /* --skip-existing and PATH exists: nothing is written */
+    int replace;     /* PATH may be replaced (--force, or written by this run) */
 } cli_out;
 
 static int cli_out_open(cli_out *o, const char *path) {
     size_t n = strlen(path);
+    int a;
     memset(o, 0, sizeof *o);
     o->path = path;
+    a = cli_out_allowed(path);
+    if (a == CLI_FAIL) return CLI_FAIL;
+    if (a == CLI_SKIPPED) { o->skip = 1; return CLI_OK; }
+    o->replace = cli_policy == CLI_POLICY_FORCE || cli_wrote(path);
     o->tmp = (char *)malloc(n + 5);
     if (!o->tmp) { cli_error("out of memory"); return CLI_FAIL; }
     memcpy(o->tmp, path, n);
@@ -655,7 +710,7 @@ static int cli_out_open(cli_out *o, const char *path) {
 }
 
 static void cli_out_write(cli_out *o, const void *data, size_t n) {
-    if (o->err || !n) return;
+    if (o->skip || o->err || !n) return;
     errno = 0;
     if (fwrite(data, 1, n, o->f) != n) o->err = errno ? errno : -1;
 }
@@ -668,7 +723,11 @@ static void cli_out_stbi(void *ctx, void *data, int n) {
 /* ok = the caller's part succeeded: closes, then renames PATH.tmp to PATH, or removes PATH.tmp
    (with a message unless the caller failed and has said why) */
 static int cli_out_close(cli_out *o, int ok) {
-    int rc = CLI_OK;
+    int rc = CLI_OK, exists = 0;
+    if (o->skip) {
+        if (ok) fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", o->path);
+        return ok ? CLI_OK : CLI_FAIL;
+    }
     if (!o->f) return CLI_FAIL;
     errno = 0;
     if (fflush(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
@@ -676,11 +735,29 @@ static int cli_out_close(cli_out *o, int ok) {
     if (fclose(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
     o->f = NULL;
     errno = 0;
-    if (ok && !o->err && rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
-    if (!ok || o->err) {
+    if (ok && !o->err) {
+        if (o->replace) {
+            if (rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
+        } else if (link(o->tmp, o->path) == 0) {
+            remove(o->tmp);                    /* PATH is the new file; only the .tmp name goes */
+        } else if (errno == EEXIST) {
+            exists = 1;                        /* it appeared while we computed */
+        } else {                               /* a file system without hard links: check, then rename */
+            struct stat st;
+            if (lstat(o->path, &st) == 0) exists = 1;
+            else if (rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
+        }
+    }
+    if (exists) {
+        cli_error("'%s' appeared while it was being written, and was not written by this run: kept it (--force replaces it)", o->path);
+        remove(o->tmp);
+        rc = CLI_FAIL;
+    } else if (!ok || o->err) {
         if (ok) cli_error("cannot write '%s': %s", o->path, o->err > 0 ? strerror(o->err) : "write error");
         remove(o->tmp);
         rc = CLI_FAIL;
+    } else {
+        cli_note_written(o->path);
     }
     free(o->tmp);
     o->tmp = NULL;
@@ -782,6 +859,29 @@ static int cli_require_kind(const char *cmd, const char *path, const supermat_mo
     cli_error("model '%s' is a %s model, `supermat %s` runs %s models: use %s", path, cli_kind_name(mi.kind), cmd,
               cli_kind_name(want), cli_kind_command(mi.kind));
     return CLI_FAIL;
+}
+
+/* Before any work on an input: may its maps be written? CLI_OK, CLI_SKIPPED (--skip-existing and every
+   one of them exists: nothing to do for this input) or CLI_FAIL (one exists and would be refused). */
+static int cli_maps_allowed(const char *dir, const char *stem, int n, const char *const *suffixes, const int *wanted,
+                            int want_float) {
+    int k, f, all = 1, any = 0;
+    for (k = 0; k < n; k++) {
+        if (!wanted[k]) continue;
+        for (f = 0; f <= want_float; f++) {
+            char suffix[64], *path;
+            int a;
+            snprintf(suffix, sizeof suffix, "%s.%s", suffixes[k], f ? "pfm" : "png");
+            path = cli_join(dir, stem, suffix);
+            if (!path) { cli_error("out of memory"); return CLI_FAIL; }
+            a = cli_out_allowed(path);
+            free(path);
+            if (a == CLI_FAIL) return CLI_FAIL;
+            any = 1;
+            if (a != CLI_SKIPPED) all = 0;
+        }
+    }
+    return any && all ? CLI_SKIPPED : CLI_OK;
 }
 
 /* DIR/<stem><suffix>.png for each map that is not NULL (and .pfm with want_float); tmp holds w*h*3 bytes */
@@ -975,6 +1075,11 @@ static int cli_convert(int argc, char **argv) {
     if (!d.base_dir) return cli_usage_error(cmd, "--base DIR is required");
     if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
     d.progress = isatty(2);
+    switch (cli_out_allowed(d.output)) {       /* the overwrite policy (sm_convert writes OUT.tmp, renames) */
+    case CLI_FAIL: return CLI_FAIL;
+    case CLI_SKIPPED: fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", d.output); return CLI_OK;
+    default: break;
+    }
     r = sm_convert(&d, err, sizeof err);
     if (r != 0) {
         cli_error("convert: %s [%s]", err[0] ? err : "failed", supermat_result_string((supermat_result)r));
@@ -1106,7 +1211,7 @@ static int cli_image(int argc, char **argv) {
 
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w = 0, h = 0, c = 0, s;
-        unsigned char *px = stbi_load(imgs[i], &w, &h, &c, 4);
+        unsigned char *px = NULL;
         float *fa = NULL, *fr = NULL, *fm = NULL;
         unsigned char *tmp = NULL;
         supermat_session *sess = NULL;
@@ -1116,6 +1221,16 @@ static int cli_image(int argc, char **argv) {
         cli_progress prog;
         double t0 = cli_now();
         size_t np;
+        {
+            int wanted[3], a;
+            wanted[0] = (outputs & SUPERMAT_OUTPUT_ALBEDO) != 0;
+            wanted[1] = (outputs & SUPERMAT_OUTPUT_ROUGHNESS) != 0;
+            wanted[2] = (outputs & SUPERMAT_OUTPUT_METALLIC) != 0;
+            a = cli_maps_allowed(out_dir, stems[i], 3, cli_map_suffixes, wanted, want_float);
+            if (a == CLI_FAIL) { rc = CLI_FAIL; break; }
+            if (a == CLI_SKIPPED) { fprintf(stderr, "kept the maps of '%s' (they exist; --skip-existing)\n", imgs[i]); continue; }
+        }
+        px = stbi_load(imgs[i], &w, &h, &c, 4);
         if (!px) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
         if (w % 8 || h % 8) {
             cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize)", imgs[i], w, h);
@@ -3526,6 +3641,19 @@ int supermat_cli_mesh(int argc, char **argv); /* tools/supermat_mesh.cpp (tinygl
 
 int main(int argc, char **argv) {
     const char *c;
+    int i, j;
+    /* the overwrite policy, for every command (before a "--", anywhere after the command name) */
+    for (i = j = 2; i < argc; i++) {
+        if (!strcmp(argv[i], "--")) { while (i < argc) argv[j++] = argv[i++]; break; }
+        if (!strcmp(argv[i], "--force") || !strcmp(argv[i], "--skip-existing")) {
+            int want = argv[i][2] == 'f' ? CLI_POLICY_FORCE : CLI_POLICY_SKIP;
+            if (cli_policy != CLI_POLICY_REFUSE && cli_policy != want) return cli_usage_error(NULL, "--force and --skip-existing exclude each other");
+            cli_policy = want;
+            continue;
+        }
+        argv[j++] = argv[i];
+    }
+    if (argc > 2) { argc = j; argv[argc] = NULL; }
     if (argc < 2) { fputs(cli_usage_main, stderr); return CLI_USAGE; }
     c = argv[1];
     if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) { fputs(cli_usage_main, stdout); return CLI_OK; }

@@ -49,6 +49,6 @@ echo "== conversion"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
 cmake --build build -j"$THREADS" --target supermat
 mkdir -p models
-build/supermat convert --kind supermat --unet "$WORK/run/release/supermat.pth" --base "$WORK/run/release/base" \
+build/supermat convert --force --kind supermat --unet "$WORK/run/release/supermat.pth" --base "$WORK/run/release/base" \
     --precision f16 --out models/supermat_default.safetensors
 build/supermat info models/supermat_default.safetensors
