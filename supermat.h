@@ -58,6 +58,20 @@
  *     scripts resize to 512x512 first); `work_width/height` resample internally if you ask.
  *   - No text encoder: the empty-prompt context is a constant stored in the model file by the converter.
  *
+ * COLOUR SPACES (as the official pipeline, which feeds the network PIL's 8-bit values / 255)
+ *   input     RGB is sRGB-encoded, not linear: 8-bit values are used as v / 255, float values (format
+ *             F32) as given, the same encoding scaled to 0..1 (values outside 0..1 are not clamped; NaN
+ *             and Inf are refused). A linear HDR picture must be tone mapped and sRGB-encoded first.
+ *             Alpha is straight (not premultiplied) coverage in 0..1; the picture is composited over
+ *             gray 0.5 on the encoded values.
+ *   albedo    sRGB-encoded, the glTF baseColor convention (a metal's albedo is its F0 colour): store
+ *             it as an sRGB texture as is.
+ *   roughness, metallic  linear values in 0..1, the glTF metallicRoughness convention (G and B of a
+ *             linear, non-sRGB texture).
+ *   refined   (UV refine) the encoding of the map it refines: sRGB albedo, or the linear
+ *             roughness / metallic channels.
+ *   8-bit outputs are round(v * 255) of the float values, which are clamped to 0..1.
+ *
  * CONFIGURATION MACROS (define before including the implementation)
  *   SUPERMAT_CONFIG_HEADER "file.h"  included first, to set the macros below in one place
  *   SUPERMAT_STATIC                   make every function static (private copy per translation unit;

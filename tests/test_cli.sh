@@ -409,6 +409,38 @@ check "convert over an existing model: the message names it" grep -q "tiny.safet
 run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL" --skip-existing
 check "convert --skip-existing over an existing model exits 0" [ $RC -eq 0 ]
 
+# ---- inputs as users have them ------------------------------------------------------------------
+# max |a - b| over two PFMs of the same size (header skipped, floats as od prints them)
+pfm_maxdiff() {
+    paste <(od -An -v -f -j "$(head -3 "$1" | wc -c)" "$1" | tr -s ' ' '\n' | grep -v '^$') \
+          <(od -An -v -f -j "$(head -3 "$2" | wc -c)" "$2" | tr -s ' ' '\n' | grep -v '^$') |
+        awk 'BEGIN { m = 0; n = 0 } { d = $1 - $2; if (d < 0) d = -d; if (d > m) m = d; n++ } END { if (n == 0) print "nan"; else print m }'
+}
+# a 16-bit PNG (the 8-bit sphere x 257): read at full precision as float input, so the same maps as the 8-bit file
+run image --model "$MODEL" --out "$T/in16" "$DATA/img/sphere_64_16bit.png" "$SPHERE"
+check "a 16-bit PNG exits 0" [ $RC -eq 0 ]
+check "a 16-bit PNG: the maps of its 8-bit twin" cmp -s "$T/in16/sphere_64_16bit_albedo.png" "$T/in16/sphere_64_albedo.png"
+run refine --model "$MODEL" --map "$DATA/img/sphere_64_16bit.png" --mask "$DATA/img/uv/uv_mask.png" --position "$DATA/img/uv/uv_position.png" --out "$T/in16r"
+check "a 16-bit PNG where 8 bits are read (refine) exits 1" [ $RC -eq 1 ]
+check "a 16-bit PNG where 8 bits are read: said so" grep -q "has 16 bits per channel" "$T/err"
+# a JPEG with EXIF orientation 6 (stored 48 wide, 72 high, shown 72 x 48): processed upright, as a viewer
+# shows it; its maps are those of the upright picture (ring_exif6_upright.png, decoded by another JPEG
+# decoder: measured 0.038 apart; turned 180 degrees or mirrored they are 0.87 / 1.0 apart)
+run image --model "$MODEL" --out "$T/exif" --float "$DATA/img/ring_exif6.jpg" "$DATA/img/ring_exif6_upright.png"
+check "an EXIF-rotated JPEG exits 0" [ $RC -eq 0 ]
+check_png "$T/exif/ring_exif6_albedo.png" 72 48 2
+d=$(pfm_maxdiff "$T/exif/ring_exif6_albedo.pfm" "$T/exif/ring_exif6_upright_albedo.pfm")
+check "an EXIF-rotated JPEG: the upright picture's maps (max diff $d <= 0.1)" awk -v x="$d" 'BEGIN { exit !(x ~ /^[0-9.eE+-]+$/ && x + 0 <= 0.1) }'
+# a folder, a WebP file: named as such
+mkdir -p "$T/a_folder"
+run image --model "$MODEL" --out "$T/in_dir" "$T/a_folder"
+check "a folder as a picture exits 1" [ $RC -eq 1 ]
+check "a folder as a picture: said so" grep -q "a_folder' is a folder: give the picture files" "$T/err"
+printf 'RIFF\032\000\000\000WEBPVP8 \016\000\000\000' >"$T/pic.webp"
+run image --model "$MODEL" --out "$T/in_webp" "$T/pic.webp"
+check "a WebP picture exits 1" [ $RC -eq 1 ]
+check "a WebP picture: said so, with what to do" grep -q "pic.webp' is WebP, which this build does not read: convert it to PNG" "$T/err"
+
 # ---- bad input --------------------------------------------------------------------------------
 # a valid 30x30 8-bit gray PNG (zlib stream and CRCs included)
 BAD=$T/bad_30x30.png

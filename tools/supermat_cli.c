@@ -224,7 +224,8 @@ static const char cli_usage_image[] =
     "  DIR/<stem>_metallic.png     gray, 8-bit\n"
     "where <stem> is the image's file name without its folder and extension.\n"
     "\n"
-    "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha;\n"
+    "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha\n"
+    "(16-bit PNGs at full precision; JPEGs turned upright by their EXIF orientation; WebP is refused);\n"
     "transparent pixels are composited over gray 0.5. Width and height must both be multiples of 8.\n"
     "Images are NOT resized: resize them first if needed (the official scripts use 512x512).\n"
     "\n"
@@ -907,6 +908,142 @@ static int cli_write_maps(const char *dir, const char *stem, int n, const char *
     return rc;
 }
 
+/* >>inputs: pictures as users have them */
+/* Every picture goes through cli_pic_info / cli_load (stb_image underneath):
+   - a folder, a missing file: named as such (stb_image says "can't fopen" / "unknown image type");
+   - WebP (the official example pictures): recognised and refused with what to do (this build reads
+     PNG, JPEG, BMP, TGA, PSD, GIF, HDR, PIC, PNM);
+   - 16-bit PNG: `image` reads it at full precision (cli_accept16: float input, v / 65535, the same sRGB
+     encoding); the other commands refuse it instead of cutting it to 8 bits silently;
+   - JPEG EXIF orientation (tag 0x0112, 2..8): applied, so the picture is processed upright as viewers
+     show it, and sizes are reported after it (5..8 swap width and height). */
+static int cli_accept16;
+
+/* the EXIF orientation of a JPEG file (1..8), 1 when absent / not a JPEG / unreadable */
+static int cli_exif_orientation(const char *path) {
+    unsigned char b[65536 + 4];
+    size_t n, pos = 2;
+    FILE *f = fopen(path, "rb");
+    int o = 1;
+    if (!f) return 1;
+    n = fread(b, 1, sizeof b, f);
+    fclose(f);
+    if (n < 4 || b[0] != 0xFF || b[1] != 0xD8) return 1;
+    while (pos + 4 <= n && b[pos] == 0xFF) {
+        unsigned marker = b[pos + 1];
+        size_t len = ((size_t)b[pos + 2] << 8) | b[pos + 3], t;
+        if (marker == 0xDA || marker == 0xD9 || len < 2) break;          /* image data: no EXIF before it */
+        if (marker == 0xE1 && pos + 4 + len <= n + 2 && len >= 16 && !memcmp(b + pos + 4, "Exif\0\0", 6)) {
+            const unsigned char *t0 = b + pos + 10;                      /* TIFF header */
+            size_t tl = len - 8, ifd, k, cnt;
+            int le = t0[0] == 'I';
+#define CLI_RD16(p) (le ? (unsigned)((p)[0] | ((p)[1] << 8)) : (unsigned)(((p)[0] << 8) | (p)[1]))
+#define CLI_RD32(p) (le ? ((size_t)(p)[0] | ((size_t)(p)[1] << 8) | ((size_t)(p)[2] << 16) | ((size_t)(p)[3] << 24)) \
+                        : (((size_t)(p)[0] << 24) | ((size_t)(p)[1] << 16) | ((size_t)(p)[2] << 8) | (size_t)(p)[3]))
+            if ((t0[0] != 'I' && t0[0] != 'M') || t0[1] != t0[0]) break;
+            ifd = CLI_RD32(t0 + 4);
+            if (ifd + 2 > tl) break;
+            cnt = CLI_RD16(t0 + ifd);
+            for (k = 0; k < cnt; k++) {
+                t = ifd + 2 + 12 * k;
+                if (t + 12 > tl) break;
+                if (CLI_RD16(t0 + t) == 0x0112) {
+                    unsigned v = CLI_RD16(t0 + t + 8);
+                    if (v >= 1 && v <= 8) o = (int)v;
+                    break;
+                }
+            }
+#undef CLI_RD16
+#undef CLI_RD32
+            break;
+        }
+        pos += 2 + len;
+    }
+    return o;
+}
+
+/* the same pixels turned upright for EXIF orientation o (2..8); a new buffer, or NULL (out of memory) */
+static unsigned char *cli_orient(const unsigned char *px, int w, int h, int ch, int o, int *ow, int *oh) {
+    int tw = o >= 5 ? h : w, th = o >= 5 ? w : h, x, y;
+    unsigned char *out = (unsigned char *)malloc((size_t)tw * th * ch);
+    if (!out) return NULL;
+    for (y = 0; y < th; y++)
+        for (x = 0; x < tw; x++) {
+            int sx, sy; /* the stored pixel shown at (x, y) */
+            switch (o) {
+            case 2: sx = w - 1 - x; sy = y; break;                 /* mirrored */
+            case 3: sx = w - 1 - x; sy = h - 1 - y; break;         /* 180 */
+            case 4: sx = x; sy = h - 1 - y; break;                 /* mirrored vertically */
+            case 5: sx = y; sy = x; break;                         /* transposed */
+            case 6: sx = y; sy = h - 1 - x; break;                 /* 90 clockwise to view */
+            case 7: sx = w - 1 - y; sy = h - 1 - x; break;         /* transverse */
+            case 8: sx = w - 1 - y; sy = x; break;                 /* 90 counter-clockwise to view */
+            default: sx = x; sy = y; break;
+            }
+            memcpy(out + ((size_t)y * tw + x) * ch, px + ((size_t)sy * w + sx) * ch, (size_t)ch);
+        }
+    *ow = tw;
+    *oh = th;
+    return out;
+}
+
+/* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
+static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
+    struct stat st;
+    if (stat(path, &st) != 0) { cli_error("cannot read %s '%s': %s", what, path, strerror(errno)); return 0; }
+    if (S_ISDIR(st.st_mode)) { cli_error("%s '%s' is a folder: give the picture files (e.g. '%s/*.png')", what, path, path); return 0; }
+    if (!stbi_info(path, w, h, c)) {
+        unsigned char b[12];
+        FILE *f = fopen(path, "rb");
+        size_t n = f ? fread(b, 1, sizeof b, f) : 0;
+        if (f) fclose(f);
+        if (n == 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4))
+            cli_error("%s '%s' is WebP, which this build does not read: convert it to PNG first (e.g. `dwebp '%s' -o picture.png`, Debian's webp package)", what, path, path);
+        else
+            cli_error("cannot read %s '%s': %s", what, path, stbi_failure_reason());
+        return 0;
+    }
+    if (stbi_is_16_bit(path) && !cli_accept16) {
+        cli_error("%s '%s' has 16 bits per channel, which this command does not read (it would lose 8 of them): "
+                  "give an 8-bit PNG (`supermat image` reads 16-bit pictures)", what, path);
+        return 0;
+    }
+    if (cli_exif_orientation(path) >= 5) { int t = *w; *w = *h; *h = t; }
+    return 1;
+}
+
+/* a 16-bit picture as RGBA floats v / 65535 (same encoding as 8-bit: sRGB, straight alpha), upright;
+   free with free() */
+static float *cli_load16f(const char *path, int *w, int *h) {
+    int c = 0;
+    unsigned short *p = stbi_load_16(path, w, h, &c, 4);
+    float *f;
+    size_t n, i;
+    if (!p) return NULL;
+    n = (size_t)*w * (size_t)*h * 4;
+    f = (float *)malloc(n * sizeof *f);
+    if (f) for (i = 0; i < n; i++) f[i] = (float)p[i] / 65535.0f;
+    stbi_image_free(p);
+    return f;
+}
+
+/* stbi_load, turned upright by the EXIF orientation (JPEG); free with stbi_image_free */
+static unsigned char *cli_load(const char *path, int *w, int *h, int *c, int want) {
+    unsigned char *px = stbi_load(path, w, h, c, want);
+    int o = px ? cli_exif_orientation(path) : 1;
+    if (px && o > 1) {
+        int ow, oh;
+        unsigned char *up = cli_orient(px, *w, *h, want ? want : *c, o, &ow, &oh);
+        if (!up) { stbi_image_free(px); return NULL; }
+        /* stbi_image_free is free() (Debian's libstb uses the default allocator) */
+        stbi_image_free(px);
+        px = up;
+        *w = ow;
+        *h = oh;
+    }
+    return px;
+}
+
 /* >>model */
 /* The default model: what `image`, `info` and `bench` run without --model. Its places are compiled in:
    CMake defines SUPERMAT_CLI_DATADIR (the installed data folder, GNUInstallDirs' DATADIR/supermat),
@@ -1193,7 +1330,7 @@ static int cli_image(int argc, char **argv) {
     /* check every image before the (slow) model load */
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w, h, c;
-        if (!stbi_info(imgs[i], &w, &h, &c)) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!cli_pic_info(imgs[i], "image", &w, &h, &c)) { rc = CLI_FAIL; break; }
         if (w % 8 || h % 8) {
             cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
                       "resize it first, e.g. to 512x512)", imgs[i], w, h);
@@ -1212,7 +1349,7 @@ static int cli_image(int argc, char **argv) {
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w = 0, h = 0, c = 0, s;
         unsigned char *px = NULL;
-        float *fa = NULL, *fr = NULL, *fm = NULL;
+        float *fa = NULL, *fr = NULL, *fm = NULL, *fin = NULL;
         unsigned char *tmp = NULL;
         supermat_session *sess = NULL;
         supermat_run_desc rd;
@@ -1230,11 +1367,12 @@ static int cli_image(int argc, char **argv) {
             if (a == CLI_FAIL) { rc = CLI_FAIL; break; }
             if (a == CLI_SKIPPED) { fprintf(stderr, "kept the maps of '%s' (they exist; --skip-existing)\n", imgs[i]); continue; }
         }
-        px = stbi_load(imgs[i], &w, &h, &c, 4);
-        if (!px) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (stbi_is_16_bit(imgs[i])) fin = cli_load16f(imgs[i], &w, &h);   /* full precision, float input */
+        else px = cli_load(imgs[i], &w, &h, &c, 4);
+        if (!px && !fin) { cli_error("cannot read image '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
         if (w % 8 || h % 8) {
             cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize)", imgs[i], w, h);
-            stbi_image_free(px);
+            stbi_image_free(px); free(fin);
             rc = CLI_FAIL;
             break;
         }
@@ -1248,7 +1386,7 @@ static int cli_image(int argc, char **argv) {
                 char what[600];
                 snprintf(what, sizeof what, "session for '%s' (%dx%d)", imgs[i], w, h);
                 cli_lib_error(what, r, &err);
-                stbi_image_free(px);
+                stbi_image_free(px); free(fin);
                 rc = CLI_FAIL;
                 break;
             }
@@ -1266,8 +1404,8 @@ static int cli_image(int argc, char **argv) {
         }
         if (rc == CLI_OK) {
             memset(&rd, 0, sizeof rd);
-            rd.input.pixels = px; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
-            rd.input.format = SUPERMAT_FORMAT_U8;
+            rd.input.pixels = fin ? (void *)fin : (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
+            rd.input.format = fin ? SUPERMAT_FORMAT_F32 : SUPERMAT_FORMAT_U8;
             rd.albedo.pixels = fa; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
             rd.roughness.pixels = fr; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32;
             rd.metallic.pixels = fm; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
@@ -1292,7 +1430,7 @@ static int cli_image(int argc, char **argv) {
             rc = cli_write_maps(out_dir, stems[i], 3, cli_map_suffixes, maps, cli_map_channels, w, h, want_float, tmp);
         }
         free(fa); free(fr); free(fm); free(tmp);
-        stbi_image_free(px);
+        stbi_image_free(px); free(fin);
     }
 
     for (i = 0; i < nslots; i++) supermat_session_destroy(slots[i].s);
@@ -1568,7 +1706,7 @@ static int cli_views(int argc, char **argv) {
     }
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!stbi_info(imgs[i], &iw, &ih, &c)) { cli_error("cannot read view '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!cli_pic_info(imgs[i], "view", &iw, &ih, &c)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("view '%s' is %dx%d but view '%s' is %dx%d: all views must have the same size (supermat does not resize)",
@@ -1632,7 +1770,7 @@ static int cli_views(int argc, char **argv) {
     }
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0;
-        px[i] = stbi_load(imgs[i], &iw, &ih, &c, 4);
+        px[i] = cli_load(imgs[i], &iw, &ih, &c, 4);
         if (!px[i]) { cli_error("cannot read view '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("view '%s' is %dx%d, not %dx%d as before (did it change?)", imgs[i], iw, ih, w, h); rc = CLI_FAIL; break; }
         in[i].pixels = px[i]; in[i].width = w; in[i].height = h; in[i].channels = 4; in[i].format = SUPERMAT_FORMAT_U8;
@@ -1692,7 +1830,7 @@ static int cli_views(int argc, char **argv) {
    (0.299/0.587/0.114), alpha dropped. Free with stbi_image_free. */
 static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
     int c = 0;
-    unsigned char *p = stbi_load(path, w, h, &c, 0);
+    unsigned char *p = cli_load(path, w, h, &c, 0);
     size_t n, i;
     if (!p || c == 1) return p;
     n = (size_t)*w * (size_t)*h;
@@ -1758,7 +1896,7 @@ static int cli_refine(int argc, char **argv) {
     /* the three sizes before the (slow) model load */
     for (i = 0; i < 3 && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!stbi_info(paths[i], &iw, &ih, &c)) { cli_error("cannot read %s '%s': %s", what[i], paths[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
@@ -1789,7 +1927,7 @@ static int cli_refine(int argc, char **argv) {
     if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
     for (i = 0; i < 3 && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0;
-        px[i] = i == 1 ? cli_load_gray(paths[i], &iw, &ih) : stbi_load(paths[i], &iw, &ih, &c, 3);
+        px[i] = i == 1 ? cli_load_gray(paths[i], &iw, &ih) : cli_load(paths[i], &iw, &ih, &c, 3);
         if (!px[i]) { cli_error("cannot read %s '%s': %s", what[i], paths[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("%s '%s' is %dx%d, not %dx%d as before (did it change?)", what[i], paths[i], iw, ih, w, h); rc = CLI_FAIL; break; }
     }
@@ -2607,7 +2745,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
     /* the images' sizes before the (slow) model load */
     for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!stbi_info(o->images[i], &iw, &ih, &c)) { cli_error("cannot read image '%s': %s", o->images[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!cli_pic_info(o->images[i], "image", &iw, &ih, &c)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("image '%s' is %dx%d but image '%s' is %dx%d: all views must have the same size (supermat does not resize)",
@@ -2623,7 +2761,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         const char *p = i ? o->pos_path : o->mask_path, *what = i ? "the position map" : "the mask";
         int iw, ih, c;
         if (!p) continue;
-        if (!stbi_info(p, &iw, &ih, &c)) { cli_error("cannot read %s '%s': %s", what, p, stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!cli_pic_info(p, what, &iw, &ih, &c)) { rc = CLI_FAIL; break; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
                       "size (supermat does not resize)", what, p, iw, ih, path0, w, h);
@@ -2774,7 +2912,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
     }
     for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0, uv = mi.kind == SUPERMAT_KIND_UV_REFINE;
-        px[i] = stbi_load(o->images[i], &iw, &ih, &c, uv ? 3 : 4);
+        px[i] = cli_load(o->images[i], &iw, &ih, &c, uv ? 3 : 4);
         if (!px[i]) { cli_error("cannot read image '%s': %s", o->images[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("image '%s' is %dx%d, not %dx%d as before (did it change?)", o->images[i], iw, ih, w, h); rc = CLI_FAIL; break; }
     }
@@ -2784,7 +2922,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         if (!in.mask) { cli_error("cannot read the mask '%s': %s", o->mask_path, stbi_failure_reason()); rc = CLI_FAIL; }
         else if (iw != w || ih != h) { cli_error("the mask '%s' is %dx%d, not %dx%d as before (did it change?)", o->mask_path, iw, ih, w, h); rc = CLI_FAIL; }
         if (rc == CLI_OK) {
-            in.pos = stbi_load(o->pos_path, &iw, &ih, &c, 3);
+            in.pos = cli_load(o->pos_path, &iw, &ih, &c, 3);
             if (!in.pos) { cli_error("cannot read the position map '%s': %s", o->pos_path, stbi_failure_reason()); rc = CLI_FAIL; }
             else if (iw != w || ih != h) { cli_error("the position map '%s' is %dx%d, not %dx%d as before (did it change?)", o->pos_path, iw, ih, w, h); rc = CLI_FAIL; }
         }
@@ -2815,7 +2953,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
             const char *tp = o->truth_paths[k];
             int iw = 0, ih = 0, c = 0;
             if (!tp) continue;
-            in.truth[k] = k == 0 ? stbi_load(tp, &iw, &ih, &c, 3) : cli_load_gray(tp, &iw, &ih);
+            in.truth[k] = k == 0 ? cli_load(tp, &iw, &ih, &c, 3) : cli_load_gray(tp, &iw, &ih);
             if (!in.truth[k]) { cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], tp, stbi_failure_reason()); rc = CLI_FAIL; }
             else if (iw != w || ih != h) {
                 cli_error("the %s truth '%s' is %dx%d, not %dx%d as before (did it change?)", cli_bi_map_names[k], tp, iw, ih, w, h);
@@ -3590,8 +3728,7 @@ static int cli_sheet(int argc, char **argv) {
         for (c = 0; c < row_len[r]; c++) {
             int w, h, ch;
             if (!strcmp(cells[r][c], "-")) continue;
-            if (!stbi_info(cells[r][c], &w, &h, &ch)) {
-                cli_error("cannot read image '%s': %s", cells[r][c], stbi_failure_reason());
+            if (!cli_pic_info(cells[r][c], "image", &w, &h, &ch)) {
                 rc = CLI_FAIL;
                 goto done;
             }
@@ -3612,7 +3749,7 @@ static int cli_sheet(int argc, char **argv) {
             int w = 0, h = 0, ch = 0, dw, dh, x0, y0;
             unsigned char *px;
             if (!strcmp(cells[r][c], "-")) continue;
-            px = stbi_load(cells[r][c], &w, &h, &ch, 4);
+            px = cli_load(cells[r][c], &w, &h, &ch, 4);
             if (!px) { cli_error("cannot read image '%s': %s", cells[r][c], stbi_failure_reason()); rc = CLI_FAIL; break; }
             if (w >= h) { dw = cell; dh = (int)((double)cell * h / w + 0.5); }
             else { dh = cell; dw = (int)((double)cell * w / h + 0.5); }
@@ -3661,6 +3798,7 @@ int main(int argc, char **argv) {
         printf("supermat %d.%d.%d\n", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255, SUPERMAT_VERSION & 255);
         return CLI_OK;
     }
+    cli_accept16 = !strcmp(c, "image") || !strcmp(c, "sheet"); /* image: float input; sheet: shown at 8 bits */
     if (!strcmp(c, "convert")) return cli_convert(argc, argv);
     if (!strcmp(c, "image")) return cli_image(argc, argv);
     if (!strcmp(c, "views")) return cli_views(argc, argv);
