@@ -436,10 +436,23 @@ mkdir -p "$T/a_folder"
 run image --model "$MODEL" --out "$T/in_dir" "$T/a_folder"
 check "a folder as a picture exits 1" [ $RC -eq 1 ]
 check "a folder as a picture: said so" grep -q "a_folder' is a folder: give the picture files" "$T/err"
+# WebP (the official examples' format): a lossless WebP of the sphere gives the PNG's maps when the build
+# has libwebp (`supermat --version` says "built with: webp"), else it is refused saying what to do
 printf 'RIFF\032\000\000\000WEBPVP8 \016\000\000\000' >"$T/pic.webp"
 run image --model "$MODEL" --out "$T/in_webp" "$T/pic.webp"
-check "a WebP picture exits 1" [ $RC -eq 1 ]
-check "a WebP picture: said so, with what to do" grep -q "pic.webp' is WebP, which this build does not read: convert it to PNG" "$T/err"
+check "a broken WebP picture exits 1" [ $RC -eq 1 ]
+cp "$T/err" "$T/err_webp"
+run --version
+if grep -q '^built with:.* webp' "$T/out"; then
+    check "a broken WebP picture: said so" grep -q "pic.webp': not a valid WebP file" "$T/err_webp"
+    run image --model "$MODEL" --out "$T/in_webp" "$DATA/img/sphere_64.webp"
+    check "a WebP picture exits 0" [ $RC -eq 0 ]
+    run image --model "$MODEL" --out "$T/in_webp_png" "$SPHERE"
+    check "a lossless WebP picture: the maps of its PNG" cmp -s "$T/in_webp/sphere_64_albedo.png" "$T/in_webp_png/sphere_64_albedo.png"
+    check "a lossless WebP picture: the maps of its PNG (roughness)" cmp -s "$T/in_webp/sphere_64_roughness.png" "$T/in_webp_png/sphere_64_roughness.png"
+else
+    check "a WebP picture without libwebp: said so, with what to do" grep -q "pic.webp' is WebP, which this build does not read" "$T/err_webp"
+fi
 
 # ---- bad input --------------------------------------------------------------------------------
 # a valid 30x30 8-bit gray PNG (zlib stream and CRCs included)

@@ -91,6 +91,9 @@
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_FAILURE_USERMSG
 #include <stb/stb_image.h>
+#ifdef SUPERMAT_CLI_WEBP
+#include <webp/decode.h>
+#endif
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
 #if defined(__GNUC__) || defined(__clang__)
@@ -911,8 +914,8 @@ static int cli_write_maps(const char *dir, const char *stem, int n, const char *
 /* >>inputs: pictures as users have them */
 /* Every picture goes through cli_pic_info / cli_load (stb_image underneath):
    - a folder, a missing file: named as such (stb_image says "can't fopen" / "unknown image type");
-   - WebP (the official example pictures): recognised and refused with what to do (this build reads
-     PNG, JPEG, BMP, TGA, PSD, GIF, HDR, PIC, PNM);
+   - WebP (the official example pictures): decoded by libwebp when the build has it (SUPERMAT_CLI_WEBP:
+     CMake finds libwebp-dev), else recognised and refused with what to do;
    - 16-bit PNG: `image` reads it at full precision (cli_accept16: float input, v / 65535, the same sRGB
      encoding); the other commands refuse it instead of cutting it to 8 bits silently;
    - JPEG EXIF orientation (tag 0x0112, 2..8): applied, so the picture is processed upright as viewers
@@ -987,20 +990,70 @@ static unsigned char *cli_orient(const unsigned char *px, int w, int h, int ch, 
     return out;
 }
 
+static int cli_is_webp(const char *path) {
+    unsigned char b[12];
+    FILE *f = fopen(path, "rb");
+    size_t n = f ? fread(b, 1, sizeof b, f) : 0;
+    if (f) fclose(f);
+    return n == 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4);
+}
+
+#ifdef SUPERMAT_CLI_WEBP
+/* a WebP file as `want` channels (0 = 4), like stbi_load (1 gray, 2 gray + alpha, 3 RGB, 4 RGBA; gray as
+   stb computes it); *c = 4 (3 without alpha). NULL and a message when it cannot be decoded. */
+static unsigned char *cli_load_webp(const char *path, int *w, int *h, int *c, int want) {
+    unsigned char *data = NULL, *rgba, *out;
+    size_t size = 0, n, i;
+    WebPBitstreamFeatures ft;
+    int k;
+    if (cli_read_file(path, &data, &size)) return NULL;
+    if (WebPGetFeatures(data, size, &ft) != VP8_STATUS_OK || !(rgba = WebPDecodeRGBA(data, size, w, h))) {
+        cli_free_file(data);
+        cli_error("cannot decode the WebP picture '%s' (libwebp)", path);
+        return NULL;
+    }
+    cli_free_file(data);
+    *c = ft.has_alpha ? 4 : 3;
+    k = want ? want : 4;
+    n = (size_t)*w * (size_t)*h;
+    out = (unsigned char *)malloc(n * (size_t)k);
+    if (out)
+        for (i = 0; i < n; i++) {
+            const unsigned char *p = rgba + 4 * i;
+            unsigned char *q = out + (size_t)k * i;
+            if (k >= 3) { q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; if (k == 4) q[3] = p[3]; }
+            else { q[0] = (unsigned char)((p[0] * 77 + p[1] * 150 + 29 * p[2]) >> 8); if (k == 2) q[1] = p[3]; }
+        }
+    WebPFree(rgba);
+    if (!out) cli_error("out of memory decoding '%s'", path);
+    return out;
+}
+#endif
+
 /* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
 static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
     struct stat st;
     if (stat(path, &st) != 0) { cli_error("cannot read %s '%s': %s", what, path, strerror(errno)); return 0; }
     if (S_ISDIR(st.st_mode)) { cli_error("%s '%s' is a folder: give the picture files (e.g. '%s/*.png')", what, path, path); return 0; }
+    if (cli_is_webp(path)) {
+#ifdef SUPERMAT_CLI_WEBP
+        unsigned char *data = NULL;
+        size_t size = 0;
+        WebPBitstreamFeatures ft;
+        int ok;
+        if (cli_read_file(path, &data, &size)) return 0;
+        ok = WebPGetFeatures(data, size, &ft) == VP8_STATUS_OK;
+        cli_free_file(data);
+        if (!ok) { cli_error("cannot read %s '%s': not a valid WebP file (libwebp)", what, path); return 0; }
+        *w = ft.width; *h = ft.height; *c = ft.has_alpha ? 4 : 3;
+        return 1;
+#else
+        cli_error("%s '%s' is WebP, which this build does not read (built without libwebp-dev): convert it to PNG first (e.g. `dwebp '%s' -o picture.png`, Debian's webp package) or rebuild with libwebp-dev", what, path, path);
+        return 0;
+#endif
+    }
     if (!stbi_info(path, w, h, c)) {
-        unsigned char b[12];
-        FILE *f = fopen(path, "rb");
-        size_t n = f ? fread(b, 1, sizeof b, f) : 0;
-        if (f) fclose(f);
-        if (n == 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4))
-            cli_error("%s '%s' is WebP, which this build does not read: convert it to PNG first (e.g. `dwebp '%s' -o picture.png`, Debian's webp package)", what, path, path);
-        else
-            cli_error("cannot read %s '%s': %s", what, path, stbi_failure_reason());
+        cli_error("cannot read %s '%s': %s", what, path, stbi_failure_reason());
         return 0;
     }
     if (stbi_is_16_bit(path) && !cli_accept16) {
@@ -1029,7 +1082,11 @@ static float *cli_load16f(const char *path, int *w, int *h) {
 
 /* stbi_load, turned upright by the EXIF orientation (JPEG); free with stbi_image_free */
 static unsigned char *cli_load(const char *path, int *w, int *h, int *c, int want) {
-    unsigned char *px = stbi_load(path, w, h, c, want);
+    unsigned char *px;
+#ifdef SUPERMAT_CLI_WEBP
+    if (cli_is_webp(path)) return cli_load_webp(path, w, h, c, want);
+#endif
+    px = stbi_load(path, w, h, c, want);
     int o = px ? cli_exif_orientation(path) : 1;
     if (px && o > 1) {
         int ow, oh;
@@ -3796,6 +3853,18 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) { fputs(cli_usage_main, stdout); return CLI_OK; }
     if (!strcmp(c, "--version") || !strcmp(c, "-V")) {
         printf("supermat %d.%d.%d\n", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255, SUPERMAT_VERSION & 255);
+        printf("built with:%s%s\n",
+#ifdef SUPERMAT_CLI_WEBP
+               " webp",
+#else
+               "",
+#endif
+#ifdef SUPERMAT_CLI_MESH
+               " mesh"
+#else
+               ""
+#endif
+        );
         return CLI_OK;
     }
     cli_accept16 = !strcmp(c, "image") || !strcmp(c, "sheet"); /* image: float input; sheet: shown at 8 bits */
