@@ -3877,6 +3877,8 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "sheet")) return cli_sheet(argc, argv);
     if (!strcmp(c, "mesh")) {
 #ifdef SUPERMAT_CLI_MESH
+        if (cli_policy != CLI_POLICY_REFUSE) /* the mesh command reads the policy from its arguments */
+            argv[argc++] = (char *)(cli_policy == CLI_POLICY_FORCE ? "--force" : "--skip-existing");
         return supermat_cli_mesh(argc - 1, argv + 1);
 #else
         cli_error("this supermat was built without tinygltf (libtinygltf-dev): `mesh` is not available");

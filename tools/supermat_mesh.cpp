@@ -25,6 +25,7 @@
 #include <tiny_gltf.h>
 #include <stb/stb_image_write.h>
 
+#include <dirent.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -33,6 +34,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cerrno>
 #include <cstring>
 #include <map>
 #include <string>
@@ -209,32 +211,85 @@ int progress_cb(void *user, float f, const char *what) {
     return 0;
 }
 
-/* writes our new PNGs (their pixels are in Image::image); keeps every other image as it was */
+/* A file written in full or not at all: fwrite/fflush/fclose all checked. */
+bool write_file(const std::string &path, const void *data, size_t n) {
+    FILE *f = std::fopen(path.c_str(), "wb");
+    if (!f) return false;
+    bool ok = (n == 0 || std::fwrite(data, 1, n, f) == n);
+    ok = (std::fflush(f) == 0) && ok;
+    ok = (std::fclose(f) == 0) && ok;
+    return ok;
+}
+void png_to_vec(void *ctx, void *data, int n) {
+    std::vector<unsigned char> *v = (std::vector<unsigned char> *)ctx;
+    v->insert(v->end(), (unsigned char *)data, (unsigned char *)data + n);
+}
+
+/* writes our new PNGs (their pixels are in Image::image) into the staging folder; keeps every other
+   image as it was (copied there when OUT lives in another folder than IN) */
 struct Writer {
-    std::string in_dir, out_dir;
+    std::string in_dir, out_dir, stage;
     std::map<std::string, bool> ours;
+    std::string failed; /* the first file that could not be written */
 };
 bool image_writer(const std::string *, const std::string *filename, const tinygltf::Image *image, bool,
                   std::string *out_uri, void *user) {
     Writer *w = (Writer *)user;
     if (image->uri.compare(0, 5, "data:") == 0) return false;
     if (image->uri.empty()) return false; /* in a buffer view: stays there */
-    std::string path = w->out_dir + "/" + *filename;
+    std::string path = w->stage + "/" + *filename;
     if (w->ours.count(image->uri)) {
-        if (!stbi_write_png(path.c_str(), image->width, image->height, image->component, image->image.data(),
-                            image->width * image->component))
+        std::vector<unsigned char> png;
+        if (!stbi_write_png_to_func(png_to_vec, &png, image->width, image->height, image->component, image->image.data(),
+                                    image->width * image->component) || !write_file(path, png.data(), png.size())) {
+            if (w->failed.empty()) w->failed = w->out_dir + "/" + *filename;
             return false;
+        }
         *out_uri = image->uri;
         return true;
     }
     /* an original image file: copy its bytes when OUT lives elsewhere */
     if (w->in_dir != w->out_dir) {
         std::vector<unsigned char> b = read_whole(w->in_dir + "/" + image->uri);
-        FILE *f = std::fopen((w->out_dir + "/" + image->uri).c_str(), "wb");
-        if (f) { if (!b.empty()) std::fwrite(b.data(), 1, b.size(), f); std::fclose(f); }
+        if (!write_file(w->stage + "/" + image->uri, b.data(), b.size())) {
+            if (w->failed.empty()) w->failed = w->out_dir + "/" + image->uri;
+            return false;
+        }
     }
     *out_uri = image->uri;
     return true;
+}
+
+/* the overwrite policy of the `supermat` CLI (its --force / --skip-existing): 0 refuse, 1 force, 2 skip */
+int exists_l(const std::string &p) {
+    struct stat st;
+    return lstat(p.c_str(), &st) == 0;
+}
+
+/* every regular file of the staging folder (relative names, one level of sub-folders) */
+void list_files(const std::string &root, const std::string &rel, std::vector<std::string> &out) {
+    DIR *d = opendir((root + (rel.empty() ? "" : "/" + rel)).c_str());
+    if (!d) return;
+    while (struct dirent *e = readdir(d)) {
+        std::string n = e->d_name;
+        if (n == "." || n == "..") continue;
+        std::string r = rel.empty() ? n : rel + "/" + n;
+        struct stat st;
+        if (lstat((root + "/" + r).c_str(), &st) != 0) continue;
+        if (S_ISDIR(st.st_mode)) list_files(root, r, out);
+        else out.push_back(r);
+    }
+    closedir(d);
+}
+void remove_tree(const std::string &root) {
+    std::vector<std::string> files;
+    list_files(root, "", files);
+    for (const std::string &f : files) std::remove((root + "/" + f).c_str());
+    for (size_t k = files.size(); k-- > 0;) { /* sub-folders, deepest first */
+        size_t s = files[k].find_last_of('/');
+        if (s != std::string::npos) rmdir((root + "/" + files[k].substr(0, s)).c_str());
+    }
+    rmdir(root.c_str());
 }
 
 int usage() {
@@ -243,6 +298,7 @@ int usage() {
                  "       [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
+                 "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
                  "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n");
     return 2;
 }
@@ -268,7 +324,7 @@ bool load_model(const char *path, std::vector<unsigned char> &bytes, supermat_mo
 
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
-    int passthrough = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0;
+    int passthrough = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     for (int i = 1; i < argc; i++) {
         std::string a = argv[i];
@@ -288,6 +344,11 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             if (w == "cos") weight = SUPERMAT_UV_WEIGHT_COS_POWER;
             else if (w != "average") return usage();
         } else if (a == "--passthrough") passthrough = 1;
+        else if (a == "--force" || a == "--skip-existing") {
+            int want = a == "--force" ? 1 : 2;
+            if (policy && policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
+            policy = want;
+        }
         else if (a == "-h" || a == "--help") return usage();
         else if (a.size() > 1 && a[0] == '-' && a != "-") { std::fprintf(stderr, "supermat mesh: unknown option %s\n", a.c_str()); return usage(); }
         else if (!in) in = argv[i];
@@ -295,6 +356,11 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else return usage();
     }
     if (!in || !out) return usage();
+    if (exists_l(out) && policy != 1) { /* before any work */
+        if (policy == 2) { std::fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", out); return 0; }
+        std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
+        return 1;
+    }
     if (!passthrough && (!mv_path || !bc_path || !rm_path)) {
         std::fprintf(stderr, "supermat mesh: give --mv-model, --albedo-refine and --rm-refine (or --passthrough)\n");
         return 2;
@@ -514,11 +580,56 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         pbr.metallicRoughnessTexture.index = tex_index[1]; pbr.metallicRoughnessTexture.texCoord = texcoord;
         pbr.metallicFactor = 1.0; pbr.roughnessFactor = 1.0;
     }
+    /* Everything is written into a staging folder beside OUT, read back (a truncated file -- full disk,
+       size limit -- does not parse), then moved into place: OUT and its files appear complete or not at
+       all. tinygltf does not check its own writes, hence the read-back. */
     tinygltf::TinyGLTF writer;
     writer.SetImageWriter(image_writer, &wr);
     bool glb_out = outpath.size() > 4 && outpath.compare(outpath.size() - 4, 4, ".glb") == 0;
-    if (!writer.WriteGltfSceneToFile(&model, outpath, false, false, true, glb_out)) {
-        std::fprintf(stderr, "supermat mesh: cannot write %s\n", out);
+    std::string base = outpath.substr(outpath.find_last_of('/') == std::string::npos ? 0 : outpath.find_last_of('/') + 1);
+    wr.stage = wr.out_dir + "/.supermat-mesh-" + std::to_string((long)getpid()) + ".tmp";
+    remove_tree(wr.stage);
+    if (mkdir(wr.stage.c_str(), 0777) != 0) {
+        std::fprintf(stderr, "supermat mesh: cannot write into %s: %s\n", wr.out_dir.c_str(), std::strerror(errno));
+        return 1;
+    }
+    for (const tinygltf::Image &im : model.images) /* sub-folders of image URIs, in the stage too */
+        for (size_t s = im.uri.find('/'); s != std::string::npos && im.uri.compare(0, 5, "data:") != 0; s = im.uri.find('/', s + 1))
+            mkdir((wr.stage + "/" + im.uri.substr(0, s)).c_str(), 0777);
+    std::string staged = wr.stage + "/" + base;
+    bool wok = writer.WriteGltfSceneToFile(&model, staged, false, false, true, glb_out) && wr.failed.empty();
+    if (wok) {
+        tinygltf::Model back;
+        std::string e, w;
+        tinygltf::TinyGLTF reader;
+        wok = glb_out ? reader.LoadBinaryFromFile(&back, &e, &w, staged) : reader.LoadASCIIFromFile(&back, &e, &w, staged);
+        for (size_t b = 0; wok && b < back.buffers.size() && b < model.buffers.size(); b++)
+            wok = back.buffers[b].data.size() == model.buffers[b].data.size();
+        if (!wok && wr.failed.empty()) wr.failed = std::string(out) + " (or its .bin): the written file does not read back complete (disk full?)";
+    }
+    std::vector<std::string> files;
+    if (wok) list_files(wr.stage, "", files);
+    for (const std::string &f : files) /* the policy for every file: OUT itself was checked before the work */
+        if (f != base && exists_l(wr.out_dir + "/" + f) && policy != 1 &&
+            read_whole(wr.out_dir + "/" + f) != read_whole(wr.stage + "/" + f)) { /* the same bytes: nothing lost */
+            if (policy == 2) continue;
+            std::fprintf(stderr, "supermat mesh: '%s/%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n",
+                         wr.out_dir.c_str(), f.c_str());
+            wok = false;
+            wr.failed = "-";
+            break;
+        }
+    for (size_t k = 0; wok && k < files.size(); k++) {
+        const std::string &f = files[k];
+        std::string dst = wr.out_dir + "/" + f;
+        if (f != base && policy == 2 && exists_l(dst)) continue;
+        size_t s = f.find_last_of('/');
+        if (s != std::string::npos) mkdir((wr.out_dir + "/" + f.substr(0, s)).c_str(), 0777);
+        if (std::rename((wr.stage + "/" + f).c_str(), dst.c_str()) != 0) { wr.failed = dst + ": " + std::strerror(errno); wok = false; }
+    }
+    remove_tree(wr.stage);
+    if (!wok) {
+        if (wr.failed != "-") std::fprintf(stderr, "supermat mesh: cannot write %s\n", wr.failed.empty() ? out : wr.failed.c_str());
         return 1;
     }
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

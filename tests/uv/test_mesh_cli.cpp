@@ -7,6 +7,7 @@
 #include <tiny_gltf.h>
 #include <OpenImageIO/imageio.h>
 
+#include <dirent.h>
 #include <sys/stat.h>
 
 #include <cmath>
@@ -16,6 +17,21 @@
 #include <string>
 #include <vector>
 
+
+static std::vector<unsigned char> slurp(const std::string &path) {
+    std::vector<unsigned char> b;
+    FILE *f = std::fopen(path.c_str(), "rb");
+    unsigned char buf[65536];
+    size_t n;
+    if (!f) return b;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) b.insert(b.end(), buf, buf + n);
+    std::fclose(f);
+    return b;
+}
+static std::string slurp_str(const std::string &path) {
+    std::vector<unsigned char> b = slurp(path);
+    return std::string(b.begin(), b.end());
+}
 
 static bool read_image(const std::string &path, std::vector<unsigned char> &px, int &w, int &h, int &c) {
     auto in = OIIO::ImageInput::open(path);
@@ -93,6 +109,7 @@ int main(int argc, char **argv) {
     write_cube(dir, ts);
     /* ---- passthrough round trip ---- */
     std::string cmd = exe + " --passthrough --size 256 --views-size 512 --debug-dir " + dir + "/debug " + dir + "/cube.gltf " + dir + "/out/cube_baked.gltf";
+    std::system(("rm -rf '" + dir + "/out' '" + dir + "/out_limited'").c_str()); /* this test's own folders: a fresh start */
     mkdir((dir + "/out").c_str(), 0777);
     int rc = std::system(cmd.c_str());
     CHECK(rc == 0, "%s failed (%d)", cmd.c_str(), rc);
@@ -145,6 +162,33 @@ int main(int argc, char **argv) {
         f = std::fopen((dir + "/nouv.txt").c_str(), "r");
         if (f) { while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) msg.append(buf, n); std::fclose(f); }
         CHECK(rc != 0 && msg.find("needs UVs") != std::string::npos, "no UVs: rc %d, %s", rc, msg.c_str());
+    }
+    /* ---- outputs: the overwrite policy, and a write that fails leaves nothing ---- */
+    {
+        std::string again = exe + " --passthrough --size 64 --views-size 64 " + dir + "/cube.gltf " + dir + "/out/cube_baked.gltf";
+        std::vector<unsigned char> before = slurp(dir + "/out/cube_baked.gltf"), tex = slurp(dir + "/out/cube_baked_baseColor.png");
+        rc = std::system((again + " 2> " + dir + "/again.txt").c_str());
+        std::string msg = slurp_str(dir + "/again.txt");
+        CHECK(rc != 0 && msg.find("cube_baked.gltf' exists and was not written by this run") != std::string::npos,
+              "OUT exists: rc %d, %s", rc, msg.c_str());
+        CHECK(slurp(dir + "/out/cube_baked.gltf") == before && slurp(dir + "/out/cube_baked_baseColor.png") == tex && !tex.empty(),
+              "OUT exists: it or its texture was changed");
+        rc = std::system((again + " --skip-existing 2> " + dir + "/again.txt").c_str());
+        CHECK(rc == 0 && slurp(dir + "/out/cube_baked.gltf") == before, "--skip-existing: rc %d, or OUT changed", rc);
+        rc = std::system((again + " --force").c_str());
+        CHECK(rc == 0 && slurp(dir + "/out/cube_baked_baseColor.png") != tex, "--force: rc %d, or the texture (now 64x64) unchanged", rc);
+        /* a 16 KiB file size limit: the 64x64 textures fit, the .bin / .gltf of a 1024 texture do not */
+        mkdir((dir + "/out_limited").c_str(), 0777);
+        rc = std::system(("sh -c 'trap \"\" XFSZ; ulimit -f 16; exec " + exe + " --passthrough --size 1024 --views-size 64 " + dir +
+                          "/cube.gltf " + dir + "/out_limited/cube.gltf' 2> " + dir + "/limited.txt").c_str());
+        msg = slurp_str(dir + "/limited.txt");
+        std::vector<std::string> left;
+        struct dirent *e_;
+        DIR *d = opendir((dir + "/out_limited").c_str());
+        while (d && (e_ = readdir(d)) != nullptr) if (std::strcmp(e_->d_name, ".") && std::strcmp(e_->d_name, "..")) left.push_back(e_->d_name);
+        if (d) closedir(d);
+        CHECK(rc != 0 && msg.find("cannot write") != std::string::npos, "a failed write: rc %d, %s", rc, msg.c_str());
+        CHECK(left.empty(), "a failed write left %zu file(s) in out_limited/, e.g. %s", left.size(), left.empty() ? "" : left[0].c_str());
     }
     /* ---- the full path with the tiny models ---- */
     if (argc > 4) {
