@@ -678,6 +678,11 @@ check "bench: a trunk row" grep -q '^unet trunk ' "$T/out"
 check "bench: an albedo branch row" grep -q '^unet branch albedo ' "$T/out"
 check "bench: a roughness/metallic branch row" grep -q '^unet branch roughness/metallic ' "$T/out"
 check "bench: no x0 row" bash -c "! grep -q 'x0' '$T/out'"
+cp "$T/bench.json" "$T/bench_before.json"
+run bench --model "$MODEL" --size 64 --pipeline-only --json "$T/bench.json"
+check "bench --json over an existing report exits 1" [ $RC -eq 1 ]
+check "bench --json over an existing report: nothing measured" bash -c "! grep -q '^unet trunk ' '$T/out'"
+check "bench --json over an existing report: it is untouched" cmp -s "$T/bench.json" "$T/bench_before.json"
 check "bench: JSON written" grep -q '"stage": "unet trunk"' "$T/bench.json"
 run bench --model "$MV" --size 64 --views 2 --pipeline-only --outputs albedo
 check "bench supermat-mv --views 2 exits 0" [ $RC -eq 0 ]
@@ -814,6 +819,7 @@ v=$(jfield "$BG" branch_rm gt_psnr albedo)
 check "bench --image truth JSON: branch_rm gt_psnr albedo is null ($v)" [ "$v" = null ]
 v=$(jfield "$BG" branch_rm gt_psnr metallic)
 check "bench --image truth JSON: branch_rm gt_psnr metallic is 200 ($v)" [ "$v" = 200 ]
+rm -f "$BG"
 run bench --model "$MODEL" --image "$SPHERE" --modes f32 --truth-roughness "$GT/sphere_64_roughness.png" --json "$BG"
 check "bench --image with one truth file exits 0" [ $RC -eq 0 ]
 v=$(jfield "$BG" f32 gt_psnr roughness)

@@ -485,7 +485,7 @@ def run_levers(args, inputs, work):
     for stem, image in inputs.items():
         t0 = time.time()
         js = os.path.join(out_dir, stem + ".json")
-        cmd = [args.supermat, "bench", "--model", args.levers, "--image", image]
+        cmd = [args.supermat, "bench", "--force", "--model", args.levers, "--image", image]
         for name in MAPS:
             cmd += [f"--truth-{name}", os.path.join(work, "truth", f"{stem}_{name}.png")]
         cmd += ["--modes", args.levers_modes, "--json", js, "--repeats", "1", "--threads", str(args.threads)]

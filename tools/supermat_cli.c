@@ -768,6 +768,40 @@ static int cli_out_close(cli_out *o, int ok) {
     return rc;
 }
 
+/* A text output built in memory (open_memstream), then written like every output: the overwrite policy,
+   FILE.tmp, rename. cli_mem_open checks the policy first (before the work that fills it). */
+typedef struct cli_mem {
+    FILE *f;
+    char *buf;
+    size_t len;
+} cli_mem;
+
+static FILE *cli_mem_open(cli_mem *m, const char *path) {
+    memset(m, 0, sizeof *m);
+    if (cli_out_allowed(path) != CLI_OK) { /* refused; --skip-existing does not apply to a report */
+        if (cli_policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", path);
+        return NULL;
+    }
+    m->f = open_memstream(&m->buf, &m->len);
+    if (!m->f) cli_error("out of memory");
+    return m->f;
+}
+
+/* closes the stream m->f (already closed when closed = 1) and writes its bytes to path; ok = 0: discards */
+static int cli_mem_commit(cli_mem *m, const char *path, int ok, int closed) {
+    int rc = CLI_FAIL;
+    cli_out o;
+    if (!closed && m->f && fclose(m->f) != 0) ok = 0;
+    m->f = NULL;
+    if (ok && m->buf && cli_out_open(&o, path) == CLI_OK) {
+        cli_out_write(&o, m->buf, m->len);
+        rc = cli_out_close(&o, 1);
+    }
+    free(m->buf);
+    m->buf = NULL;
+    return rc;
+}
+
 /* PFM: "PF" (RGB) or "Pf" (gray), scale -1.0 = little endian, rows bottom to top */
 static int cli_write_pfm(const char *path, const float *px, int w, int h, int channels) {
     cli_out o;
@@ -2792,6 +2826,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
     int nskipped = 0, skipped_mode[CLI_MODE_COUNT];
     double f32_seconds = 0.0;
     FILE *jf = NULL;
+    cli_mem jm;
 
     memset(px, 0, sizeof px);
     memset(&in, 0, sizeof in);
@@ -2848,8 +2883,8 @@ static int cli_bench_image(const cli_bench_opts *o) {
         }
     }
     if (rc == CLI_OK && o->json_path) {
-        jf = fopen(o->json_path, "w");
-        if (!jf) { cli_error("cannot write '%s': %s", o->json_path, strerror(errno)); rc = CLI_FAIL; }
+        jf = cli_mem_open(&jm, o->json_path);
+        if (!jf) rc = CLI_FAIL;
     }
 
     /* the reference model, and what the inputs must be for its kind */
@@ -3136,8 +3171,10 @@ static int cli_bench_image(const cli_bench_opts *o) {
                    CLI_PSNR_CAP);
         if (jf) {
             FILE *f = jf;
+            int ok;
             jf = NULL;
-            if (cli_bi_write_json(f, o->json_path, &in, rows, nrows) != CLI_OK) rc = CLI_FAIL;
+            ok = cli_bi_write_json(f, o->json_path, &in, rows, nrows) == CLI_OK; /* closes f */
+            if (cli_mem_commit(&jm, o->json_path, ok, 1) != CLI_OK) rc = CLI_FAIL;
         }
         if (failed) {
             cli_error("%d mode%s failed (see above)", failed, failed == 1 ? "" : "s");
@@ -3145,7 +3182,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         }
     }
 
-    if (jf) { fclose(jf); remove(o->json_path); } /* nothing measured: no file */
+    if (jf) cli_mem_commit(&jm, o->json_path, 0, 0); /* nothing measured: no file */
     for (k = 0; k < 3; k++) { free(ref[k]); free(cur[k]); free(in.ov[k]); if (in.truth[k]) stbi_image_free(in.truth[k]); }
     free(in.gt_mask);
     for (i = 0; i < o->nimg; i++) if (px[i]) stbi_image_free(px[i]);
@@ -3432,6 +3469,7 @@ static int cli_bench(int argc, char **argv) {
         size_t planned = mi.model_bytes + session_bytes;
         double total_flops = fl.total;
         FILE *jf = NULL;
+        cli_mem jm;
         char vs[32];
         vs[0] = 0;
         if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) snprintf(vs, sizeof vs, " x %d view%s", nviews, nviews == 1 ? "" : "s");
@@ -3472,8 +3510,8 @@ static int cli_bench(int argc, char **argv) {
                                t_scalar / t_avx2, gemm_diff, peak > 0 ? 100.0 * gemm_flops / t_avx2 / 1e9 / peak : 0.0);
 
         if (json_path) {
-            jf = fopen(json_path, "w");
-            if (!jf) { cli_error("cannot write '%s': %s", json_path, strerror(errno)); rc = CLI_FAIL; }
+            jf = cli_mem_open(&jm, json_path);
+            if (!jf) rc = CLI_FAIL;
         }
         if (jf) {
             fprintf(jf, "{\n  \"version\": \"%d.%d.%d\",\n  \"model\": ", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255,
@@ -3503,7 +3541,7 @@ static int cli_bench(int argc, char **argv) {
             else fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g}\n}\n",
                     CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9, t_avx2 > 0 ? gemm_flops / t_avx2 / 1e9 : 0.0,
                     t_scalar > 0 ? gemm_flops / t_scalar / 1e9 : 0.0, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff);
-            if (fclose(jf) != 0) { cli_error("cannot write '%s'", json_path); rc = CLI_FAIL; }
+            if (cli_mem_commit(&jm, json_path, 1, 0) != CLI_OK) rc = CLI_FAIL;
         }
     }
 
