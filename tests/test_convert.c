@@ -1044,6 +1044,58 @@ static void test_scheduler(const char *dir, const char *base) {
     tc_track(out);
 }
 
+/* weight file names as the Stable Diffusion 2.1 repository ships them, Git LFS pointers, a file as --base */
+static void test_base_files(const char *dir, const char *base) {
+    char dst[300], a[600], b[600], ck[700], out[300], err[512];
+    int r;
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    snprintf(out, sizeof out, TMP "/files.safetensors");
+    /* the VAE only as the fp16 variant diffusion_pytorch_model.fp16.safetensors: converts */
+    snprintf(dst, sizeof dst, TMP "/base_fp16");
+    tc_make_base(base, dst, "vae/diffusion_pytorch_model.safetensors");
+    snprintf(a, sizeof a, "%s/vae/diffusion_pytorch_model.safetensors", base);
+    snprintf(b, sizeof b, "%s/vae/diffusion_pytorch_model.fp16.safetensors", dst);
+    tc_copy(a, b);
+    tc_track(b);
+    remove(out);
+    r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r == 0, "VAE as diffusion_pytorch_model.fp16.safetensors only: %s", err);
+    tc_track(out);
+    /* both: the full-precision non-variant file is the one read (the variant here is not even a model) */
+    snprintf(b, sizeof b, "%s/vae/diffusion_pytorch_model.fp16.safetensors", dst);
+    tc_write_text(b, "not a model");
+    snprintf(b, sizeof b, "%s/vae/diffusion_pytorch_model.safetensors", dst);
+    tc_copy(a, b);
+    tc_track(b);
+    remove(out);
+    r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r == 0, "non-variant preferred over the fp16 variant: %s", err);
+    /* none: the message lists every name tried */
+    remove(b);
+    snprintf(b, sizeof b, "%s/vae/diffusion_pytorch_model.fp16.safetensors", dst);
+    remove(b);
+    remove(out);
+    r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r != 0 && strstr(err, "diffusion_pytorch_model.safetensors") && strstr(err, "diffusion_pytorch_model.bin") &&
+             strstr(err, "diffusion_pytorch_model.fp16.safetensors") && strstr(err, "diffusion_pytorch_model.fp16.bin"),
+             "no VAE weights: r=%d '%s'", r, err);
+    /* a Git LFS pointer where the weights should be, and as the checkpoint */
+    snprintf(b, sizeof b, "%s/vae/diffusion_pytorch_model.safetensors", dst);
+    tc_write_text(b, "version https://git-lfs.github.com/spec/v1\noid sha256:0123\nsize 334643276\n");
+    r = tc_convert("supermat", ck, dst, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r != 0 && strstr(err, "Git LFS pointer") && strstr(err, "diffusion_pytorch_model.safetensors"), "LFS VAE: r=%d '%s'", r, err);
+    snprintf(b, sizeof b, TMP "/lfs.pth");
+    tc_write_text(b, "version https://git-lfs.github.com/spec/v1\noid sha256:0123\nsize 3455\n");
+    r = tc_convert("supermat", b, base, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r != 0 && strstr(err, "Git LFS pointer") && strstr(err, "lfs.pth"), "LFS checkpoint: r=%d '%s'", r, err);
+    /* a single-file checkpoint given as --base */
+    snprintf(b, sizeof b, TMP "/v2-1_768-ema-pruned.safetensors");
+    tc_write_text(b, "x");
+    r = tc_convert("supermat", ck, b, out, SUPERMAT_DTYPE_DEFAULT, err, sizeof err);
+    TU_CHECK(r != 0 && strstr(err, "single-file checkpoint") && strstr(err, "diffusers layout"), "--base a file: r=%d '%s'", r, err);
+    TU_CHECK(!tc_exists(out), "a failed conversion left %s", out);
+}
+
 static void test_tokenizer(const char *base) {
     char dst[300], p[400], err[512];
     float *c0 = NULL, *c = NULL;
@@ -1204,6 +1256,8 @@ int main(int argc, char **argv) {
     test_tokenizer(base);
     printf("scheduler\n");
     test_scheduler(dir, base);
+    printf("base folder files\n");
+    test_base_files(dir, base);
     printf("conversions\n");
     for (k = 0; k < 3; k++) {
         double secs;

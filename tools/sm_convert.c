@@ -37,6 +37,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 
 #if !defined(SM_CONVERT_NO_PTHREADS) && (defined(__unix__) || defined(__APPLE__))
@@ -1729,20 +1730,48 @@ static int sm__token_ids(const char *base, int vocab, int *bos, int *eos, int *p
     return r;
 }
 
+/* A Git LFS pointer instead of the file (a clone without `git lfs pull`): a small text file starting so */
+static int sm__lfs_pointer(const char *path, char *err, size_t cap) {
+    char b[64];
+    size_t n;
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    n = fread(b, 1, sizeof b - 1, f);
+    fclose(f);
+    b[n] = 0;
+    if (n >= 20 && !strncmp(b, "version https://git-lfs", 23)) {
+        sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%s is a Git LFS pointer, not the weights: fetch the file itself (`git lfs pull` in that repository)", path);
+        return 1;
+    }
+    return 0;
+}
+
+/* The first of `names` that exists under base/dir (diffusers' preference: full-precision non-variant
+   files first, safetensors before .bin, then the fp16 variants); says which on stderr. When none exists,
+   the message lists every name tried. */
 static int sm__open_weights(const char *base, const char *dir, const char *const *names, int skip_unsupported, sm_pth **out,
                             char *path, size_t path_cap, char *err, size_t cap) {
     int k;
+    char tried[600];
+    size_t t = 0;
+    *out = NULL;
+    tried[0] = 0;
     for (k = 0; names[k]; k++) {
         snprintf(path, path_cap, "%s/%s/%s", base, dir, names[k]);
-        if (sm__file_exists(path)) return sm__pth_open(path, NULL, 0, skip_unsupported, out, err, cap);
+        if (sm__file_exists(path)) {
+            if (sm__lfs_pointer(path, err, cap)) return SUPERMAT_ERROR_MALFORMED_FILE;
+            fprintf(stderr, "sm_convert: %s: %s\n", dir, path);
+            return sm__pth_open(path, NULL, 0, skip_unsupported, out, err, cap);
+        }
+        if (k && t < sizeof tried) t += (size_t)snprintf(tried + t, sizeof tried - t, "%s%s", k > 1 ? ", " : "", names[k]);
     }
+    tried[t < sizeof tried ? t : sizeof tried - 1] = 0;
     snprintf(path, path_cap, "%s/%s/%s", base, dir, names[0]);
-    *out = NULL;
-    return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: missing (cannot open)", path);
+    return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: missing (cannot open; also tried %s in that folder)", path, tried);
 }
 
 int sm_text_encode_empty(const char *base, int threads, int progress, float **out, int *tokens_out, int *dim_out, char *err, size_t cap) {
-    static const char *const files[] = {"model.safetensors", "model.fp16.safetensors", "pytorch_model.bin", NULL};
+    static const char *const files[] = {"model.safetensors", "pytorch_model.bin", "model.fp16.safetensors", "pytorch_model.fp16.bin", NULL};
     sm__json cfg;
     sm_pth *p = NULL;
     char path[600], name[160], act_s[64];
@@ -2263,7 +2292,8 @@ static int sm__sort_by_offset(sm_pth *p) {
 }
 
 int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
-    static const char *const vae_files[] = {"diffusion_pytorch_model.safetensors", "diffusion_pytorch_model.fp16.safetensors", "diffusion_pytorch_model.bin", NULL};
+    static const char *const vae_files[] = {"diffusion_pytorch_model.safetensors", "diffusion_pytorch_model.bin",
+                                            "diffusion_pytorch_model.fp16.safetensors", "diffusion_pytorch_model.fp16.bin", NULL};
     sm_pth *ck = NULL, *vae = NULL;
     sm__json uc, vc, sc;
     sm__metas *ms = NULL;
@@ -2286,7 +2316,18 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     ms = (sm__metas *)calloc(1, sizeof *ms);
     if (!ms) return sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory");
 
+    /* the base folder: a diffusers folder, not a single-file Stable Diffusion checkpoint */
+    {
+        struct stat st;
+        size_t bl = strlen(d->base_dir);
+        if (stat(d->base_dir, &st) == 0 && !S_ISDIR(st.st_mode)) {
+            free(ms);
+            return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s is a file%s; --base takes the Stable Diffusion 2.1 folder in diffusers layout (unet/config.json, vae/, text_encoder/, tokenizer/, scheduler/), as in the repository stabilityai/stable-diffusion-2-1",
+                           d->base_dir, bl > 12 && (!strcmp(d->base_dir + bl - 12, ".safetensors") || !strcmp(d->base_dir + bl - 5, ".ckpt")) ? " (a single-file checkpoint)" : "");
+        }
+    }
     /* the checkpoint */
+    if (sm__lfs_pointer(d->checkpoint, err, cap)) { free(ms); return SUPERMAT_ERROR_MALFORMED_FILE; }
     if (d->progress) fprintf(stderr, "sm_convert: reading %s\n", d->checkpoint);
     r = sm_pth_open(d->checkpoint, &ck, err, cap);
     if (r) goto done;
