@@ -2030,6 +2030,42 @@ done:
     return r;
 }
 
+
+/* The written file through the runtime's own loader before it is renamed into place: every tensor the
+   architecture needs is there with its shape (today's check of the complete key set). The official
+   code loads the Stable Diffusion UNet first and the checkpoint over it with strict=False, so a key
+   the checkpoint lacks silently keeps the base weight there; supermat refuses instead, naming the key. */
+static int sm__validate_output(const char *path, char *err, size_t cap) {
+    FILE *f = fopen(path, "rb");
+    unsigned char *buf = NULL;
+    long n = -1;
+    int r = 0;
+    supermat_model_desc md;
+    supermat_model *m = NULL;
+    supermat_error e;
+    if (f && fseek(f, 0, SEEK_END) == 0) n = ftell(f);
+    if (f && n > 0 && fseek(f, 0, SEEK_SET) == 0 && (buf = (unsigned char *)malloc((size_t)n)) != NULL &&
+        fread(buf, 1, (size_t)n, f) == (size_t)n) {
+        memset(&md, 0, sizeof md);
+        md.data = buf;
+        md.size = (size_t)n;
+        r = supermat_model_create(&md, &m, &e);
+        if (r == SUPERMAT_ERROR_MISSING_TENSOR && !strncmp(e.tensor, "unet.", 5))
+            r = sm__err(err, cap, r, "the checkpoint lacks '%s' (%s). The official code would keep the base UNet's weight there "
+                        "(load_state_dict strict=False); supermat refuses: give a complete checkpoint", e.tensor + 5, e.message);
+        else if (r == SUPERMAT_ERROR_MISSING_TENSOR && !strncmp(e.tensor, "vae.", 4))
+            r = sm__err(err, cap, r, "the base folder's VAE lacks '%s' (%s)", e.tensor + 4, e.message);
+        else if (r)
+            r = sm__err(err, cap, r, "the converted model does not load: %s%s%s", e.message, e.tensor[0] ? " -- tensor " : "", e.tensor);
+        if (m) supermat_model_destroy(m);
+    } else {
+        r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: cannot read back the written file", path);
+    }
+    free(buf);
+    if (f) fclose(f);
+    return r;
+}
+
 static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__otensor *ot, int nt, sm_pth *ck, sm_pth *vae, const float *ctx,
                            int progress, char *err, size_t cap) {
     sm__sbuf hb;
@@ -2084,6 +2120,7 @@ static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__o
     if (!r && (fflush(f) != 0 || ferror(f))) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", tmp);
     if (fclose(f) != 0 && !r) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", tmp);
     f = NULL;
+    if (!r) r = sm__validate_output(tmp, err, cap);
     if (!r) {
 #ifdef _WIN32
         remove(outpath);
