@@ -1150,6 +1150,20 @@ static void test_tokenizer(const char *base) {
     TU_CHECK(r == 0 && c0 && c && !memcmp(c, c0, sizeof(float) * (size_t)t * d), "tokenizer/ with the SD 2.1 ids: %s", r ? err : "different context");
     free(c);
     c = NULL;
+    /* the Stable Diffusion 2.1 repository's own conflict: special_tokens_map.json says pad "!", its
+       tokenizer_config.json says pad "<|endoftext|>"; transformers lets special_tokens_map.json win */
+    {
+        char q[400];
+        snprintf(q, sizeof q, "%s/tokenizer/tokenizer_config.json", dst);
+        tc_write_text(q, "{\"bos_token\": {\"content\": \"<|startoftext|>\"}, \"eos_token\": {\"content\": \"<|endoftext|>\"}, "
+                         "\"pad_token\": \"<|endoftext|>\", \"model_max_length\": 77}");
+        r = sm_text_encode_empty(dst, 1, 0, &c, &t, &d, err, sizeof err);
+        TU_CHECK(r == 0 && c0 && c && !memcmp(c, c0, sizeof(float) * (size_t)t * d),
+                 "pad '!' in special_tokens_map.json over '<|endoftext|>' in tokenizer_config.json: %s", r ? err : "the eos-padded context");
+        free(c);
+        c = NULL;
+        remove(q);
+    }
     /* pad = eos (the Stable Diffusion 1.x tokenizer): a different context */
     tc_write_text(p, "{\"bos_token\": \"<|startoftext|>\", \"eos_token\": \"<|endoftext|>\", \"pad_token\": \"<|endoftext|>\"}");
     r = sm_text_encode_empty(dst, 1, 0, &c, &t, &d, err, sizeof err);
