@@ -1,0 +1,60 @@
+/* tools/cli/convert.c - `supermat convert`.
+ * Part of the `supermat` CLI: included by tools/cli/main.c (one translation unit), not compiled alone. */
+
+/* >>convert */
+static int cli_convert(int argc, char **argv) {
+    const char *cmd = "convert", *v;
+    sm_convert_desc d;
+    char err[1024];
+    int i, m, r;
+    struct stat st;
+    memset(&d, 0, sizeof d);
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_convert, stdout); return CLI_OK; }
+        if ((m = cli_opt(cmd, argc, argv, &i, "--kind", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (strcmp(v, "supermat") && strcmp(v, "supermat-mv") && strcmp(v, "uv-refine"))
+                return cli_usage_error(cmd, "--kind: '%s' is not supermat, supermat-mv or uv-refine", v);
+            d.kind = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--unet", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.checkpoint = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--base", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.base_dir = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            d.output = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0 || (m = cli_opt(cmd, argc, argv, &i, "--precision", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
+            else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
+            else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
+            else if (!strcmp(v, "int8") || !strcmp(v, "i8")) d.dtype = SUPERMAT_DTYPE_I8;
+            else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16, bf16 or int8", v);
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
+            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
+        } else if (a[0] == '-') {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            return cli_usage_error(cmd, "unexpected argument '%s'", a);
+        }
+    }
+    if (!d.checkpoint) return cli_usage_error(cmd, "--unet FILE.pth is required");
+    if (!d.base_dir) return cli_usage_error(cmd, "--base DIR is required");
+    if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
+    d.progress = isatty(2);
+    switch (cli_out_allowed(d.output)) {       /* the overwrite policy (sm_convert writes OUT.tmp, renames) */
+    case CLI_FAIL: return CLI_FAIL;
+    case CLI_SKIPPED: fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", d.output); return CLI_OK;
+    default: break;
+    }
+    r = sm_convert(&d, err, sizeof err);
+    if (r != 0) {
+        cli_error("convert: %s [%s]", err[0] ? err : "failed", supermat_result_string((supermat_result)r));
+        return CLI_FAIL;
+    }
+    if (stat(d.output, &st) == 0) printf("wrote %s (%.1f MiB)\n", d.output, cli_mib((double)st.st_size));
+    return CLI_OK;
+}
