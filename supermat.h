@@ -120,6 +120,8 @@
  *   sched.num_train_timesteps, sched.beta_start, sched.beta_end, sched.beta_schedule,
  *   sched.prediction_type, sched.steps_offset, sched.set_alpha_to_one, sched.timestep_spacing,
  *   context.tokens, context.dim. `supermat convert` writes them from the official files.
+ *   Optional, not read by the library: pipeline.work_size, the square size the official scripts resize
+ *   pictures to (512; UV refine 1024; 0 = none), which the CLI uses as its default work_width/height.
  *
  * INT8 WEIGHTS (`supermat convert --precision int8`, or any file with `weights = SUPERMAT_WEIGHTS_I8`)
  *   A weight W [rows][cin] or [rows][cin][kh][kw] stored as I8 q comes with the F32 tensor

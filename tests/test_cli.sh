@@ -114,7 +114,7 @@ for c in convert image views refine info bench sheet; do
     check "$c --help prints usage" grep -q "usage: supermat $c" "$T/out"
 done
 run image --help
-check "image --help says images are not resized" grep -q 'NOT resized' "$T/out"
+check "image --help states the preprocessing (work size, --native)" grep -q 'resized to the model.s work size' "$T/out"
 check "image --help says multiples of 8" grep -q 'multiples of 8' "$T/out"
 check "image --help: the default model's search order" grep -q 'SUPERMAT_MODEL' "$T/out"
 check "image --help: the installed default model" grep -q 'share/supermat/supermat_default.safetensors' "$T/out"
@@ -140,7 +140,9 @@ run convert --unet x.pth --base x --out y --dtype f8
 check "convert bad --dtype exits 2" [ $RC -eq 2 ]
 
 # ---- convert ----------------------------------------------------------------------------------
-run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL"
+# the models most checks use record no work size (--work-size native): the pictures run at their own
+# size, as the goldens were made; the preprocessing section below uses one with the official 512
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL" --work-size native
 check "convert exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
 check "convert writes the model" [ -s "$MODEL" ]
@@ -153,6 +155,34 @@ run convert --unet "$T/missing.pth" --base "$DATA/tiny/base" --out "$T/never.saf
 check "convert of a missing checkpoint exits 1" [ $RC -eq 1 ]
 check "convert error names the file" grep -q 'missing.pth' "$T/err"
 absent "$T/never.safetensors"
+
+# ---- preprocessing: the official square work size by default (pipeline.work_size) --------------
+F16=$T/tiny_f16.safetensors   # converted above without --work-size: the official 512
+run info "$F16"
+check "info: a converted model records the official work size 512" grep -Eq '^work size +512x512' "$T/out"
+run info "$MODEL"
+check "info: --work-size native records none" grep -Eq '^work size +none' "$T/out"
+run image --model "$F16" --out "$T/pre_default" --float "$SPHERE"
+check "image at the model's work size exits 0" [ $RC -eq 0 ]
+check_png "$T/pre_default/sphere_64_albedo.png" 64 64 2
+run image --model "$F16" --out "$T/pre_512" --float --work-size 512 "$SPHERE"
+check "image: the default is the 512 work size" cmp -s "$T/pre_default/sphere_64_albedo.pfm" "$T/pre_512/sphere_64_albedo.pfm"
+run image --model "$F16" --out "$T/pre_native" --float --native "$SPHERE"
+check "image --native exits 0" [ $RC -eq 0 ]
+check "image --native: other maps than at 512" bash -c "! cmp -s '$T/pre_default/sphere_64_albedo.pfm' '$T/pre_native/sphere_64_albedo.pfm'"
+run image --model "$MODEL" --out "$T/pre_none" --float "$SPHERE"
+run image --model "$MODEL" --out "$T/pre_none_native" --float --native "$SPHERE"
+check "image with a model recording no work size: the picture's own size (= --native)" cmp -s "$T/pre_none/sphere_64_albedo.pfm" "$T/pre_none_native/sphere_64_albedo.pfm"
+run image --model "$MODEL" --out "$T/pre_none_512" --float --work-size 512 "$SPHERE"
+check "image --work-size 512 with that model: other maps" bash -c "! cmp -s '$T/pre_none/sphere_64_albedo.pfm' '$T/pre_none_512/sphere_64_albedo.pfm'"
+run image --model "$F16" --out "$T/pre_bad" --work-size 100 "$SPHERE"
+check "image --work-size 100 exits 2" [ $RC -eq 2 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_ws128.safetensors" --work-size 128
+check "convert --work-size 128 exits 0" [ $RC -eq 0 ]
+run info "$T/tiny_ws128.safetensors"
+check "info: --work-size 128 recorded" grep -Eq '^work size +128x128' "$T/out"
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --work-size 100
+check "convert --work-size 100 exits 2" [ $RC -eq 2 ]
 
 # ---- --weights (GEMM weight storage) ----------------------------------------------------------
 run info --weights int8 "$MODEL"
@@ -489,10 +519,10 @@ MV=$T/tiny_mv.safetensors
 UV=$T/tiny_uv.safetensors
 MVIMG=$DATA/img/mv
 UVIMG=$DATA/img/uv
-run convert --kind supermat-mv --unet "$DATA/tiny/supermat_mv.pth" --base "$DATA/tiny/base" --out "$MV"
+run convert --kind supermat-mv --unet "$DATA/tiny/supermat_mv.pth" --base "$DATA/tiny/base" --out "$MV" --work-size native
 check "convert supermat-mv exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
-run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$UV"
+run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$UV" --work-size native
 check "convert uv-refine exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
 

@@ -472,7 +472,7 @@ def read_map(out_dir, stem, name):
 def run_model(supermat, model, inputs, out_dir, threads):
     """Maps of every input (stem -> paths) by `supermat image`."""
     os.makedirs(out_dir, exist_ok=True)
-    cmd = [supermat, "image", "--force", "--model", model, "--out", out_dir, "--float", "--threads", str(threads)]
+    cmd = [supermat, "image", "--force", "--native", "--model", model, "--out", out_dir, "--float", "--threads", str(threads)]
     subprocess.run(cmd + list(inputs.values()), check=True, stdout=subprocess.DEVNULL)
     return {stem: {name: read_map(out_dir, stem, name) for name in MAPS} for stem in inputs}
 

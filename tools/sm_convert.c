@@ -2375,6 +2375,11 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     sm__meta_add(ms, "supermat.format_version", "1");
     sm__meta_add(ms, "supermat.kind", "%s", sm__kind_names[kind]);
     sm__meta_add(ms, "supermat.source", "%s", sm__basename(d->checkpoint));
+    if (d->work_size > 0 && (d->work_size % 8 || d->work_size > 16384)) {
+        r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384", d->work_size);
+        goto done;
+    }
+    sm__meta_add(ms, "pipeline.work_size", "%d", d->work_size < 0 ? 0 : d->work_size ? d->work_size : kind == SM__KIND_UV ? 1024 : 512);
 
     /* UNet config, checked against the checkpoint */
     r = sm__json_load(&uc, d->base_dir, "unet/config.json", 0, err, cap);

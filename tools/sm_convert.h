@@ -52,6 +52,11 @@ typedef struct sm_convert_desc {
                                `context` is always F32. */
     int progress;           /* nonzero: progress lines on stderr */
     int threads;            /* text encoder threads: 0 = 2, 1 = the calling thread only */
+    int work_size;          /* metadata pipeline.work_size, the square size the official scripts resize a
+                               picture to before the network (the CLI's default): 0 = the official one
+                               for the kind (supermat, supermat-mv 512; uv-refine 1024), -1 = none:
+                               0 is recorded, the CLI runs each picture at its own size, else N (a
+                               multiple of 8, e.g. 128 for a model trained at 128x128) */
 } sm_convert_desc;
 
 /* Converts. 0 on success, else a negative supermat_result and a message in err. Output tensors: the

@@ -50,5 +50,5 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/nul
 cmake --build build -j"$THREADS" --target supermat
 mkdir -p models
 build/supermat convert --force --kind supermat --unet "$WORK/run/release/supermat.pth" --base "$WORK/run/release/base" \
-    --precision f16 --out models/supermat_default.safetensors
+    --precision f16 --work-size 128 --out models/supermat_default.safetensors
 build/supermat info models/supermat_default.safetensors

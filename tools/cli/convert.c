@@ -35,6 +35,11 @@ static int cli_convert(int argc, char **argv) {
             else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16, bf16 or int8", v);
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--work-size", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            if (!strcmp(v, "native")) d.work_size = -1;
+            else if (cli_parse_int(cmd, "--work-size", v, 8, 16384, &d.work_size)) return CLI_USAGE;
+            else if (d.work_size % 8) return cli_usage_error(cmd, "--work-size %d: a multiple of 8", d.work_size);
         } else if (a[0] == '-') {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else {

@@ -99,6 +99,11 @@ static int cli_info(int argc, char **argv) {
         return CLI_FAIL;
     }
     supermat_model_get_info(model, &mi);
+    {
+        int ws = cli_work_size(file, size, model, -1);
+        if (ws) printf("work size     %dx%d: image, views and refine resize pictures to it by default, as the official scripts do (--native: their own size)\n", ws, ws);
+        else printf("work size     none: image, views and refine run each picture at its own size\n");
+    }
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
     {
         static const char *wn[] = {"default", "f32", "f16", "bf16", "int8"};

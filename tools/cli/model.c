@@ -124,3 +124,40 @@ static int cli_model_path(const char *cmd, const char *given, int allow_default,
     fprintf(stderr, "Give --model FILE (a model file made by `supermat convert`) or set SUPERMAT_MODEL to one.\n");
     return CLI_FAIL;
 }
+
+/* The network size of image, views and refine. The official scripts resize every picture to a square
+   (512x512, UV maps 1024x1024; Pillow bilinear, aspect squashed) before the network: the CLI does the
+   same by default through the library's work_width/height (maps come back at the picture's size), at the
+   size the model file records (pipeline.work_size: 512 from `supermat convert`, 128 for the default
+   model trained at 128x128, 0 = none), the official one for a file that records none.
+   --native runs each picture at its own size, --work-size N at N x N. */
+static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt) {
+    const char *v;
+    int m;
+    if (!strcmp(argv[*i], "--native")) { *opt = 0; return 1; }
+    if ((m = cli_opt(cmd, argc, argv, i, "--work-size", &v)) != 0) {
+        if (m < 0 || cli_parse_int(cmd, "--work-size", v, 8, 16384, opt)) return -1;
+        if (*opt % 8) { cli_usage_error(cmd, "--work-size %d: a multiple of 8", *opt); return -1; }
+        return 1;
+    }
+    return 0;
+}
+
+/* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */
+static int cli_work_size(const unsigned char *file, size_t size, const supermat_model *model, int opt) {
+    char v[32];
+    supermat_model_info mi;
+    if (opt >= 0) return opt;
+    if (supermat_safetensors_metadata(file, size, "pipeline.work_size", v, sizeof v) == 0) {
+        int n = atoi(v);
+        return n >= 8 && n % 8 == 0 && n <= 16384 ? n : 0;
+    }
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    return mi.kind == SUPERMAT_KIND_UV_REFINE ? 1024 : 512;
+}
+
+/* sets the session's work size for a w x h picture (nothing when it is the picture's own size) */
+static void cli_set_work(supermat_session_desc *sd, int ws, int w, int h) {
+    if (ws > 0 && (ws != w || ws != h)) { sd->work_width = ws; sd->work_height = ws; }
+}

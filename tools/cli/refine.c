@@ -20,7 +20,7 @@ static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
 static int cli_refine(int argc, char **argv) {
     const char *cmd = "refine", *v, *model_arg = NULL, *model_path, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
     static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
-    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0;
+    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, work_opt = -1, ws = 0;
     cli_model_ref mref;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     char *stem = NULL;
@@ -49,6 +49,8 @@ static int cli_refine(int argc, char **argv) {
             out_dir = v;
         } else if (!strcmp(a, "--float")) {
             want_float = 1;
+        } else if ((m = cli_work_opt(cmd, argc, argv, &i, &work_opt)) != 0) {
+            if (m < 0) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
@@ -86,12 +88,14 @@ static int cli_refine(int argc, char **argv) {
     }
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_UV_REFINE);
+    if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
         supermat_session_desc sd;
         supermat_error err;
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
+        cli_set_work(&sd, ws, w, h);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char msg[64];

@@ -195,7 +195,7 @@ static int cli_views(int argc, char **argv) {
     const char *cmd = "views", *v, *model_arg = NULL, *model_path, *cam_path = NULL, *out_dir = NULL;
     cli_model_ref mref;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
-    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0;
+    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0, work_opt = -1, ws = 0;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     const char **imgs;
     char **stems = NULL;
@@ -228,6 +228,8 @@ static int cli_views(int argc, char **argv) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
         } else if (!strcmp(a, "--float")) {
             want_float = 1;
+        } else if ((m = cli_work_opt(cmd, argc, argv, &i, &work_opt)) != 0) {
+            if (m < 0) { free(imgs); return CLI_USAGE; }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
@@ -286,6 +288,7 @@ static int cli_views(int argc, char **argv) {
 
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT_MV);
+    if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
         supermat_model_info mi;
         memset(&mi, 0, sizeof mi);
@@ -301,6 +304,7 @@ static int cli_views(int argc, char **argv) {
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nimg; sd.threads = threads;
+        cli_set_work(&sd, ws, w, h);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[64];
