@@ -661,6 +661,14 @@ run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --
 check "refine exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
 check_png "$OU/uv_bc_refined.png" 128 128 2
+# at another work size (views and refine): the maps come back at the input's size, and differ
+run refine --model "$UV" --map "$UVIMG/uv_bc.png" --mask "$UVIMG/uv_mask.png" --position "$UVIMG/uv_position.png" --out "$T/refine_ws" --work-size 64
+check "refine --work-size 64 exits 0" [ $RC -eq 0 ]
+check_png "$T/refine_ws/uv_bc_refined.png" 128 128 2
+check "refine --work-size 64: other maps than at the native 128" bash -c "! cmp -s '$OU/uv_bc_refined.png' '$T/refine_ws/uv_bc_refined.png'"
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_ws" --work-size 32 "$MVIMG/color_0000.png" "$MVIMG/color_0001.png"
+check "views --work-size 32 exits 0" [ $RC -eq 0 ]
+check_png "$T/views_ws/color_0000_albedo.png" 64 64 2
 check_pfm "$OU/uv_bc_refined.pfm" 128 128 3
 check "refine: 2 files" [ "$(find "$OU" -type f | wc -l)" -eq 2 ]
 golden "refined vs golden uv_128/uv_refined.npy" "$DATA/golden/uv_128/uv_refined.npy" "$OU/uv_bc_refined.pfm"
