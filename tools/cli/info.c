@@ -12,7 +12,7 @@ static void cli_print_count(const char *label, uint64_t n) {
 }
 
 static int cli_info(int argc, char **argv) {
-    const char *cmd = "info", *v, *path = NULL;
+    const char *cmd = "info", *path = NULL;
     int i, m, threads = 0, ntens = 0, counts[SUPERMAT_DTYPE_COUNT];
     uint64_t bytes_by[SUPERMAT_DTYPE_COUNT], tensor_bytes = 0;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
@@ -29,12 +29,8 @@ static int cli_info(int argc, char **argv) {
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); cli_print_default_model_help(); return CLI_OK; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
-            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
-            if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
+        if ((m = cli_run_opt(cmd, argc, argv, &i, NULL, NULL, &threads, &kernel)) != 0) {
+            if (m < 0) return CLI_USAGE;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else if (path) {

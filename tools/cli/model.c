@@ -143,6 +143,22 @@ static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt
     return 0;
 }
 
+/* The options of the commands that run a model (image, views, refine; info takes the last three):
+   --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights.
+   1 when argv[*i] was one of them, -1 on a usage error (said), 0 when it is none of them. */
+static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want_float, int *work_opt, int *threads,
+                       supermat_kernel *kernel) {
+    const char *v;
+    int m;
+    if (want_float && !strcmp(argv[*i], "--float")) { *want_float = 1; return 1; }
+    if (work_opt && (m = cli_work_opt(cmd, argc, argv, i, work_opt)) != 0) return m;
+    if ((m = cli_opt(cmd, argc, argv, i, "--threads", &v)) != 0)
+        return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
+    return 0;
+}
+
 /* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */
 static int cli_work_size(const unsigned char *file, size_t size, const supermat_model *model, int opt) {
     char v[32];

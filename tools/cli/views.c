@@ -226,16 +226,8 @@ static int cli_views(int argc, char **argv) {
             out_dir = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
-        } else if (!strcmp(a, "--float")) {
-            want_float = 1;
-        } else if ((m = cli_work_opt(cmd, argc, argv, &i, &work_opt)) != 0) {
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &threads)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
-            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
-            if (m < 0 || cli_parse_weights(cmd, v)) { free(imgs); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(imgs);
             return cli_usage_error(cmd, "unknown option '%s'", a);
