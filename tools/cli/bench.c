@@ -1075,10 +1075,7 @@ static int cli_bench(int argc, char **argv) {
     model_path = mref.path;
     memset(&mi, 0, sizeof mi);
     memset(&fl, 0, sizeof fl);
-    if (json_path && cli_out_allowed(json_path) != CLI_OK) { /* the report would be refused: before measuring */
-        if (cli_policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", json_path);
-        return CLI_FAIL;
-    }
+    if (json_path && cli_report_allowed(json_path) != CLI_OK) return CLI_FAIL; /* before measuring */
 
     /* one pool for everything: the FMA peak, the session and the GEMM */
 #if SUPERMAT__HAS_PTHREADS

@@ -253,12 +253,17 @@ typedef struct cli_mem {
     size_t len;
 } cli_mem;
 
+/* may a report (a file the work produces, not an input's output) be written at path? CLI_OK or CLI_FAIL
+   with the message; --skip-existing does not apply to a report: it refuses */
+static int cli_report_allowed(const char *path) {
+    if (cli_out_allowed(path) == CLI_OK) return CLI_OK;
+    if (cli_policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", path);
+    return CLI_FAIL;
+}
+
 static FILE *cli_mem_open(cli_mem *m, const char *path) {
     memset(m, 0, sizeof *m);
-    if (cli_out_allowed(path) != CLI_OK) { /* refused; --skip-existing does not apply to a report */
-        if (cli_policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", path);
-        return NULL;
-    }
+    if (cli_report_allowed(path) != CLI_OK) return NULL;
     m->f = open_memstream(&m->buf, &m->len);
     if (!m->f) cli_error("out of memory");
     return m->f;
