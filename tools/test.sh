@@ -13,6 +13,16 @@ if [ ${#need[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq "${need[@]}" >/dev/null
 fi
+# node + the Khronos glTF-Validator (npm) check every glTF `supermat mesh` writes (ctest uv_gltf_corpus)
+if ! command -v npm >/dev/null 2>&1; then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq nodejs npm >/dev/null
+fi
+if [ ! -f build-npm/node_modules/gltf-validator/package.json ]; then
+  mkdir -p build-npm
+  npm install --prefix build-npm --no-audit --no-fund --loglevel=error gltf-validator@2.0.0-dev.3.10 >/dev/null
+fi
 jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== gcc, Release, -Werror"

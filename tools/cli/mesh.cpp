@@ -4,11 +4,17 @@
  *                 [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
  *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]
  *
- * Reads the first mesh of IN (.gltf or .glb) with its node transform (the first node instancing it),
- * every triangle primitive with its material's baseColor texture (texCoord, sampler wrap, factor),
- * converts glTF's Y-up frame to supermat_uv.h's Z-up one ((x, y, z) -> (x, -z, y)), bakes one pair of
- * textures per material and writes OUT: the same asset whose materials of that mesh point at the new
- * baseColor (sRGB PNG) and metallicRoughness (G roughness, B metallic) textures, with factors 1.
+ * Reads IN (.gltf or .glb) and bakes every mesh its default scene shows (each at the world transform of
+ * the first node instancing it; glTF's Y-up frame becomes supermat_uv.h's Z-up one, (x, y, z) -> (x, -z, y)):
+ * every triangle primitive with its material's baseColor (factor, texture, sampler wrap, texCoord and
+ * KHR_texture_transform, which the new textures keep). One pair of textures per material: baseColor (sRGB
+ * PNG, with the source texture's alpha when alphaMode is MASK or BLEND) and metallicRoughness (G roughness,
+ * B metallic), factors 1. A material that a primitive left unbaked (points, lines, a mesh outside the
+ * scene) also uses is baked into a copy. A texture slot only that material used is reused, so that a re-run
+ * on its own output keeps the same images. OUT keeps every other property as it is. A .glb OUT holds
+ * everything in its binary chunk; a .gltf OUT keeps embedded images embedded (and all of it embedded when
+ * IN was), copies referenced files beside it (sub-folders and %-encoded names as they were, files outside
+ * IN's folder renamed) and names buffers OUT.bin. asset.generator says supermat.
  * --debug-dir writes view_K.png, pred_albedo_K.png, pred_rm_K.png, partial_albedo.png,
  * partial_rm.png, mask.png, position.png (suffix _M for the M-th material after the first).
  *
@@ -23,6 +29,7 @@
 #include "supermat_uv.h"
 
 #include <tiny_gltf.h>
+#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #include <dirent.h>
@@ -31,6 +38,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -75,16 +83,6 @@ Mat4 node_local(const tinygltf::Node &n) {
     }
     if (n.scale.size() == 3) { s.m[0] = n.scale[0]; s.m[5] = n.scale[1]; s.m[10] = n.scale[2]; }
     return t * q * s;
-}
-
-/* the world matrix of the first node (depth first from the scene roots) instancing mesh `mesh` */
-bool find_mesh_node(const tinygltf::Model &m, int node, const Mat4 &parent, int mesh, Mat4 *out, int depth) {
-    if (node < 0 || node >= (int)m.nodes.size() || depth > 64) return false;
-    Mat4 w = parent * node_local(m.nodes[node]);
-    if (m.nodes[node].mesh == mesh) { *out = w; return true; }
-    for (int c : m.nodes[node].children)
-        if (find_mesh_node(m, c, w, mesh, out, depth + 1)) return true;
-    return false;
 }
 
 /* element i, component k of an accessor as a float (normalised integers mapped to [0,1] / [-1,1]) */
@@ -135,12 +133,110 @@ supermat_uv_wrap wrap_of(int gl) {
 struct Prim {
     std::vector<float> pos, uv, nrm;
     std::vector<uint32_t> idx;
-    std::vector<unsigned char> tex; /* 8-bit */
-    int tw = 0, th = 0, tch = 0;
-    float factor[4] = {1, 1, 1, 1};
-    supermat_uv_wrap wu = SUPERMAT_UV_WRAP_REPEAT, wv = SUPERMAT_UV_WRAP_REPEAT;
-    int material = -1, texcoord = 0, sampler = -1, output = 0;
+    int material = -1, output = 0;
 };
+
+/* what one baked material needs: its base colour (factor, texture pixels, sampler, UV set and
+   KHR_texture_transform) and whether its alpha is kept */
+struct MatIn {
+    int material = -1;                   /* in the output model (a clone when the original is shared) */
+    float factor[4] = {1, 1, 1, 1};
+    std::vector<unsigned char> tex;      /* 8-bit, tw x th x tch; empty = the factor alone */
+    int tw = 0, th = 0, tch = 0;
+    supermat_uv_wrap wu = SUPERMAT_UV_WRAP_REPEAT, wv = SUPERMAT_UV_WRAP_REPEAT;
+    int sampler = -1, texcoord = 0;
+    bool has_xf = false;                 /* KHR_texture_transform on the base colour */
+    double xf[6] = {1, 0, 0, 0, 1, 0};   /* u' = xf0 u + xf1 v + xf2, v' = xf3 u + xf4 v + xf5 */
+    tinygltf::Value xf_ext;              /* the extension object, put on the new textures too */
+    bool alpha = false;                  /* MASK / BLEND with an alpha channel: kept in the baked texture */
+};
+
+/* KHR_texture_transform of a textureInfo: false when absent; *err when malformed */
+bool texture_transform(const tinygltf::ExtensionMap &ext, MatIn *m, std::string *err) {
+    auto it = ext.find("KHR_texture_transform");
+    if (it == ext.end()) return false;
+    const tinygltf::Value &v = it->second;
+    if (!v.IsObject()) { *err = "KHR_texture_transform is not an object"; return false; }
+    double off[2] = {0, 0}, sc[2] = {1, 1}, rot = 0;
+    for (int k = 0; k < 2; k++) {
+        const char *name = k ? "scale" : "offset";
+        if (!v.Has(name)) continue;
+        const tinygltf::Value &a = v.Get(name);
+        if (!a.IsArray() || a.ArrayLen() != 2 || !a.Get(0).IsNumber() || !a.Get(1).IsNumber()) {
+            *err = std::string("KHR_texture_transform.") + name + " is not two numbers";
+            return false;
+        }
+        double *d = k ? sc : off;
+        d[0] = a.Get(0).GetNumberAsDouble(); d[1] = a.Get(1).GetNumberAsDouble();
+    }
+    if (v.Has("rotation")) {
+        if (!v.Get("rotation").IsNumber()) { *err = "KHR_texture_transform.rotation is not a number"; return false; }
+        rot = v.Get("rotation").GetNumberAsDouble();
+    }
+    if (v.Has("texCoord")) {
+        if (!v.Get("texCoord").IsInt() || v.Get("texCoord").GetNumberAsInt() < 0) { *err = "KHR_texture_transform.texCoord is not a set index"; return false; }
+        m->texcoord = v.Get("texCoord").GetNumberAsInt();
+    }
+    /* the extension's matrix T * R * S: R = [cos sin; -sin cos] */
+    double c = std::cos(rot), s = std::sin(rot);
+    double xf[6] = {c * sc[0], s * sc[1], off[0], -s * sc[0], c * sc[1], off[1]};
+    for (double d : xf)
+        if (!std::isfinite(d)) { *err = "KHR_texture_transform is not finite"; return false; }
+    std::memcpy(m->xf, xf, sizeof xf);
+    m->xf_ext = v;
+    return true;
+}
+
+/* the texture indices a material's extensions name ({"...Texture": {"index": N}} at any depth) */
+void extension_textures(const tinygltf::Value &v, std::vector<int> &out) {
+    if (v.IsObject()) {
+        for (const std::string &k : v.Keys()) {
+            const tinygltf::Value &c = v.Get(k);
+            if (k.size() >= 7 && k.compare(k.size() - 7, 7, "Texture") == 0 && c.IsObject() && c.Has("index") && c.Get("index").IsInt())
+                out.push_back(c.Get("index").GetNumberAsInt());
+            extension_textures(c, out);
+        }
+    } else if (v.IsArray())
+        for (size_t i = 0; i < v.ArrayLen(); i++) extension_textures(v.Get((int)i), out);
+}
+/* every texture index a material refers to, standard slots and extensions */
+std::vector<int> material_textures(const tinygltf::Material &m) {
+    std::vector<int> t = {m.pbrMetallicRoughness.baseColorTexture.index, m.pbrMetallicRoughness.metallicRoughnessTexture.index,
+                          m.normalTexture.index, m.occlusionTexture.index, m.emissiveTexture.index};
+    for (const auto &e : m.extensions) extension_textures(e.second, t);
+    return t;
+}
+
+/* the image indices a texture refers to: source and extension sources (EXT_texture_webp, KHR_texture_basisu) */
+std::vector<int> texture_images(const tinygltf::Texture &t) {
+    std::vector<int> s = {t.source};
+    for (const auto &e : t.extensions)
+        if (e.second.IsObject() && e.second.Has("source") && e.second.Get("source").IsInt()) s.push_back(e.second.Get("source").GetNumberAsInt());
+    return s;
+}
+
+/* bilinear sample of channel ch of an 8-bit texture at texel coordinates (x, y) (centres at +0.5), wrapped */
+int wrap_coord(int i, int n, supermat_uv_wrap w) {
+    if (w == SUPERMAT_UV_WRAP_CLAMP) return i < 0 ? 0 : i >= n ? n - 1 : i;
+    if (w == SUPERMAT_UV_WRAP_MIRROR) {
+        int p = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return p < n ? p : 2 * n - 1 - p;
+    }
+    return ((i % n) + n) % n;
+}
+float sample_channel(const MatIn &m, double x, double y, int ch) {
+    x -= 0.5; y -= 0.5;
+    double fx = std::floor(x), fy = std::floor(y);
+    if (!(std::fabs(fx) < 1e9 && std::fabs(fy) < 1e9)) return 1.0f;
+    int x0 = (int)fx, y0 = (int)fy;
+    double ax = x - fx, ay = y - fy, r = 0;
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            int xx = wrap_coord(x0 + i, m.tw, m.wu), yy = wrap_coord(y0 + j, m.th, m.wv);
+            r += (i ? ax : 1 - ax) * (j ? ay : 1 - ay) * m.tex[((size_t)yy * m.tw + xx) * m.tch + ch];
+        }
+    return (float)(r / 255.0);
+}
 
 std::vector<unsigned char> read_whole(const std::string &path) {
     std::vector<unsigned char> b;
@@ -225,38 +321,94 @@ void png_to_vec(void *ctx, void *data, int n) {
     v->insert(v->end(), (unsigned char *)data, (unsigned char *)data + n);
 }
 
-/* writes our new PNGs (their pixels are in Image::image) into the staging folder; keeps every other
-   image as it was (copied there when OUT lives in another folder than IN) */
+
+std::string base64(const unsigned char *p, size_t n) {
+    static const char *t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string s;
+    s.reserve((n + 2) / 3 * 4);
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)p[i] << 16 | (i + 1 < n ? (unsigned)p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
+        s += t[v >> 18 & 63]; s += t[v >> 12 & 63];
+        s += i + 1 < n ? t[v >> 6 & 63] : '=';
+        s += i + 2 < n ? t[v & 63] : '=';
+    }
+    return s;
+}
+/* %XX decoded, as tinygltf reads a URI */
+std::string uri_decode(const std::string &u) {
+    std::string s;
+    for (size_t i = 0; i < u.size(); i++) {
+        if (u[i] == '%' && i + 2 < u.size() && std::isxdigit((unsigned char)u[i + 1]) && std::isxdigit((unsigned char)u[i + 2])) {
+            s += (char)std::strtol(u.substr(i + 1, 2).c_str(), nullptr, 16);
+            i += 2;
+        } else s += u[i];
+    }
+    return s;
+}
+/* a relative path inside the asset's folder: no scheme, not absolute, no '..' */
+bool uri_inside(const std::string &decoded) {
+    if (decoded.empty() || decoded[0] == '/' || decoded.find(':') != std::string::npos || decoded.find('\\') != std::string::npos) return false;
+    size_t a = 0;
+    for (;;) {
+        size_t b = decoded.find('/', a);
+        std::string part = decoded.substr(a, b == std::string::npos ? std::string::npos : b - a);
+        if (part == ".." || part.empty()) return false;
+        if (b == std::string::npos) return true;
+        a = b + 1;
+    }
+}
+std::string mime_of(const std::vector<unsigned char> &b, const std::string &given) {
+    if (b.size() >= 8 && std::memcmp(b.data(), "\x89PNG", 4) == 0) return "image/png";
+    if (b.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) return "image/jpeg";
+    return given;
+}
+std::string ext_of_mime(const std::string &m) {
+    if (m == "image/png") return "png";
+    if (m == "image/jpeg") return "jpg";
+    if (m == "image/webp") return "webp";
+    if (m == "image/ktx2") return "ktx2";
+    return "bin";
+}
+void mkdirs(const std::string &path) { /* every folder of path (a file's folder: up to its last '/') */
+    for (size_t s = path.find('/', 1); s != std::string::npos; s = path.find('/', s + 1)) mkdir(path.substr(0, s).c_str(), 0777);
+}
+
+/* image bytes as the file holds them: tinygltf hands them to this loader, which keeps them (every image
+   is written back byte for byte) and reads only the size; base colours are decoded when baked */
+struct Raw {
+    std::vector<std::vector<unsigned char>> bytes; /* per image; empty = a file that could not be read */
+};
+bool raw_image_loader(tinygltf::Image *image, const int idx, std::string *, std::string *, int, int, const unsigned char *bytes,
+                      int size, void *user) {
+    Raw *r = (Raw *)user;
+    if (idx < 0 || size < 0) return false;
+    if ((size_t)idx >= r->bytes.size()) r->bytes.resize((size_t)idx + 1);
+    r->bytes[idx].assign(bytes, bytes + size);
+    int w = 0, h = 0, c = 0;
+    if (stbi_info_from_memory(bytes, size, &w, &h, &c)) { image->width = w; image->height = h; image->component = c; image->bits = 8; }
+    return true;
+}
+
+/* how each output image is stored */
+enum Store { STORE_FILE, STORE_DATA_URI, STORE_VIEW };
 struct Writer {
     std::string in_dir, out_dir, stage;
-    std::map<std::string, bool> ours;
-    std::string failed; /* the first file that could not be written */
+    const tinygltf::Model *model = nullptr;
+    const Raw *raw = nullptr;
+    std::vector<bool> write;    /* per image: its bytes go into the stage under its (decoded) URI */
+    std::string failed;         /* the first file that could not be written */
 };
-bool image_writer(const std::string *, const std::string *filename, const tinygltf::Image *image, bool,
-                  std::string *out_uri, void *user) {
+bool image_writer(const std::string *, const std::string *, const tinygltf::Image *image, bool, std::string *out_uri, void *user) {
     Writer *w = (Writer *)user;
-    if (image->uri.compare(0, 5, "data:") == 0) return false;
-    if (image->uri.empty()) return false; /* in a buffer view: stays there */
-    std::string path = w->stage + "/" + *filename;
-    if (w->ours.count(image->uri)) {
-        std::vector<unsigned char> png;
-        if (!stbi_write_png_to_func(png_to_vec, &png, image->width, image->height, image->component, image->image.data(),
-                                    image->width * image->component) || !write_file(path, png.data(), png.size())) {
-            if (w->failed.empty()) w->failed = w->out_dir + "/" + *filename;
-            return false;
-        }
-        *out_uri = image->uri;
-        return true;
-    }
-    /* an original image file: copy its bytes when OUT lives elsewhere */
-    if (w->in_dir != w->out_dir) {
-        std::vector<unsigned char> b = read_whole(w->in_dir + "/" + image->uri);
-        if (!write_file(w->stage + "/" + image->uri, b.data(), b.size())) {
-            if (w->failed.empty()) w->failed = w->out_dir + "/" + image->uri;
-            return false;
-        }
-    }
     *out_uri = image->uri;
+    if (image->uri.compare(0, 5, "data:") == 0) return true;
+    size_t i = (size_t)(image - w->model->images.data());
+    if (i < w->write.size() && w->write[i]) {
+        std::string rel = uri_decode(image->uri), path = w->stage + "/" + rel;
+        const std::vector<unsigned char> &b = w->raw->bytes[i];
+        mkdirs(path);
+        if (!write_file(path, b.data(), b.size()) && w->failed.empty()) w->failed = w->out_dir + "/" + rel;
+    }
     return true;
 }
 
@@ -320,6 +472,32 @@ bool load_model(const char *path, std::vector<unsigned char> &bytes, supermat_mo
     return true;
 }
 
+
+/* the first instance of each mesh, depth first from the roots: its world matrix */
+void collect_meshes(const tinygltf::Model &m, int node, const Mat4 &parent, int depth, std::vector<int> &found,
+                    std::vector<Mat4> &world) {
+    if (node < 0 || node >= (int)m.nodes.size() || depth > 64) return;
+    Mat4 w = parent * node_local(m.nodes[node]);
+    int me = m.nodes[node].mesh;
+    if (me >= 0 && me < (int)m.meshes.size() && !found[me]) { found[me] = 1; world[me] = w; }
+    for (int c : m.nodes[node].children) collect_meshes(m, c, w, depth + 1, found, world);
+}
+
+/* normals: the inverse transpose of the 3x3 part (cofactor matrix, up to a positive scale); false when
+   the transform mirrors */
+bool normal_matrix(const Mat4 &world, double Nm[9]) {
+    double A[9];
+    for (int c = 0; c < 3; c++) for (int r = 0; r < 3; r++) A[r * 3 + c] = world.m[c * 4 + r];
+    Nm[0] = A[4] * A[8] - A[5] * A[7]; Nm[1] = A[5] * A[6] - A[3] * A[8]; Nm[2] = A[3] * A[7] - A[4] * A[6];
+    Nm[3] = A[2] * A[7] - A[1] * A[8]; Nm[4] = A[0] * A[8] - A[2] * A[6]; Nm[5] = A[1] * A[6] - A[0] * A[7];
+    Nm[6] = A[1] * A[5] - A[2] * A[4]; Nm[7] = A[2] * A[3] - A[0] * A[5]; Nm[8] = A[0] * A[4] - A[1] * A[3];
+    double det = A[0] * Nm[0] + A[1] * Nm[1] + A[2] * Nm[2];
+    if (det < 0) for (int i = 0; i < 9; i++) Nm[i] = -Nm[i];
+    return det >= 0;
+}
+
+bool is_triangles(const tinygltf::Primitive &p) { return p.mode == TINYGLTF_MODE_TRIANGLES || p.mode == -1; }
+
 } // namespace
 
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
@@ -370,108 +548,162 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     /* ---- read the glTF ---- */
     tinygltf::Model model;
     tinygltf::TinyGLTF loader;
+    Raw raw;
+    loader.SetImageLoader(raw_image_loader, &raw);
     std::string err, warn, inpath = in, outpath = out;
     bool glb_in = inpath.size() > 4 && inpath.compare(inpath.size() - 4, 4, ".glb") == 0;
     bool ok = glb_in ? loader.LoadBinaryFromFile(&model, &err, &warn, inpath) : loader.LoadASCIIFromFile(&model, &err, &warn, inpath);
     if (!warn.empty()) std::fprintf(stderr, "supermat mesh: %s\n", warn.c_str());
     if (!ok) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, err.c_str()); return 1; }
+    raw.bytes.resize(model.images.size());
     if (model.meshes.empty()) { std::fprintf(stderr, "supermat mesh: %s has no mesh\n", in); return 1; }
-    Mat4 world;
-    {
-        bool found = false;
-        int scene = model.defaultScene >= 0 && model.defaultScene < (int)model.scenes.size() ? model.defaultScene : 0;
-        if (scene < (int)model.scenes.size())
-            for (int r : model.scenes[scene].nodes)
-                if ((found = find_mesh_node(model, r, Mat4(), 0, &world, 0))) break;
-        for (int n = 0; !found && n < (int)model.nodes.size(); n++) /* not in the scene: its own transform */
-            if (model.nodes[n].mesh == 0) { world = node_local(model.nodes[n]); found = true; }
-    }
-    /* normals: the inverse transpose of the 3x3 part (cofactor matrix, up to a positive scale) */
-    double A[9], Nm[9];
-    for (int c = 0; c < 3; c++) for (int r = 0; r < 3; r++) A[r * 3 + c] = world.m[c * 4 + r];
-    Nm[0] = A[4] * A[8] - A[5] * A[7]; Nm[1] = A[5] * A[6] - A[3] * A[8]; Nm[2] = A[3] * A[7] - A[4] * A[6];
-    Nm[3] = A[2] * A[7] - A[1] * A[8]; Nm[4] = A[0] * A[8] - A[2] * A[6]; Nm[5] = A[1] * A[6] - A[0] * A[7];
-    Nm[6] = A[1] * A[5] - A[2] * A[4]; Nm[7] = A[2] * A[3] - A[0] * A[5]; Nm[8] = A[0] * A[4] - A[1] * A[3];
-    double det = A[0] * Nm[0] + A[1] * Nm[1] + A[2] * Nm[2];
-    if (det < 0) for (double &v : Nm) v = -v;
 
-    std::vector<Prim> prims;
-    std::map<int, int> outputs; /* material -> output */
-    std::vector<int> output_material;
-    const tinygltf::Mesh &mesh = model.meshes[0];
-    for (size_t pi = 0; pi < mesh.primitives.size(); pi++) {
-        const tinygltf::Primitive &p = mesh.primitives[pi];
-        if (p.mode != TINYGLTF_MODE_TRIANGLES && p.mode != -1) {
-            std::fprintf(stderr, "supermat mesh: primitive %zu is not a triangle list (mode %d): skipped\n", pi, p.mode);
-            continue;
+    /* ---- the meshes the scene shows (its default scene; without scenes, every root node) ---- */
+    std::vector<int> found(model.meshes.size(), 0);
+    std::vector<Mat4> world(model.meshes.size());
+    {
+        std::vector<int> roots;
+        int scene = model.defaultScene >= 0 && model.defaultScene < (int)model.scenes.size() ? model.defaultScene : 0;
+        if (scene < (int)model.scenes.size()) roots = model.scenes[scene].nodes;
+        else {
+            std::vector<int> child(model.nodes.size(), 0);
+            for (const tinygltf::Node &n : model.nodes)
+                for (int c : n.children) if (c >= 0 && c < (int)child.size()) child[c] = 1;
+            for (size_t n = 0; n < child.size(); n++) if (!child[n]) roots.push_back((int)n);
         }
-        Prim q;
-        q.material = p.material;
-        if (p.material >= 0 && p.material < (int)model.materials.size()) {
-            const tinygltf::PbrMetallicRoughness &pbr = model.materials[p.material].pbrMetallicRoughness;
-            for (int k = 0; k < 4 && k < (int)pbr.baseColorFactor.size(); k++) q.factor[k] = (float)pbr.baseColorFactor[k];
-            int ti = pbr.baseColorTexture.index;
-            q.texcoord = pbr.baseColorTexture.texCoord;
-            if (ti >= 0 && ti < (int)model.textures.size()) {
-                const tinygltf::Texture &t = model.textures[ti];
-                q.sampler = t.sampler;
-                if (t.sampler >= 0 && t.sampler < (int)model.samplers.size()) {
-                    q.wu = wrap_of(model.samplers[t.sampler].wrapS);
-                    q.wv = wrap_of(model.samplers[t.sampler].wrapT);
-                }
-                if (t.source >= 0 && t.source < (int)model.images.size() && !model.images[t.source].image.empty()) {
-                    const tinygltf::Image &im = model.images[t.source];
-                    q.tw = im.width; q.th = im.height; q.tch = im.component;
-                    size_t n = (size_t)im.width * im.height * im.component;
-                    q.tex.resize(n);
-                    if (im.bits == 16)
-                        for (size_t i = 0; i < n; i++) { unsigned short s; std::memcpy(&s, &im.image[2 * i], 2); q.tex[i] = (unsigned char)((s + 128) / 257); }
-                    else if (im.image.size() >= n) std::memcpy(q.tex.data(), im.image.data(), n);
-                    else q.tex.clear();
-                } else std::fprintf(stderr, "supermat mesh: the base colour image of material %d could not be read: using its factor\n", p.material);
-            }
-        }
-        std::string attr = "TEXCOORD_" + std::to_string(q.texcoord);
-        auto pa = p.attributes.find("POSITION"), ta = p.attributes.find(attr), na = p.attributes.find("NORMAL");
-        if (pa == p.attributes.end()) { std::fprintf(stderr, "supermat mesh: primitive %zu has no POSITION\n", pi); return 1; }
-        if (ta == p.attributes.end()) {
-            std::fprintf(stderr, "supermat mesh: primitive %zu has no %s: the mesh needs UVs (unwrap it first)\n", pi, attr.c_str());
-            return 1;
-        }
-        AccessorReader P, T, N;
-        if (!P.init(model, pa->second, &err, "POSITION") || !T.init(model, ta->second, &err, attr.c_str()) ||
-            (na != p.attributes.end() && !N.init(model, na->second, &err, "NORMAL"))) {
-            std::fprintf(stderr, "supermat mesh: primitive %zu: %s\n", pi, err.c_str());
-            return 1;
-        }
-        if (P.comps != 3 || T.comps != 2 || T.count != P.count || (N.base && (N.comps != 3 || N.count != P.count))) {
-            std::fprintf(stderr, "supermat mesh: primitive %zu: attribute shapes do not match\n", pi);
-            return 1;
-        }
-        for (size_t v = 0; v < P.count; v++) {
-            double x = P.get(v, 0), y = P.get(v, 1), z = P.get(v, 2), w[3];
-            for (int r = 0; r < 3; r++) w[r] = world.m[r] * x + world.m[4 + r] * y + world.m[8 + r] * z + world.m[12 + r];
-            q.pos.push_back((float)w[0]); q.pos.push_back((float)-w[2]); q.pos.push_back((float)w[1]); /* Y up -> Z up */
-            q.uv.push_back((float)T.get(v, 0)); q.uv.push_back((float)T.get(v, 1));
-            if (N.base) {
-                double a = N.get(v, 0), b = N.get(v, 1), c = N.get(v, 2), n[3];
-                for (int r = 0; r < 3; r++) n[r] = Nm[r * 3] * a + Nm[r * 3 + 1] * b + Nm[r * 3 + 2] * c;
-                q.nrm.push_back((float)n[0]); q.nrm.push_back((float)-n[2]); q.nrm.push_back((float)n[1]);
-            }
-        }
-        if (p.indices >= 0) {
-            AccessorReader I;
-            if (!I.init(model, p.indices, &err, "indices") || I.comps != 1) { std::fprintf(stderr, "supermat mesh: primitive %zu: %s\n", pi, err.c_str()); return 1; }
-            for (size_t k = 0; k < I.count; k++) q.idx.push_back((uint32_t)I.get(k, 0));
-        } else
-            for (size_t k = 0; k < P.count; k++) q.idx.push_back((uint32_t)k);
-        if (det < 0) /* a mirroring transform: keep the winding consistent with the normals */
-            for (size_t k = 0; k + 2 < q.idx.size(); k += 3) std::swap(q.idx[k + 1], q.idx[k + 2]);
-        if (!outputs.count(q.material)) { outputs[q.material] = (int)output_material.size(); output_material.push_back(q.material); }
-        q.output = outputs[q.material];
-        prims.push_back(std::move(q));
+        for (int r : roots) collect_meshes(model, r, Mat4(), 0, found, world);
     }
-    if (prims.empty()) { std::fprintf(stderr, "supermat mesh: the first mesh has no triangle primitive\n"); return 1; }
+    /* a primitive is baked when its mesh is in the scene and it is a triangle list; a material that is
+       also used by a primitive that is not baked gets a copy, so that those keep the original */
+    std::map<int, int> baked_users, other_users; /* material -> count */
+    int meshes_baked = 0;
+    for (size_t mi = 0; mi < model.meshes.size(); mi++) {
+        meshes_baked += found[mi];
+        for (size_t pi = 0; pi < model.meshes[mi].primitives.size(); pi++) {
+            const tinygltf::Primitive &p = model.meshes[mi].primitives[pi];
+            if (found[mi] && is_triangles(p)) baked_users[p.material]++;
+            else {
+                other_users[p.material]++;
+                if (found[mi]) std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu is not a triangle list (mode %d): left as it is\n", mi, pi, p.mode);
+            }
+        }
+    }
+    if (baked_users.empty()) { std::fprintf(stderr, "supermat mesh: %s: no triangle primitive in the scene's meshes\n", in); return 1; }
+    std::map<int, int> effective; /* original material -> the material the baked primitives use */
+    std::vector<MatIn> mats;
+    std::map<int, int> output_of; /* original material -> output */
+    for (const auto &bu : baked_users) {
+        int orig = bu.first;
+        MatIn m;
+        if (orig >= (int)model.materials.size()) { std::fprintf(stderr, "supermat mesh: material %d does not exist\n", orig); return 1; }
+        if (orig >= 0) {
+            const tinygltf::Material &mat = model.materials[orig];
+            const tinygltf::PbrMetallicRoughness &pbr = mat.pbrMetallicRoughness;
+            for (int k = 0; k < 4 && k < (int)pbr.baseColorFactor.size(); k++) m.factor[k] = (float)pbr.baseColorFactor[k];
+            int ti = pbr.baseColorTexture.index;
+            m.texcoord = pbr.baseColorTexture.texCoord;
+            if (ti >= 0 && ti < (int)model.textures.size()) {
+                std::string xe;
+                m.has_xf = texture_transform(pbr.baseColorTexture.extensions, &m, &xe);
+                if (!xe.empty()) { std::fprintf(stderr, "supermat mesh: material %d: %s\n", orig, xe.c_str()); return 1; }
+                const tinygltf::Texture &t = model.textures[ti];
+                m.sampler = t.sampler;
+                if (t.sampler >= 0 && t.sampler < (int)model.samplers.size()) {
+                    m.wu = wrap_of(model.samplers[t.sampler].wrapS);
+                    m.wv = wrap_of(model.samplers[t.sampler].wrapT);
+                }
+                int w = 0, h = 0, c = 0;
+                unsigned char *px = nullptr;
+                if (t.source >= 0 && t.source < (int)model.images.size() && !raw.bytes[t.source].empty() && raw.bytes[t.source].size() < (1u << 31))
+                    px = stbi_load_from_memory(raw.bytes[t.source].data(), (int)raw.bytes[t.source].size(), &w, &h, &c, 0);
+                if (px) {
+                    m.tw = w; m.th = h; m.tch = c;
+                    m.tex.assign(px, px + (size_t)w * h * c);
+                    stbi_image_free(px);
+                    m.alpha = (c == 2 || c == 4) && mat.alphaMode != "OPAQUE";
+                } else
+                    std::fprintf(stderr, "supermat mesh: the base colour image of material %d could not be read: using its factor\n", orig);
+            }
+            if (other_users.count(orig)) { /* shared with primitives that are not baked: bake into a copy */
+                tinygltf::Material copy = mat;
+                copy.name = (mat.name.empty() ? "material " + std::to_string(orig) : mat.name) + " (supermat)";
+                model.materials.push_back(copy);
+                m.material = (int)model.materials.size() - 1;
+            } else
+                m.material = orig;
+        } else { /* primitives without material: give them one */
+            tinygltf::Material nm;
+            nm.name = "supermat";
+            model.materials.push_back(nm);
+            m.material = (int)model.materials.size() - 1;
+        }
+        effective[orig] = m.material;
+        output_of[orig] = (int)mats.size();
+        mats.push_back(std::move(m));
+    }
+
+    /* ---- the baked primitives, in the world frame (glTF Y up -> Z up: (x, y, z) -> (x, -z, y)) ---- */
+    std::vector<Prim> prims;
+    for (size_t mi = 0; mi < model.meshes.size(); mi++) {
+        if (!found[mi]) continue;
+        double Nm[9];
+        bool keep_winding = normal_matrix(world[mi], Nm);
+        const Mat4 &W = world[mi];
+        for (size_t pi = 0; pi < model.meshes[mi].primitives.size(); pi++) {
+            tinygltf::Primitive &p = model.meshes[mi].primitives[pi];
+            if (!is_triangles(p)) continue;
+            Prim q;
+            q.output = output_of[p.material];
+            const MatIn &m = mats[q.output];
+            q.material = m.material;
+            std::string attr = "TEXCOORD_" + std::to_string(m.texcoord);
+            auto pa = p.attributes.find("POSITION"), ta = p.attributes.find(attr), na = p.attributes.find("NORMAL");
+            if (pa == p.attributes.end()) { std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu has no POSITION\n", mi, pi); return 1; }
+            if (ta == p.attributes.end()) {
+                std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu has no %s: the mesh needs UVs (unwrap it first)\n", mi, pi, attr.c_str());
+                return 1;
+            }
+            AccessorReader P, T, N;
+            if (!P.init(model, pa->second, &err, "POSITION") || !T.init(model, ta->second, &err, attr.c_str()) ||
+                (na != p.attributes.end() && !N.init(model, na->second, &err, "NORMAL"))) {
+                std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu: %s\n", mi, pi, err.c_str());
+                return 1;
+            }
+            if (P.comps != 3 || T.comps != 2 || T.count != P.count || (N.base && (N.comps != 3 || N.count != P.count))) {
+                std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu: attribute shapes do not match\n", mi, pi);
+                return 1;
+            }
+            for (size_t v = 0; v < P.count; v++) {
+                double x = P.get(v, 0), y = P.get(v, 1), z = P.get(v, 2), w[3];
+                for (int r = 0; r < 3; r++) w[r] = W.m[r] * x + W.m[4 + r] * y + W.m[8 + r] * z + W.m[12 + r];
+                q.pos.push_back((float)w[0]); q.pos.push_back((float)-w[2]); q.pos.push_back((float)w[1]);
+                double u = T.get(v, 0), t = T.get(v, 1);
+                if (m.has_xf) { /* bake in the transformed space; the new textures carry the same transform */
+                    double u2 = m.xf[0] * u + m.xf[1] * t + m.xf[2], t2 = m.xf[3] * u + m.xf[4] * t + m.xf[5];
+                    u = u2; t = t2;
+                }
+                q.uv.push_back((float)u); q.uv.push_back((float)t);
+                if (N.base) {
+                    double a = N.get(v, 0), b = N.get(v, 1), c = N.get(v, 2), n[3];
+                    for (int r = 0; r < 3; r++) n[r] = Nm[r * 3] * a + Nm[r * 3 + 1] * b + Nm[r * 3 + 2] * c;
+                    q.nrm.push_back((float)n[0]); q.nrm.push_back((float)-n[2]); q.nrm.push_back((float)n[1]);
+                }
+            }
+            if (p.indices >= 0) {
+                AccessorReader I;
+                if (!I.init(model, p.indices, &err, "indices") || I.comps != 1) {
+                    std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu: %s\n", mi, pi, err.empty() ? "indices are not scalars" : err.c_str());
+                    return 1;
+                }
+                for (size_t k = 0; k < I.count; k++) q.idx.push_back((uint32_t)I.get(k, 0));
+            } else
+                for (size_t k = 0; k < P.count; k++) q.idx.push_back((uint32_t)k);
+            if (!keep_winding) /* a mirroring transform: keep the winding consistent with the normals */
+                for (size_t k = 0; k + 2 < q.idx.size(); k += 3) std::swap(q.idx[k + 1], q.idx[k + 2]);
+            p.material = m.material; /* the copy, or the new material of primitives without one */
+            prims.push_back(std::move(q));
+        }
+    }
 
     /* ---- models ---- */
     std::vector<unsigned char> fmv, fbc, frm;
@@ -488,26 +720,28 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     std::vector<supermat_uv_part> parts(prims.size());
     for (size_t i = 0; i < prims.size(); i++) {
         Prim &q = prims[i];
+        MatIn &m = mats[q.output];
         supermat_uv_part &p = parts[i];
         std::memset(&p, 0, sizeof p);
         p.positions = q.pos.data(); p.uvs = q.uv.data(); p.normals = q.nrm.empty() ? nullptr : q.nrm.data();
         p.vertex_count = (uint32_t)(q.pos.size() / 3);
         p.indices = q.idx.data(); p.index_count = (uint32_t)q.idx.size();
-        if (!q.tex.empty()) {
-            p.base_color.pixels = q.tex.data(); p.base_color.width = q.tw; p.base_color.height = q.th; p.base_color.channels = q.tch;
+        if (!m.tex.empty()) {
+            p.base_color.pixels = m.tex.data(); p.base_color.width = m.tw; p.base_color.height = m.th; p.base_color.channels = m.tch;
         }
-        p.base_color_factor = q.factor;
-        p.wrap_u = q.wu; p.wrap_v = q.wv;
+        p.base_color_factor = m.factor;
+        p.wrap_u = m.wu; p.wrap_v = m.wv;
         p.output = q.output;
     }
-    int nout = (int)output_material.size();
+    int nout = (int)mats.size();
     std::vector<std::vector<unsigned char>> albedo(nout), mr(nout);
     std::vector<supermat_uv_output> outs(nout);
     for (int o = 0; o < nout; o++) {
-        albedo[o].resize((size_t)size * size * 3);
+        int bch = mats[o].alpha ? 4 : 3;
+        albedo[o].resize((size_t)size * size * bch);
         mr[o].resize((size_t)size * size * 3);
         std::memset(&outs[o], 0, sizeof outs[o]);
-        outs[o].base_color.pixels = albedo[o].data(); outs[o].base_color.channels = 3;
+        outs[o].base_color.pixels = albedo[o].data(); outs[o].base_color.channels = bch;
         outs[o].metallic_roughness.pixels = mr[o].data(); outs[o].metallic_roughness.channels = 3;
     }
     supermat_uv_bake_desc bd;
@@ -540,52 +774,155 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         return 1;
     }
     if (dd.failed) std::fprintf(stderr, "supermat mesh: could not write every debug image to %s\n", dbg);
-
-    /* ---- write OUT: new images, textures and materials ---- */
-    Writer wr;
-    wr.in_dir = dir_of(inpath); wr.out_dir = dir_of(outpath);
-    std::string stem = stem_of(outpath);
+    /* alpha (MASK / BLEND): the base colour texture's own alpha at each texel, in the same UV space */
     for (int o = 0; o < nout; o++) {
-        int matidx = output_material[o];
-        if (matidx < 0) { /* a primitive without material: give it one */
-            tinygltf::Material nm;
-            nm.name = "supermat";
-            model.materials.push_back(nm);
-            matidx = (int)model.materials.size() - 1;
-            for (size_t i = 0; i < mesh.primitives.size(); i++)
-                if (model.meshes[0].primitives[i].material < 0) model.meshes[0].primitives[i].material = matidx;
-        }
-        int sampler = -1, texcoord = 0;
-        for (const Prim &q : prims) if (q.output == o) { sampler = q.sampler; texcoord = q.texcoord; }
-        int tex_index[2];
+        const MatIn &m = mats[o];
+        if (!m.alpha) continue;
+        for (int y = 0; y < size; y++)
+            for (int x = 0; x < size; x++) {
+                float a = sample_channel(m, (x + 0.5) / size * m.tw, (y + 0.5) / size * m.th, m.tch - 1);
+                albedo[o][((size_t)y * size + x) * 4 + 3] = (unsigned char)(a * 255.0f + 0.5f);
+            }
+    }
+
+    /* ---- OUT: the new images in the texture slots they replace (a slot that only this material
+       uses is reused, so that a re-run on its own output does not pile up images) ---- */
+    bool glb_out = outpath.size() > 4 && outpath.compare(outpath.size() - 4, 4, ".glb") == 0;
+    std::string stem = stem_of(outpath);
+    bool self_contained = !glb_in; /* a .gltf without any file it refers to stays one */
+    for (const tinygltf::Buffer &b : model.buffers) if (b.uri.compare(0, 5, "data:") != 0) self_contained = false;
+    for (size_t i = 0; i < model.images.size(); i++)
+        if (!model.images[i].uri.empty() || (model.images[i].bufferView < 0 && raw.bytes[i].empty())) self_contained = false;
+    std::vector<int> texref(model.textures.size(), 0), imgref(model.images.size(), 0);
+    for (const tinygltf::Material &mat : model.materials)
+        for (int t : material_textures(mat)) if (t >= 0 && t < (int)texref.size()) texref[t]++;
+    for (const tinygltf::Texture &t : model.textures)
+        for (int s : texture_images(t)) if (s >= 0 && s < (int)imgref.size()) imgref[s]++;
+    std::vector<bool> ours(model.images.size(), false);
+    for (int o = 0; o < nout; o++) {
+        const MatIn &m = mats[o];
+        tinygltf::Material &mat = model.materials[m.material];
+        tinygltf::PbrMetallicRoughness &pbr = mat.pbrMetallicRoughness;
+        int base_texcoord = pbr.baseColorTexture.index >= 0 ? pbr.baseColorTexture.texCoord : 0;
         for (int k = 0; k < 2; k++) {
-            tinygltf::Image im;
-            im.uri = stem + (k ? "_metallicRoughness" : "_baseColor") + (nout > 1 ? "_" + std::to_string(o) : std::string()) + ".png";
-            im.mimeType = "image/png";
-            im.width = size; im.height = size; im.component = 3; im.bits = 8;
-            im.pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
-            im.image = k ? mr[o] : albedo[o];
-            wr.ours[im.uri] = true;
-            model.images.push_back(im);
-            tinygltf::Texture t;
-            t.source = (int)model.images.size() - 1;
-            t.sampler = sampler;
-            model.textures.push_back(t);
-            tex_index[k] = (int)model.textures.size() - 1;
+            tinygltf::TextureInfo &ti = k ? pbr.metallicRoughnessTexture : pbr.baseColorTexture;
+            int t = ti.index, im = -1;
+            if (t >= 0 && t < (int)model.textures.size() && texref[t] == 1 && model.textures[t].extensions.empty()) {
+                int s = model.textures[t].source;
+                if (s >= 0 && s < (int)model.images.size() && imgref[s] == 1 && !ours[s]) im = s;
+            }
+            if (im < 0) { /* a new image and texture */
+                model.images.push_back(tinygltf::Image());
+                raw.bytes.emplace_back();
+                ours.push_back(false);
+                im = (int)model.images.size() - 1;
+                model.textures.push_back(tinygltf::Texture());
+                t = (int)model.textures.size() - 1;
+                model.textures[t].source = im;
+            }
+            model.textures[t].sampler = m.sampler;
+            ours[im] = true;
+            tinygltf::Image &img = model.images[im];
+            std::string keep_name = img.name;
+            img = tinygltf::Image();
+            img.name = keep_name;
+            img.mimeType = "image/png";
+            int ch = k ? 3 : (m.alpha ? 4 : 3);
+            img.width = size; img.height = size; img.component = ch; img.bits = 8;
+            std::vector<unsigned char> png;
+            const std::vector<unsigned char> &px = k ? mr[o] : albedo[o];
+            if (!stbi_write_png_to_func(png_to_vec, &png, size, size, ch, px.data(), size * ch)) {
+                std::fprintf(stderr, "supermat mesh: cannot encode a PNG\n");
+                return 1;
+            }
+            raw.bytes[im].swap(png);
+            img.uri = stem + (k ? "_metallicRoughness" : "_baseColor") + (nout > 1 ? "_" + std::to_string(o) : std::string()) + ".png";
+            ti = tinygltf::TextureInfo();
+            ti.index = t;
+            ti.texCoord = base_texcoord;
+            if (m.has_xf) ti.extensions["KHR_texture_transform"] = m.xf_ext;
         }
-        tinygltf::PbrMetallicRoughness &pbr = model.materials[matidx].pbrMetallicRoughness;
         double alpha = pbr.baseColorFactor.size() == 4 ? pbr.baseColorFactor[3] : 1.0;
-        pbr.baseColorFactor = {1.0, 1.0, 1.0, alpha}; /* the factor is baked into the texture */
-        pbr.baseColorTexture.index = tex_index[0]; pbr.baseColorTexture.texCoord = texcoord;
-        pbr.metallicRoughnessTexture.index = tex_index[1]; pbr.metallicRoughnessTexture.texCoord = texcoord;
+        pbr.baseColorFactor = {1.0, 1.0, 1.0, alpha}; /* the colour factor is baked into the texture */
         pbr.metallicFactor = 1.0; pbr.roughnessFactor = 1.0;
     }
+    /* our names must not take an original image's name */
+    {
+        std::map<std::string, int> taken;
+        for (size_t i = 0; i < model.images.size(); i++)
+            if (!ours[i] && !model.images[i].uri.empty()) taken[uri_decode(model.images[i].uri)] = 1;
+        for (size_t i = 0; i < model.images.size(); i++) {
+            if (!ours[i]) continue;
+            std::string u = model.images[i].uri, s = u.substr(0, u.size() - 4);
+            for (int n = 2; taken.count(u); n++) u = s + "_" + std::to_string(n) + ".png";
+            model.images[i].uri = u;
+            taken[u] = 1;
+        }
+    }
+    model.asset.generator = "supermat " + std::to_string(SUPERMAT_VERSION_MAJOR) + "." + std::to_string(SUPERMAT_VERSION_MINOR) + "." +
+                            std::to_string(SUPERMAT_VERSION_PATCH);
+
+    /* how every image and buffer is stored: a .glb holds everything in its binary chunk; a .gltf keeps
+       embedded images embedded (and stays self-contained when it was), files as files */
+    Writer wr;
+    wr.in_dir = dir_of(inpath); wr.out_dir = dir_of(outpath);
+    wr.model = &model; wr.raw = &raw;
+    wr.write.assign(model.images.size(), false);
+    if (glb_out) {
+        std::vector<unsigned char> bin;
+        std::vector<size_t> at(model.buffers.size());
+        for (size_t b = 0; b < model.buffers.size(); b++) {
+            while (bin.size() % 4) bin.push_back(0);
+            at[b] = bin.size();
+            bin.insert(bin.end(), model.buffers[b].data.begin(), model.buffers[b].data.end());
+        }
+        for (tinygltf::BufferView &bv : model.bufferViews)
+            if (bv.buffer >= 0 && bv.buffer < (int)at.size()) { bv.byteOffset += at[bv.buffer]; bv.buffer = 0; }
+        for (size_t i = 0; i < model.images.size(); i++) {
+            tinygltf::Image &img = model.images[i];
+            if (img.bufferView >= 0) continue;
+            if (raw.bytes[i].empty()) { std::fprintf(stderr, "supermat mesh: image %zu (%s) could not be read: it stays a reference\n", i, img.uri.c_str()); continue; }
+            while (bin.size() % 4) bin.push_back(0);
+            tinygltf::BufferView bv;
+            bv.buffer = 0; bv.byteOffset = bin.size(); bv.byteLength = raw.bytes[i].size();
+            bin.insert(bin.end(), raw.bytes[i].begin(), raw.bytes[i].end());
+            model.bufferViews.push_back(bv);
+            img.bufferView = (int)model.bufferViews.size() - 1;
+            img.mimeType = mime_of(raw.bytes[i], img.mimeType);
+            img.uri.clear();
+        }
+        while (bin.size() % 4) bin.push_back(0);
+        tinygltf::Buffer one;
+        one.data.swap(bin);
+        model.buffers.assign(1, one);
+    } else {
+        for (size_t b = 0; b < model.buffers.size(); b++) { /* side files: plain names beside OUT */
+            tinygltf::Buffer &buf = model.buffers[b];
+            bool plain = !buf.uri.empty() && buf.uri.compare(0, 5, "data:") != 0 && buf.uri.find_first_of("/%\\:") == std::string::npos &&
+                         uri_inside(buf.uri);
+            if (!self_contained && !plain) buf.uri = stem + (b ? "_" + std::to_string(b) : std::string()) + ".bin";
+        }
+        for (size_t i = 0; i < model.images.size(); i++) {
+            tinygltf::Image &img = model.images[i];
+            if (img.bufferView >= 0) continue; /* stays in its buffer */
+            if (raw.bytes[i].empty()) continue; /* a file that could not be read: the reference stays */
+            if ((img.uri.empty() && !ours[i]) || (ours[i] && self_contained)) { /* embedded: a data URI */
+                img.mimeType = mime_of(raw.bytes[i], img.mimeType);
+                img.uri = "data:" + img.mimeType + ";base64," + base64(raw.bytes[i].data(), raw.bytes[i].size());
+                continue;
+            }
+            if (!ours[i] && wr.in_dir == wr.out_dir && uri_inside(uri_decode(img.uri))) continue; /* already there */
+            if (!uri_inside(uri_decode(img.uri))) /* outside the asset's folder: copied beside OUT */
+                img.uri = stem + "_image" + std::to_string(i) + "." + ext_of_mime(mime_of(raw.bytes[i], img.mimeType));
+            wr.write[i] = true;
+        }
+    }
+
     /* Everything is written into a staging folder beside OUT, read back (a truncated file -- full disk,
        size limit -- does not parse), then moved into place: OUT and its files appear complete or not at
        all. tinygltf does not check its own writes, hence the read-back. */
     tinygltf::TinyGLTF writer;
     writer.SetImageWriter(image_writer, &wr);
-    bool glb_out = outpath.size() > 4 && outpath.compare(outpath.size() - 4, 4, ".glb") == 0;
     std::string base = outpath.substr(outpath.find_last_of('/') == std::string::npos ? 0 : outpath.find_last_of('/') + 1);
     wr.stage = wr.out_dir + "/.supermat-mesh-" + std::to_string((long)getpid()) + ".tmp";
     remove_tree(wr.stage);
@@ -593,19 +930,21 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::fprintf(stderr, "supermat mesh: cannot write into %s: %s\n", wr.out_dir.c_str(), std::strerror(errno));
         return 1;
     }
-    for (const tinygltf::Image &im : model.images) /* sub-folders of image URIs, in the stage too */
-        for (size_t s = im.uri.find('/'); s != std::string::npos && im.uri.compare(0, 5, "data:") != 0; s = im.uri.find('/', s + 1))
-            mkdir((wr.stage + "/" + im.uri.substr(0, s)).c_str(), 0777);
     std::string staged = wr.stage + "/" + base;
-    bool wok = writer.WriteGltfSceneToFile(&model, staged, false, false, true, glb_out) && wr.failed.empty();
+    bool wok = writer.WriteGltfSceneToFile(&model, staged, false, self_contained && !glb_out, true, glb_out) && wr.failed.empty();
     if (wok) {
         tinygltf::Model back;
         std::string e, w;
         tinygltf::TinyGLTF reader;
+        Raw raw_back;
+        reader.SetImageLoader(raw_image_loader, &raw_back);
         wok = glb_out ? reader.LoadBinaryFromFile(&back, &e, &w, staged) : reader.LoadASCIIFromFile(&back, &e, &w, staged);
         for (size_t b = 0; wok && b < back.buffers.size() && b < model.buffers.size(); b++)
             wok = back.buffers[b].data.size() == model.buffers[b].data.size();
-        if (!wok && wr.failed.empty()) wr.failed = std::string(out) + " (or its .bin): the written file does not read back complete (disk full?)";
+        raw_back.bytes.resize(back.images.size());
+        for (size_t i = 0; wok && i < back.images.size() && i < model.images.size(); i++)
+            if (ours[i]) wok = raw_back.bytes[i] == raw.bytes[i];
+        if (!wok && wr.failed.empty()) wr.failed = std::string(out) + " (or a file beside it): the written asset does not read back complete (disk full?)";
     }
     std::vector<std::string> files;
     if (wok) list_files(wr.stage, "", files);
@@ -623,8 +962,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         const std::string &f = files[k];
         std::string dst = wr.out_dir + "/" + f;
         if (f != base && policy == 2 && exists_l(dst)) continue;
-        size_t s = f.find_last_of('/');
-        if (s != std::string::npos) mkdir((wr.out_dir + "/" + f.substr(0, s)).c_str(), 0777);
+        mkdirs(dst);
         if (std::rename((wr.stage + "/" + f).c_str(), dst.c_str()) != 0) { wr.failed = dst + ": " + std::strerror(errno); wok = false; }
     }
     remove_tree(wr.stage);
@@ -635,9 +973,9 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
-    std::printf("%s: %d material(s), %u triangles (%u zero-area skipped), %llu chart texels, %.1f%% seen by a view; "
+    std::printf("%s: %d mesh(es), %d material(s), %u triangles (%u zero-area skipped), %llu chart texels, %.1f%% seen by a view; "
                 "%.1f s, peak memory %.0f MB\n",
-                out, nout, st.triangles, st.triangles_degenerate, (unsigned long long)st.texels_chart,
+                out, meshes_baked, nout, st.triangles, st.triangles_degenerate, (unsigned long long)st.texels_chart,
                 st.texels_chart ? 100.0 * st.texels_seen / st.texels_chart : 0.0, secs, ru.ru_maxrss / 1024.0);
     return 0;
 }
