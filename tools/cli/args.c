@@ -15,6 +15,7 @@ static const char cli_usage_main[] =
     "  info      describe a model file: architecture, parameters, dtypes, memory\n"
     "  sheet     a contact sheet: rows of pictures and maps side by side in one PNG, with labels\n"
     "  mesh      a textured glTF mesh -> complete albedo + metallicRoughness UV textures (supermat_uv.h)\n"
+    "  batch     `image` over an asset library: folders, lists, a resumable journal, shards, workers\n"
     "  bench     this machine's FMA peak, the pipeline per stage, AVX2 vs scalar GEMM; with --image\n"
     "            a speed / accuracy table of the speed and memory levers on a real input\n"
     "\n"

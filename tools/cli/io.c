@@ -135,7 +135,7 @@ static int cli_wrote(const char *path) {
 static void cli_note_written(const char *path) {
     size_t n = strlen(path) + 1;
     char *c;
-    if (cli_wrote(path)) return;
+    if (cli_policy == CLI_POLICY_FORCE || cli_wrote(path)) return; /* --force consults no list (a batch writes many files) */
     if (cli_nwritten == cli_capwritten) {
         size_t cap = cli_capwritten ? 2 * cli_capwritten : 64;
         char **w = (char **)realloc(cli_written, cap * sizeof *w);

@@ -36,6 +36,7 @@
  *                >>benchimage  `supermat bench --image`: the speed / memory levers on a real input against
  *                              the f32 maps and, with --truth-*, against ground truth
  *   sheet.c      >>sheet       `supermat sheet`: a contact sheet of pictures and maps
+ *   batch.c      >>batch       `supermat batch`: an asset library, resumable (journal), sharded, --jobs
  *   mesh.cpp                   `supermat mesh` (C++, tinygltf; its own translation unit)
  *   main.c       >>main        this file: the dispatcher
  * A new command is a new file here, included below, writing its outputs through io.c.
@@ -55,6 +56,7 @@
 #include "info.c"
 #include "bench.c"
 #include "sheet.c"
+#include "batch.c"
 
 /* >>main */
 #ifdef SUPERMAT_CLI_MESH
@@ -103,6 +105,7 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "info")) return cli_info(argc, argv);
     if (!strcmp(c, "bench")) return cli_bench(argc, argv);
     if (!strcmp(c, "sheet")) return cli_sheet(argc, argv);
+    if (!strcmp(c, "batch")) return cli_batch(argc, argv);
     if (!strcmp(c, "mesh")) {
 #ifdef SUPERMAT_CLI_MESH
         if (cli_policy != CLI_POLICY_REFUSE) /* the mesh command reads the policy from its arguments */

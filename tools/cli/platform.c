@@ -83,13 +83,13 @@ static double cli_now(void) {
 static double cli_mib(double bytes) { return bytes / (1024.0 * 1024.0); }
 
 static void cli_error(const char *fmt, ...) CLI_PRINTF(1, 2);
+static char cli_last_error[4096]; /* the last message cli_error printed (a batch journals it) */
 static void cli_error(const char *fmt, ...) {
     va_list ap;
-    fputs("supermat: error: ", stderr);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    vsnprintf(cli_last_error, sizeof cli_last_error, fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
+    fprintf(stderr, "supermat: error: %s\n", cli_last_error);
 }
 
 /* the library's message, the tensor concerned and the result name */

@@ -1,0 +1,189 @@
+#!/usr/bin/env bash
+# tests/test_batch.sh - `supermat batch` on a small asset library with the tiny model.
+#
+#   tests/test_batch.sh BUILD/supermat TINY_SUPERMAT_MODEL TESTS_DATA_DIR
+#
+# 21 pictures in nested folders (three sizes) plus a corrupt one. The reference: `supermat image` on each
+# folder. Checks, each against that reference (cmp of every map):
+#   - a folder batch: exit 1 (the corrupt picture), the journal has 21 done records and one failed with
+#     its message, the maps mirror the folders; a re-run runs nothing and appends nothing; the picture
+#     repaired, --retry-failed runs it alone: exit 0;
+#   - SIGKILL at random instants, 12 times, then a run to the end: every item done exactly once in the
+#     journal, no FILE.tmp left, every map identical to the reference;
+#   - --shard 0/3, 1/3, 2/3: disjoint, together every item; --merge writes the union, and with the inputs
+#     finds nothing missing (and, with one shard's journal removed, exits 1 naming what is missing);
+#   - --jobs 3: the same maps, every item done once;
+#   - a manifest: plain lines and JSON Lines with per-item "outputs"; malformed lines are usage errors;
+#   - GNU parallel (when installed): 3 workers, one per shard, one killed mid-run; `parallel
+#     --resume-failed` finishes it; every item done exactly once, maps identical to the reference.
+set -u
+if [ $# -ne 3 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR" >&2; exit 2; fi
+BIN=$(realpath "$1")
+MODEL=$(realpath "$2")
+DATA=$(realpath "$3")
+SCRIPT=$(realpath "$(dirname "$0")/../tools/slurm_batch.sh")
+T=$(mktemp -d "${TMPDIR:-/tmp}/supermat_batch.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+cd "$T" || exit 1
+PASS=0
+FAIL=0
+bad() { FAIL=$((FAIL + 1)); echo "FAIL: $*"; }
+check() { local what=$1; shift; if "$@"; then PASS=$((PASS + 1)); else bad "$what"; fi; }
+RUN=(--model "$MODEL" --work-size 128 --threads 1)
+
+# ---- the library ----
+mkdir -p lib/props/metal lib/chars lib/empty
+n=0
+for d in lib lib/props lib/props/metal lib/chars; do
+    for s in sphere_64 box_40 ring_48x72; do
+        for k in 1 2; do
+            n=$((n + 1))
+            [ $n -le 21 ] && cp "$DATA/img/$s.png" "$d/${s}_$k.png"
+        done
+    done
+done
+echo "not a picture" > lib/chars/broken.png
+echo "ignored" > lib/props/notes.txt
+mkdir -p lib/.cache && cp "$DATA/img/sphere_64.png" lib/.cache/hidden.png
+ITEMS=21
+
+# ---- the reference: `supermat image` on each folder ----
+for d in "" props props/metal chars; do
+    pics=$(ls lib/$d/*.png | grep -v broken)
+    # shellcheck disable=SC2086
+    "$BIN" image "${RUN[@]}" --out "ref/$d" $pics 2>/dev/null || bad "reference image run in lib/$d"
+done
+same_as_ref() { # same_as_ref DIR: every reference map identical in DIR
+    local f ok=0
+    while read -r f; do
+        cmp -s "ref/$f" "$1/$f" || { echo "  differs: $1/$f"; ok=1; }
+    done < <(cd ref && find . -name '*.png' | sed 's|^\./||')
+    return $ok
+}
+no_tmp() { [ -z "$(find "$1" -name '*.tmp')" ]; }
+count() { local c; c=$(grep -c "$2" "$1" 2>/dev/null); echo "${c:-0}"; }
+each_done_once() { # each_done_once JOURNAL...: 21 items, each with exactly one done record
+    local d
+    d=$(cat "$@" | grep '"status":"done"' | sed 's/^{"item":"\([^"]*\)".*/\1/' | sort | uniq -c)
+    [ "$(echo "$d" | wc -l)" -eq $ITEMS ] && [ -z "$(echo "$d" | awk '$1 != 1')" ]
+}
+
+# ---- a folder batch ----
+"$BIN" batch image "${RUN[@]}" --out out lib 2> log; rc=$?
+check "folder batch exits 1 with a corrupt picture (got $rc)" [ $rc -eq 1 ]
+check "21 done records" [ "$(count out/journal.jsonl '"status":"done"')" -eq $ITEMS ]
+check "one failed record naming the picture" grep -q '"item":"chars/broken","input":"lib/chars/broken.png","status":"failed".*"error":"cannot read image' out/journal.jsonl
+check "maps mirrored and identical to supermat image" same_as_ref out
+check "hidden folders and other files left out" [ -z "$(grep -e hidden -e notes out/journal.jsonl)" ]
+check "one line per item on stderr" grep -q '^\[22/22\] sphere_64_2 .* done' log
+lines=$(wc -l < out/journal.jsonl)
+"$BIN" batch image "${RUN[@]}" --out out lib 2> log; rc=$?
+check "a re-run: exit 1 (still failed), nothing run" [ $rc -eq 1 ] && check "a re-run appends nothing" [ "$(wc -l < out/journal.jsonl)" -eq "$lines" ]
+check "a re-run says what it skips" grep -q '21 done before, 1 failed before' log
+cp "$DATA/img/sphere_64.png" lib/chars/broken.png
+"$BIN" batch image "${RUN[@]}" --out out --retry-failed --json out.json lib 2> log; rc=$?
+check "--retry-failed after the repair: exit 0 (got $rc)" [ $rc -eq 0 ]
+check "--retry-failed runs the failed item alone" [ "$(wc -l < out/journal.jsonl)" -eq $((lines + 1)) ]
+check "--json summary" grep -q '"items": 22, "done": 22, "done_this_run": 1, "failed": 0' out.json
+echo "not a picture" > lib/chars/broken.png
+"$BIN" batch image "${RUN[@]}" --out out2 --fail-fast lib/chars 2> log; rc=$?
+check "--fail-fast stops at the first failure (exit 1)" [ $rc -eq 1 ]
+check "--fail-fast: nothing after it" [ "$(count out2/journal.jsonl '"status"')" -eq 2 ] && tail -1 out2/journal.jsonl | grep -q '"item":"chars/broken"' 
+rm -f lib/chars/broken.png
+
+# ---- SIGKILL at random instants ----
+RANDOM=7
+for k in $(seq 12); do
+    "$BIN" batch image "${RUN[@]}" --out killed lib 2>/dev/null &
+    pid=$!
+    sleep "0.$((RANDOM % 9))$((RANDOM % 10))"
+    kill -9 $pid 2>/dev/null
+    wait $pid 2>/dev/null
+done
+partial=$(count killed/journal.jsonl '"status":"done"')
+"$BIN" batch image "${RUN[@]}" --out killed lib 2> log; rc=$?
+check "after 12 kills the run to the end exits 0 (got $rc; $partial done before it)" [ $rc -eq 0 ]
+check "after the kills every item done exactly once" each_done_once killed/journal.jsonl
+check "after the kills no FILE.tmp left" no_tmp killed
+check "after the kills every map identical to the reference" same_as_ref killed
+check "the kills interrupted the work ($partial of $ITEMS done before the last run)" [ "$partial" -gt 0 ] && [ "$partial" -lt $ITEMS ]
+
+# ---- shards and merge ----
+for i in 0 1 2; do "$BIN" batch image "${RUN[@]}" --out sharded --shard $i/3 lib 2>/dev/null || bad "shard $i/3"; done
+check "shards: journal per shard" [ -f sharded/journal.0-of-3.jsonl ] && [ -f sharded/journal.2-of-3.jsonl ] && [ ! -f sharded/journal.jsonl ]
+check "shards: 7 + 7 + 7 items" [ "$(count sharded/journal.0-of-3.jsonl done)$(count sharded/journal.1-of-3.jsonl done)$(count sharded/journal.2-of-3.jsonl done)" = 777 ]
+check "shards: disjoint, every item once" each_done_once sharded/journal.*-of-3.jsonl
+check "shards: maps identical to the reference" same_as_ref sharded
+"$BIN" batch --merge --out sharded lib 2> log; rc=$?
+check "merge with the inputs: exit 0 (got $rc)" [ $rc -eq 0 ]
+check "merge: journal.jsonl has every item once" each_done_once sharded/journal.jsonl
+mv sharded/journal.1-of-3.jsonl sharded/j1
+"$BIN" batch --merge --out sharded --force lib 2> log; rc=$?
+check "merge with a shard missing: exit 1 (got $rc)" [ $rc -eq 1 ] && check "merge names what is not done" grep -q '^not done: ' log
+mv sharded/j1 sharded/journal.1-of-3.jsonl
+"$BIN" batch image "${RUN[@]}" --out x --shard 3/3 lib 2>/dev/null; check "--shard 3/3 is a usage error" [ $? -eq 2 ]
+
+# ---- workers ----
+"$BIN" batch image "${RUN[@]}" --out jobs --jobs 3 lib 2> log; rc=$?
+check "--jobs 3: exit 0 (got $rc)" [ $rc -eq 0 ]
+check "--jobs 3: every item done once" each_done_once jobs/journal.jsonl
+check "--jobs 3: maps identical to the reference" same_as_ref jobs
+
+# ---- manifests ----
+{
+    echo "# a list"
+    echo "lib/sphere_64_1.png"
+    echo ""
+    echo '{"input": "lib/props/box_40_1.png", "outputs": "albedo"}'
+    echo '{"input": "lib/props/ring_48x72_1.png", "outputs": "roughness,metallic", "float": false}'
+} > list.txt
+"$BIN" batch image "${RUN[@]}" --out listed @list.txt 2> log; rc=$?
+check "manifest: exit 0 (got $rc)" [ $rc -eq 0 ]
+check "manifest: per-item outputs" [ -f listed/sphere_64_1_metallic.png ] && [ -f listed/box_40_1_albedo.png ] && [ ! -f listed/box_40_1_roughness.png ] && [ -f listed/ring_48x72_1_metallic.png ] && [ ! -f listed/ring_48x72_1_albedo.png ]
+check "manifest: the maps are the reference's" cmp -s ref/props/box_40_1_albedo.png listed/box_40_1_albedo.png
+echo '{"input": "lib/a.png", "colour": 1}' > badlist.txt
+"$BIN" batch image "${RUN[@]}" --out listed2 @badlist.txt 2> log; rc=$?
+check "manifest: an unknown key is a usage error naming the line" [ $rc -eq 2 ] && grep -q 'badlist.txt:1: unknown key "colour"' log
+echo '{"input": "lib/a.png"' > badlist.txt
+"$BIN" batch image "${RUN[@]}" --out listed2 @badlist.txt 2> log; rc=$?
+check "manifest: malformed JSON is a usage error" [ $rc -eq 2 ]
+
+# ---- GNU parallel: 3 workers, one killed, resumed ----
+if command -v parallel >/dev/null 2>&1; then
+    mkdir -p fan
+    parallel --will-cite --joblog fan/joblog -j3 "$BIN" batch image "${RUN[@]}" --out fan --shard {}/3 lib ::: 0 1 2 2>/dev/null &
+    ppid=$!
+    killed=0
+    for _ in $(seq 400); do # kill shard 1 once it has finished its first item
+        if [ "$(count fan/journal.1-of-3.jsonl done)" -ge 1 ]; then
+            pid=$(pgrep -f -- "--shard 1/3" | head -1)
+            [ -n "$pid" ] && kill -9 "$pid" && killed=1
+            break
+        fi
+        sleep 0.02
+    done
+    wait $ppid; prc=$?
+    before=$(count fan/journal.1-of-3.jsonl done)
+    check "parallel: one worker killed mid-run (killed=$killed, exit $prc, shard 1 had $before of 7)" [ $killed -eq 1 ] && [ $prc -ne 0 ] && [ "$before" -lt 7 ]
+    parallel --will-cite --joblog fan/joblog --resume-failed -j3 "$BIN" batch image "${RUN[@]}" --out fan --shard {}/3 lib ::: 0 1 2 2>/dev/null; prc=$?
+    check "parallel --resume-failed: exit 0 (got $prc)" [ $prc -eq 0 ]
+    check "parallel: every item done exactly once" each_done_once fan/journal.*-of-3.jsonl
+    check "parallel: maps identical to the single-process run" same_as_ref fan
+    "$BIN" batch --merge --out fan lib 2>/dev/null; check "parallel: merge finds every item" [ $? -eq 0 ]
+else
+    echo "SKIP: GNU parallel is not installed (Debian: parallel); tools/test.sh installs it"
+fi
+
+# ---- the Slurm array script, run as Slurm runs its tasks (no controller here: see the README) ----
+for i in 0 1 2 3; do
+    OUT=slurm SUPERMAT="$BIN" SUPERMAT_ARGS="${RUN[*]}" SLURM_ARRAY_TASK_ID=$i SLURM_ARRAY_TASK_COUNT=4 SLURM_CPUS_PER_TASK=1 \
+        bash "$SCRIPT" lib 2>/dev/null || bad "slurm task $i"
+done
+OUT=slurm SUPERMAT="$BIN" SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_MAX=3 SUPERMAT_ARGS="${RUN[*]}" bash "$SCRIPT" lib 2>/dev/null
+check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard done" [ $? -eq 0 ] && [ "$(count slurm/journal.1-of-4.jsonl done)" -eq 5 ]
+check "slurm: 4 journals, every item once" each_done_once slurm/journal.*-of-4.jsonl
+"$BIN" batch --merge --out slurm lib 2>/dev/null; check "slurm: the merge step finds every item" [ $? -eq 0 ]
+check "slurm: maps identical to the reference" same_as_ref slurm
+
+echo "$PASS passed, $FAIL failed"
+[ $FAIL -eq 0 ]
