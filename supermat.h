@@ -78,7 +78,9 @@
  *                                     marked unused for gcc/clang: no warning for the ones a file skips)
  *   SUPERMAT_API                      decoration for public functions (default extern / static)
  *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
- *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only)
+ *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only; also
+ *                                     leaves out AVX-512)
+ *   SUPERMAT_NO_AVX512                leave out the AVX-512F GEMM micro-kernel (the rest stays AVX2)
  *   SUPERMAT_ASSERT(x)                internal assertions (default: none)
  *   SUPERMAT_NO_MADVISE               Linux: do not ask for transparent huge pages on the default
  *                                     allocator's big blocks (weights, arenas)
@@ -105,7 +107,9 @@
  *
  * DETERMINISM AND NUMERICS
  *   All arithmetic is float32 with float64 statistics in the normalisations. The AVX2 and scalar kernels
- *   differ by rounding only (FMA); each is deterministic. Denormals are not flushed by the library.
+ *   differ by rounding only (FMA); each is deterministic. The AVX-512 kernel (picked by SUPERMAT_KERNEL_AUTO
+ *   where the CPU has AVX-512F) gives the AVX2 kernel's bits: every output element sums the same products
+ *   in the same order with FMA, 16 columns per register instead of 8. Denormals are not flushed.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
@@ -260,6 +264,8 @@ typedef enum supermat_kernel {
     SUPERMAT_KERNEL_AUTO = 0, /* best available on this CPU */
     SUPERMAT_KERNEL_SCALAR,   /* portable C, always available */
     SUPERMAT_KERNEL_AVX2,     /* x86-64 AVX2 + FMA + F16C (fails with UNSUPPORTED if the CPU lacks it) */
+    SUPERMAT_KERNEL_AVX512,   /* AVX-512F GEMM micro-kernel (12 x 16 tile in 32 registers) over the AVX2 rest;
+                                 the same bits as AVX2 (every output element sums in the same order) */
     SUPERMAT_KERNEL_COUNT
 } supermat_kernel;
 
@@ -452,6 +458,7 @@ SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
  * pthreads. */
 SUPERMAT_API int supermat_default_threads(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
+SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
@@ -502,6 +509,12 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #define SUPERMAT__AVX2 __attribute__((target("avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX2 0
+#endif
+#if SUPERMAT__HAS_AVX2 && !defined(SUPERMAT_NO_AVX512)
+#define SUPERMAT__HAS_AVX512 1
+#define SUPERMAT__AVX512 __attribute__((target("avx512f,avx2,fma,f16c")))
+#else
+#define SUPERMAT__HAS_AVX512 0
 #endif
 
 #if defined(__linux__) && !defined(SUPERMAT_NO_MADVISE)
@@ -1068,6 +1081,24 @@ SUPERMAT__DEF int supermat_cpu_has_avx2(void) {
 #endif
 }
 
+SUPERMAT__DEF int supermat_cpu_has_avx512(void) {
+#if SUPERMAT__HAS_AVX512
+    static int cached = -1;
+    unsigned a, b, c, d;
+    int ok = 0;
+    if (cached >= 0) return cached;
+    if (supermat_cpu_has_avx2() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 16) & 1)) {
+        unsigned lo, hi;
+        __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+        ok = (lo & 0xE6) == 0xE6; /* XMM, YMM, opmask, ZMM_Hi256, Hi16_ZMM state enabled */
+    }
+    cached = ok;
+    return ok;
+#else
+    return 0;
+#endif
+}
+
 /* >>convert : f16 / bf16 to f32 (scalar, exact) */
 static float supermat__f16_to_f32(uint16_t h) {
     uint32_t s = (uint32_t)(h >> 15) << 31, e = (h >> 10) & 31, m = h & 1023, bits;
@@ -1124,7 +1155,8 @@ static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size
    zero-padded past N) and A given by row pointers (dense) or gathered from an NHWC image (conv).
    init = bias[n] (+ R[m, n]) on the first K block, the running C afterwards. Each output element is
    computed by exactly one task with the same K order, so any thread count gives the same bits. */
-#define SUPERMAT__MR 6
+#define SUPERMAT__MR 6     /* rows of the scalar and AVX2 micro-kernels */
+#define SUPERMAT__MRMAX 12 /* the most rows a micro-kernel takes (AVX-512): row pointer arrays have this many */
 #define SUPERMAT__NR 16
 #define SUPERMAT__KC 256
 #define SUPERMAT__MC 96
@@ -1279,6 +1311,47 @@ SUPERMAT__AVX2 static void supermat__widen_avx2(const void *src, int fmt, const 
 }
 #endif
 
+#if SUPERMAT__HAS_AVX512
+/* 12 x 16: one ZMM accumulator per row (12 of the 32 registers), the B row loaded once per k and each A
+   element broadcast from memory into its FMA. Per output element the same fma chain as the other kernels. */
+#define SUPERMAT__MR512 12
+SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
+                                                  int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc[SUPERMAT__MR512];
+    const float *ap[SUPERMAT__MR512];
+    __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
+    int i, k;
+    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+    for (i = 0; i < SUPERMAT__MR512; i++) {
+        __m512 v = _mm512_setzero_ps();
+        if (i < mr) {
+            if (accumulate) v = _mm512_maskz_loadu_ps(mask, c + (size_t)i * ldc);
+            else {
+                if (bias) v = _mm512_loadu_ps(bias); /* bias is padded to 16 */
+                if (r) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(mask, r + (size_t)i * ldr));
+            }
+        } else if (!accumulate && bias) v = _mm512_loadu_ps(bias);
+        acc[i] = v;
+    }
+    for (k = 0; k < kc; k++) {
+        __m512 bv = _mm512_loadu_ps(b + (size_t)k * SUPERMAT__NR);
+        acc[0] = _mm512_fmadd_ps(_mm512_set1_ps(ap[0][k]), bv, acc[0]);
+        acc[1] = _mm512_fmadd_ps(_mm512_set1_ps(ap[1][k]), bv, acc[1]);
+        acc[2] = _mm512_fmadd_ps(_mm512_set1_ps(ap[2][k]), bv, acc[2]);
+        acc[3] = _mm512_fmadd_ps(_mm512_set1_ps(ap[3][k]), bv, acc[3]);
+        acc[4] = _mm512_fmadd_ps(_mm512_set1_ps(ap[4][k]), bv, acc[4]);
+        acc[5] = _mm512_fmadd_ps(_mm512_set1_ps(ap[5][k]), bv, acc[5]);
+        acc[6] = _mm512_fmadd_ps(_mm512_set1_ps(ap[6][k]), bv, acc[6]);
+        acc[7] = _mm512_fmadd_ps(_mm512_set1_ps(ap[7][k]), bv, acc[7]);
+        acc[8] = _mm512_fmadd_ps(_mm512_set1_ps(ap[8][k]), bv, acc[8]);
+        acc[9] = _mm512_fmadd_ps(_mm512_set1_ps(ap[9][k]), bv, acc[9]);
+        acc[10] = _mm512_fmadd_ps(_mm512_set1_ps(ap[10][k]), bv, acc[10]);
+        acc[11] = _mm512_fmadd_ps(_mm512_set1_ps(ap[11][k]), bv, acc[11]);
+    }
+    for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
+}
+#endif
+
 /* A operand of a GEMM */
 typedef struct supermat__asrc {
     const float *a; size_t lda;           /* dense rows (conv == 0) */
@@ -1325,6 +1398,7 @@ static void supermat__gather(const supermat__asrc *s, int m0, int mr, int k0, in
 
 typedef struct supermat__gemm_args {
     supermat__ukr_fn ukr;
+    int mr;                     /* the micro-kernel's rows */
     supermat__widen_fn widen;   /* for fmt != 0 */
     const void *Bq;            /* f16 / bf16 / int8 panels */
     const float *qs;           /* int8 scales [groups][np * 16] */
@@ -1378,10 +1452,10 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                 g->widen((const char *)g->Bq + boff * 2, g->fmt, NULL, kc, wb);
                 bp = wb;
             }
-            for (m = m0; m < m1; m += SUPERMAT__MR) {
-                const float *rows[SUPERMAT__MR];
-                int mr = SUPERMAT__MIN(SUPERMAT__MR, m1 - m), i;
-                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
+            for (m = m0; m < m1; m += g->mr) {
+                const float *rows[SUPERMAT__MRMAX];
+                int mr = SUPERMAT__MIN(g->mr, m1 - m), i;
+                for (i = 0; i < g->mr; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
                 g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
                            k0 > 0);
@@ -1515,8 +1589,10 @@ typedef struct supermat__ctx {
     size_t boff[SUPERMAT__MAXBLK], bsize[SUPERMAT__MAXBLK];
     int nblk;
     supermat__ukr_fn ukr;
+    int mr;                     /* rows of ukr (0 = SUPERMAT__MR) */
     supermat__widen_fn widen;   /* f16, bf16, int8 panels to f32 */
-    int avx2;
+    int avx2;                   /* AVX2 kernels (also under AVX-512, whose ukr is the only AVX-512 part) */
+    int avx512;
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
     size_t scratch_floats;
@@ -1596,7 +1672,7 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     X->flops += 2.0 * M * (double)W->N * W->K;
     if (!supermat__live(X) || M <= 0) return;
     memset(&g, 0, sizeof g);
-    g.ukr = X->ukr; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
+    g.ukr = X->ukr; g.mr = X->mr > 0 ? X->mr : SUPERMAT__MR; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
     if (W->fmt && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
@@ -2137,6 +2213,7 @@ static void supermat__attn_task(void *user, int index, int thread) {
     float *S = a->X->scratch[thread], *O = S + SUPERMAT__QB * SUPERMAT__KB, *mrow = O + (size_t)SUPERMAT__QB * dpad, *lrow = mrow + SUPERMAT__QB;
     const float *qrows[SUPERMAT__QB];
     supermat__ukr_fn ukr = a->X->ukr;
+    const int MR = a->X->mr > 0 ? a->X->mr : SUPERMAT__MR;
     for (r = 0; r < nq; r++) qrows[r] = a->q + ((size_t)g * a->mq + q0 + r) * a->ldq + (size_t)h * d;
     for (r = 0; r < nq; r++) { mrow[r] = -INFINITY; lrow[r] = 0.0f; }
     memset(O, 0, sizeof(float) * (size_t)nq * dpad);
@@ -2144,10 +2221,10 @@ static void supermat__attn_task(void *user, int index, int thread) {
         int nk = SUPERMAT__MIN(SUPERMAT__KB, a->mk - kb), npk = (nk + 15) / 16;
         for (j = 0; j < npk; j++) {
             const float *bp = kp + (size_t)(kb / 16 + j) * 16 * d;
-            for (r = 0; r < nq; r += SUPERMAT__MR) {
-                const float *rows[SUPERMAT__MR];
-                int mr = SUPERMAT__MIN(SUPERMAT__MR, nq - r), i;
-                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = qrows[r + (i < mr ? i : 0)];
+            for (r = 0; r < nq; r += MR) {
+                const float *rows[SUPERMAT__MRMAX];
+                int mr = SUPERMAT__MIN(MR, nq - r), i;
+                for (i = 0; i < MR; i++) rows[i] = qrows[r + (i < mr ? i : 0)];
                 ukr(d, rows, bp, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 16, NULL, NULL, 0, 0);
             }
         }
@@ -2172,10 +2249,10 @@ static void supermat__attn_task(void *user, int index, int thread) {
         }
         for (jd = 0; jd < npv; jd++) {
             const float *bp = vp + ((size_t)jd * a->mk + kb) * 16;
-            for (r = 0; r < nq; r += SUPERMAT__MR) {
-                const float *rows[SUPERMAT__MR];
-                int mr = SUPERMAT__MIN(SUPERMAT__MR, nq - r), i;
-                for (i = 0; i < SUPERMAT__MR; i++) rows[i] = S + (size_t)(r + (i < mr ? i : 0)) * SUPERMAT__KB;
+            for (r = 0; r < nq; r += MR) {
+                const float *rows[SUPERMAT__MRMAX];
+                int mr = SUPERMAT__MIN(MR, nq - r), i;
+                for (i = 0; i < MR; i++) rows[i] = S + (size_t)(r + (i < mr ? i : 0)) * SUPERMAT__KB;
                 ukr(nk, rows, bp, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 16, NULL, NULL, 0, 1);
             }
         }
@@ -2947,6 +3024,8 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
     if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
+    if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
+        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
     a = supermat__resolve_allocator(&desc->allocator);
     r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
     if (r) return r;
@@ -3063,7 +3142,9 @@ done:
     if (L.qsc) supermat__free(&a, L.qsc, sizeof(int) * ((size_t)n + 1));
     if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
     if (L.r) { supermat__model_free(m); return L.r; }
-    m->info.kernel = L.avx2 ? SUPERMAT_KERNEL_AVX2 : SUPERMAT_KERNEL_SCALAR;
+    m->info.kernel = !L.avx2 ? SUPERMAT_KERNEL_SCALAR
+                   : desc->kernel == SUPERMAT_KERNEL_AVX512 || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512())
+                         ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
     m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
     m->info.layers_per_block = m->lpb; m->info.norm_groups = m->groups;
     for (i = 0; i < m->L; i++) { m->info.block_channels[i] = m->boc[i]; m->info.num_heads[i] = m->heads[i]; }
@@ -3877,6 +3958,15 @@ SUPERMAT__DEF void supermat_session_last_flops(const supermat_session *s, superm
 
 /* >>dispatch */
 static void supermat__select_kernels(supermat__ctx *X) {
+    X->mr = SUPERMAT__MR;
+#if SUPERMAT__HAS_AVX512
+    if (X->avx512) {
+        X->ukr = supermat__ukr_avx512;
+        X->mr = SUPERMAT__MR512;
+        X->widen = supermat__widen_avx2;
+        return;
+    }
+#endif
 #if SUPERMAT__HAS_AVX2
     if (X->avx2) {
         X->ukr = supermat__ukr_avx2;
@@ -3987,7 +4077,8 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
         }
     memset(&X, 0, sizeof X);
     X.err = err; X.base = S->arena; X.cap = S->arena_size;
-    X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2;
+    X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 || S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
+    X.avx512 = S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
     supermat__select_kernels(&X);
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;
     X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;

@@ -1,5 +1,6 @@
 /* Stage-by-stage comparison of the C pipeline with goldens made by the official code (tests/data/golden).
-   usage: test_golden MODEL.safetensors GOLDEN_DIR [scalar|avx2] [threads] */
+   usage: test_golden MODEL.safetensors auto|scalar|avx2|avx512[:f16|:bf16|:i8|:wf2|:wf4] THREADS GOLDEN_DIR...
+   (exit 77 = skipped: the CPU lacks the kernel asked for) */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
 #include "test_util.h"
@@ -213,7 +214,7 @@ int main(int argc, char **argv) {
     supermat_error err;
     int threads, i;
     const char *kern;
-    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2 THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
+    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2|avx512[:WEIGHTS] THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
     kern = argv[2];
     threads = atoi(argv[3]);
     file = tu_load(argv[1], &size);
@@ -229,8 +230,12 @@ int main(int argc, char **argv) {
     if (strstr(kern, ":wf2")) md.conv = SUPERMAT_CONV_WINOGRAD_F2;
     if (strstr(kern, ":wf4")) md.conv = SUPERMAT_CONV_WINOGRAD_F4;
     if (!strncmp(kern, "avx2", 4)) {
-        if (!supermat_cpu_has_avx2()) { printf("no AVX2 on this CPU: skipped\n0 passed, 0 failed\n"); free(file); return 0; }
+        if (!supermat_cpu_has_avx2()) { printf("SKIP: no AVX2 on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX2;
+    }
+    if (!strncmp(kern, "avx512", 6)) {
+        if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F on this CPU (or build)\n"); free(file); return 77; }
+        md.kernel = SUPERMAT_KERNEL_AVX512;
     }
     TU_CHECK(supermat_model_create(&md, &model, &err) == SUPERMAT_SUCCESS, "model_create: %s", err.message);
     if (model) {

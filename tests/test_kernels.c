@@ -1,5 +1,6 @@
 /* Every kernel against a float64 reference (_ref, written here) on random shapes including odd sizes,
-   with the scalar and the AVX2 paths, and 1 and 3 threads. Errors are normalised:
+   with the scalar, AVX2 and AVX-512 paths (those the CPU has; the others are skipped, and said so), and 1
+   and 3 threads; the AVX-512 kernel must also give the AVX2 kernel's bits. Errors are normalised:
    max |fast - ref| / (max |ref| + tiny), bounds stated per kernel. Winograd convolutions included. */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
@@ -14,17 +15,16 @@ static int irand(int lo, int hi) { return lo + (int)((rnd() * 0.5 + 0.5) * (hi -
 static float *rvec(size_t n, double scale) { float *p = (float *)malloc(n * sizeof(float) + 4); size_t i; for (i = 0; i < n; i++) p[i] = (float)(rnd() * scale); return p; }
 
 typedef struct kctx { supermat__ctx X; supermat_pool *pool; float *mem; } kctx;
+static const char *KN(int mode) { return mode == 2 ? "avx512" : mode ? "avx2" : "scalar"; }
+static int mode_ok(int mode) { return mode == 0 || (mode == 1 ? supermat_cpu_has_avx2() : supermat_cpu_has_avx512()); }
 static void kctx_init(kctx *k, int avx2, int threads) {
     int i, nt;
     memset(k, 0, sizeof *k);
     if (threads > 1) supermat_pool_create(threads, NULL, &k->pool, &k->X.thr);
     nt = k->X.thr.parallel_for ? k->X.thr.max_threads : 1;
-    k->X.avx2 = avx2;
-#if SUPERMAT__HAS_AVX2
-    k->X.ukr = avx2 ? supermat__ukr_avx2 : supermat__ukr_scalar;
-#else
-    k->X.ukr = supermat__ukr_scalar;
-#endif
+    k->X.avx2 = avx2 >= 1; /* mode: 0 scalar, 1 AVX2, 2 AVX-512 (over AVX2) */
+    k->X.avx512 = avx2 == 2;
+    supermat__select_kernels(&k->X);
     k->X.scratch_floats = 64 * 1024;
     k->mem = (float *)malloc(sizeof(float) * k->X.scratch_floats * nt);
     k->X.scratch = (float **)malloc(sizeof(float *) * nt);
@@ -121,7 +121,7 @@ static void test_gemm_conv(int avx2, int threads) {
         /* residual in place (R == out), as the resnets do */
         supermat__conv2d(&k.X, &in, uh, uw, &cv, pad_mode, &out, NULL, R ? out.d : NULL);
         TU_CHECK(k.X.status == SUPERMAT_SUCCESS && nan_free(out.d, no) && maxerr(out.d, ref, no) < 2e-6,
-                 "conv %s t%d: n%d %dx%d->%dx%d cin %d cout %d k%d s%d pad%d: err %.3g", avx2 ? "avx2" : "scalar", threads, n, h, w, uh, uw, cin, cout, kk, stride, pad_mode, maxerr(out.d, ref, no));
+                 "conv %s t%d: n%d %dx%d->%dx%d cin %d cout %d k%d s%d pad%d: err %.3g", KN(avx2), threads, n, h, w, uh, uw, cin, cout, kk, stride, pad_mode, maxerr(out.d, ref, no));
         free(x); free(wt); free(b); free(R); free(ref); free(out.d); free(cv.w.p); free(cv.w.bias);
     }
     /* dense GEMM with K across several KC blocks */
@@ -134,7 +134,7 @@ static void test_gemm_conv(int avx2, int threads) {
         for (i = 0; i < M; i++) for (j = 0; j < N; j++) { double s = 0; for (kq = 0; kq < K; kq++) s += (double)a[(size_t)i * K + kq] * wt[(size_t)j * K + kq]; ref[(size_t)i * N + j] = s; }
         k.X.status = SUPERMAT_SUCCESS;
         supermat__linear(&k.X, a, (size_t)K, M, &pw, c, (size_t)N, NULL, 0);
-        TU_CHECK(maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm %s M%d N%d K%d err %.3g", avx2 ? "avx2" : "scalar", M, N, K, maxerr(c, ref, (size_t)M * N));
+        TU_CHECK(maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm %s M%d N%d K%d err %.3g", KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
         free(a); free(wt); free(c); free(ref); free(pw.p);
     }
     kctx_free(&k);
@@ -192,7 +192,7 @@ static void test_quantized(int avx2, int threads) {
             }
             k.X.status = SUPERMAT_SUCCESS;
             supermat__linear(&k.X, a, (size_t)K, M, &pq, c, (size_t)N, NULL, 0);
-            TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, avx2 ? "avx2" : "scalar", M, N, K, maxerr(c, ref, (size_t)M * N));
+            TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
             supermat__linear(&k.X, a, (size_t)K, M, &pw, cf, (size_t)N, NULL, 0);
             for (i = 0; i < M * N; i++) { qerr += (double)(c[i] - cf[i]) * (c[i] - cf[i]); qmax += (double)cf[i] * cf[i]; }
             qerr = sqrt(qerr / (qmax + 1e-30));
@@ -233,7 +233,7 @@ static void test_attention(int avx2, int threads) {
         supermat__attention(&k.X, q, (size_t)C, mq, qg, kp, vp, mk, kvg, heads, d, scale, o, (size_t)C);
         /* float32 logits carry ~1e-7 relative error, which exp turns into 1e-7 x |logit| in the weights */
         TU_CHECK(nan_free(o, (size_t)qg * mq * C) && maxerr(o, ref, (size_t)qg * mq * C) < (it % 5 == 0 ? 3e-5 : 3e-6), "attention %s heads %d d %d qg %d mq %d mk %d shared %d scale %g: err %.3g",
-                 avx2 ? "avx2" : "scalar", heads, d, qg, mq, mk, shared, scale, maxerr(o, ref, (size_t)qg * mq * C));
+                 KN(avx2), heads, d, qg, mq, mk, shared, scale, maxerr(o, ref, (size_t)qg * mq * C));
         free(q); free(kk); free(v); free(kp); free(vp); free(o); free(ref); free(s);
     }
     kctx_free(&k);
@@ -270,7 +270,7 @@ static void test_norms(int avx2, int threads) {
         in.d = x; in.n = n; in.h = h; in.w = w; in.c = C; out = in; out.d = y;
         k.X.status = SUPERMAT_SUCCESS;
         supermat__groupnorm(&k.X, &in, &out, &nm, groups, silu);
-        TU_CHECK(nan_free(y, total) && maxerr(y, ref, total) < 2e-6, "groupnorm %s silu %d const %d: err %.3g", avx2 ? "avx2" : "scalar", silu, constant, maxerr(y, ref, total));
+        TU_CHECK(nan_free(y, total) && maxerr(y, ref, total) < 2e-6, "groupnorm %s silu %d const %d: err %.3g", KN(avx2), silu, constant, maxerr(y, ref, total));
         /* layer norm over rows of C */
         {
             int M = n * h * w;
@@ -283,7 +283,7 @@ static void test_norms(int avx2, int threads) {
                 for (c = 0; c < C; c++) ref[(size_t)i * C + c] = (x[(size_t)i * C + c] - mean) * rstd * gm[c] + bt[c];
             }
             supermat__layernorm(&k.X, x, y, M, &nm);
-            TU_CHECK(nan_free(y, total) && maxerr(y, ref, total) < 2e-6, "layernorm %s const %d: err %.3g", avx2 ? "avx2" : "scalar", constant, maxerr(y, ref, total));
+            TU_CHECK(nan_free(y, total) && maxerr(y, ref, total) < 2e-6, "layernorm %s const %d: err %.3g", KN(avx2), constant, maxerr(y, ref, total));
         }
         free(x); free(gm); free(bt); free(y); free(ref);
     }
@@ -298,7 +298,7 @@ static void test_norms(int avx2, int threads) {
         TU_CHECK(maxerr(y, ref, (size_t)M * H) < 1e-6, "geglu err %.3g", maxerr(y, ref, (size_t)M * H));
         for (i = 0; i < M * H; i++) { double v = hh[i]; ref[i] = v / (1.0 + exp(-v)); }
         supermat__silu(&k.X, y, hh, M * H);
-        TU_CHECK(nan_free(y, (size_t)M * H) && maxerr(y, ref, (size_t)M * H) < 1e-6, "silu %s err %.3g", avx2 ? "avx2" : "scalar", maxerr(y, ref, (size_t)M * H));
+        TU_CHECK(nan_free(y, (size_t)M * H) && maxerr(y, ref, (size_t)M * H) < 1e-6, "silu %s err %.3g", KN(avx2), maxerr(y, ref, (size_t)M * H));
         free(hh); free(y); free(ref);
     }
     kctx_free(&k);
@@ -328,7 +328,7 @@ static void make_wino(supermat__wino *wg, const supermat__pw *pw, int cin, int c
 }
 static void free_wino(supermat__wino *wg) { int xi; for (xi = 0; xi < wg->a * wg->a; xi++) free(wg->u[xi].p); }
 
-static kctx WK[2][2]; /* [avx2][threads 1, 3] */
+static kctx WK[3][2]; /* [scalar, avx2, avx512][threads 1, 3] */
 static double worst[2];
 
 static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b, int use_r) {
@@ -347,8 +347,8 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
     for (mi = 0; mi < 2; mi++) {
         supermat__wino wg;
         make_wino(&wg, &pw, cin, cout, mi ? 4 : 2);
-        for (av = 0; av < 2; av++) {
-            if (av && !supermat_cpu_has_avx2()) continue;
+        for (av = 0; av < 3; av++) {
+            if (!mode_ok(av)) continue;
             for (th = 0; th < 2; th++) {
                 supermat__ctx *X = &WK[av][th].X;
                 float *o = res[th];
@@ -360,10 +360,10 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
                 supermat__conv3x3_wino(X, &in, uh, uw, &wg, &out, use_b ? pw.bias : NULL, R ? o : NULL);
                 err = maxerr(o, ref, no);
                 TU_CHECK(X->status == SUPERMAT_SUCCESS && err < (mi ? 5e-4 : 2e-5), "F%d %s t%d n%d %dx%d->%dx%d %d->%d: err %.3g",
-                      mi ? 4 : 2, av ? "avx2" : "scalar", th ? 3 : 1, n, h, w, uh, uw, cin, cout, err);
+                      mi ? 4 : 2, KN(av), th ? 3 : 1, n, h, w, uh, uw, cin, cout, err);
                 if (err > e[mi]) e[mi] = err;
             }
-            TU_CHECK(!memcmp(res[0], res[1], no * sizeof(float)), "F%d %s: 1 and 3 threads differ", mi ? 4 : 2, av ? "avx2" : "scalar");
+            TU_CHECK(!memcmp(res[0], res[1], no * sizeof(float)), "F%d %s: 1 and 3 threads differ", mi ? 4 : 2, KN(av));
         }
         free_wino(&wg);
     }
@@ -410,7 +410,7 @@ static void test_winograd(void) {
     static const int chans[4] = {3, 16, 37, 64};
     static const int sizes[4][2] = {{8, 8}, {7, 9}, {1, 1}, {2, 3}};
     int i, j, s, av, th;
-    for (av = 0; av < 2; av++) for (th = 0; th < 2; th++) kctx_init(&WK[av][th], av && supermat_cpu_has_avx2(), th ? 3 : 1);
+    for (av = 0; av < 3; av++) for (th = 0; th < 2; th++) kctx_init(&WK[av][th], mode_ok(av) ? av : 0, th ? 3 : 1);
     printf("accuracy (max |err| / max |ref|):\n");
     for (i = 0; i < 4; i++)
         for (j = 0; j < 4; j++)
@@ -424,7 +424,7 @@ static void test_winograd(void) {
     wino_case(1, 16, 16, 64, 64, 0, 1, 1);
     wino_case(2, 13, 11, 128, 40, 0, 1, 1);
     printf("worst: F2 %.3g, F4 %.3g\n", worst[0], worst[1]);
-    for (av = 0; av < 2; av++) for (th = 0; th < 2; th++) kctx_free(&WK[av][th]);
+    for (av = 0; av < 3; av++) for (th = 0; th < 2; th++) kctx_free(&WK[av][th]);
     wino_plan(2, 2, 9, 7, 16, 37);
     wino_plan(4, 2, 9, 7, 16, 37);
     wino_plan(4, 1, 128, 128, 128, 128); /* several chunks */
@@ -449,6 +449,50 @@ static void test_exp(void) {
                  "AVX2 exp at the extremes: %g %g %g %g %g", y[0], y[1], y[2], y[3], y[4]);
     }
 #endif
+}
+
+/* AVX-512 and AVX2 micro-kernels sum every output element in the same order: the same bits, for GEMMs
+   with bias, residual and several K blocks, convolutions and attention */
+static void test_same_bits(void) {
+    kctx k[2];
+    int t, mode;
+    if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F: AVX-512 vs AVX2 bits not compared\n"); return; }
+    kctx_init(&k[0], 1, 1);
+    kctx_init(&k[1], 2, 3);
+    for (t = 0; t < 24; t++) {
+        int M = irand(1, 130), N = irand(1, 70), K = irand(1, 600);
+        float *a = rvec((size_t)M * K, 1.0), *w = rvec((size_t)N * K, 1.0), *b = rvec((size_t)N, 1.0), *R = rvec((size_t)M * N, 1.0), *c[2];
+        supermat__pw pw;
+        pack_w(&pw, w, t % 2 ? b : NULL, N, K, 1);
+        for (mode = 0; mode < 2; mode++) {
+            c[mode] = (float *)malloc(sizeof(float) * (size_t)M * N);
+            supermat__linear(&k[mode].X, a, (size_t)K, M, &pw, c[mode], (size_t)N, t % 3 ? R : NULL, (size_t)N);
+        }
+        TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "gemm M%d N%d K%d: AVX-512 and AVX2 bits differ", M, N, K);
+        free(a); free(w); free(b); free(R); free(c[0]); free(c[1]); free(pw.p); free(pw.bias);
+    }
+    for (t = 0; t < 6; t++) {
+        int n = 1, h = irand(3, 17), wd = irand(3, 17), cin = irand(1, 40), cout = irand(1, 40), oh = h, ow = wd;
+        size_t no = (size_t)n * oh * ow * cout;
+        float *x = rvec((size_t)n * h * wd * cin, 1.0), *wt = rvec((size_t)cout * cin * 9, 0.3), *b = rvec((size_t)cout, 1.0), *o[2];
+        supermat__conv cv;
+        supermat__t in, out;
+        memset(&cv, 0, sizeof cv);
+        cv.k = 3; cv.stride = 1; cv.cin = cin; cv.cout = cout;
+        pack_w(&cv.w, wt, b, cout, cin, 3);
+        in.d = x; in.n = n; in.h = h; in.w = wd; in.c = cin;
+        for (mode = 0; mode < 2; mode++) {
+            o[mode] = (float *)malloc(no * sizeof(float));
+            out.d = o[mode]; out.n = n; out.h = oh; out.w = ow; out.c = cout;
+            supermat__conv2d(&k[mode].X, &in, h, wd, &cv, 0, &out, cv.w.bias, NULL);
+        }
+        TU_CHECK(k[0].X.status == SUPERMAT_SUCCESS && k[1].X.status == SUPERMAT_SUCCESS && !memcmp(o[0], o[1], no * sizeof(float)),
+                 "conv %dx%d %d->%d: AVX-512 and AVX2 bits differ", h, wd, cin, cout);
+        free(x); free(wt); free(b); free(o[0]); free(o[1]); free(cv.w.p); free(cv.w.bias);
+    }
+    kctx_free(&k[0]);
+    kctx_free(&k[1]);
+    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions\n");
 }
 
 static void test_scheduler(void) {
@@ -501,8 +545,9 @@ int main(void) {
     test_scheduler();
     test_exp();
     test_winograd();
-    for (avx2 = 0; avx2 <= 1; avx2++) {
-        if (avx2 && !supermat_cpu_has_avx2()) { printf("no AVX2: only the scalar path was tested\n"); break; }
+    test_same_bits();
+    for (avx2 = 0; avx2 <= 2; avx2++) {
+        if (!mode_ok(avx2)) { printf("SKIP: this CPU (or build) has no %s: that kernel was not tested\n", avx2 == 2 ? "AVX-512F" : "AVX2"); continue; }
         test_gemm_conv(avx2, 1);
         test_gemm_conv(avx2, 3);
         test_attention(avx2, 1);

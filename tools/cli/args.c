@@ -87,7 +87,7 @@ static const char cli_usage_image[] =
     "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Each file is written as FILE.tmp and renamed when complete. Progress (and the default model's\n"
@@ -125,7 +125,7 @@ static const char cli_usage_views[] =
     "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
@@ -154,7 +154,7 @@ static const char cli_usage_refine[] =
     "  --float           also write the map before 8-bit quantisation as <stem>_refined.pfm (PF, RGB,\n"
     "                    float32, little endian)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
@@ -170,7 +170,7 @@ static const char cli_usage_info[] =
     "\n"
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
-    "  --kernel K        auto | scalar | avx2 (default auto)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n";
 
 static const char cli_usage_bench[] =
@@ -196,7 +196,7 @@ static const char cli_usage_bench[] =
     "  --pipeline-only   skip (a) and (c): no FMA peak (no % of peak), no GEMM comparison\n"
     "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three; uv-refine\n"
     "                    makes its one refined map)\n"
-    "  --kernel K        auto | scalar | avx2: the pipeline's kernels (default auto)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
@@ -322,7 +322,8 @@ static int cli_parse_kernel(const char *cmd, const char *s, supermat_kernel *out
     if (!strcmp(s, "auto")) *out = SUPERMAT_KERNEL_AUTO;
     else if (!strcmp(s, "scalar")) *out = SUPERMAT_KERNEL_SCALAR;
     else if (!strcmp(s, "avx2")) *out = SUPERMAT_KERNEL_AVX2;
-    else { cli_usage_error(cmd, "--kernel: '%s' is not auto, scalar or avx2", s); return -1; }
+    else if (!strcmp(s, "avx512")) *out = SUPERMAT_KERNEL_AVX512;
+    else { cli_usage_error(cmd, "--kernel: '%s' is not auto, scalar, avx2 or avx512", s); return -1; }
     return 0;
 }
 

@@ -26,12 +26,35 @@ SUPERMAT__AVX2 static float cli_fma_loop(long iters, float seed) {
     return out[0] + out[1] + out[2] + out[3] + out[4] + out[5] + out[6] + out[7];
 }
 #endif
+#if SUPERMAT__HAS_AVX512
+/* the same with 512-bit vectors: the peak of the AVX-512 kernel */
+SUPERMAT__AVX512 static float cli_fma_loop512(long iters, float seed) {
+    const __m512 mul = _mm512_set1_ps(0.99999f), add = _mm512_set1_ps(1e-6f);
+    __m512 a[CLI_FMA_CHAINS];
+    long i;
+    int c;
+    for (c = 0; c < CLI_FMA_CHAINS; c++) a[c] = _mm512_set1_ps(seed + 0.10f + 0.01f * (float)c);
+    for (i = 0; i < iters; i++) {
+        a[0] = _mm512_fmadd_ps(a[0], mul, add); a[1] = _mm512_fmadd_ps(a[1], mul, add); a[2] = _mm512_fmadd_ps(a[2], mul, add);
+        a[3] = _mm512_fmadd_ps(a[3], mul, add); a[4] = _mm512_fmadd_ps(a[4], mul, add); a[5] = _mm512_fmadd_ps(a[5], mul, add);
+        a[6] = _mm512_fmadd_ps(a[6], mul, add); a[7] = _mm512_fmadd_ps(a[7], mul, add); a[8] = _mm512_fmadd_ps(a[8], mul, add);
+        a[9] = _mm512_fmadd_ps(a[9], mul, add); a[10] = _mm512_fmadd_ps(a[10], mul, add); a[11] = _mm512_fmadd_ps(a[11], mul, add);
+    }
+    for (c = 1; c < CLI_FMA_CHAINS; c++) a[0] = _mm512_add_ps(a[0], a[c]);
+    return _mm512_reduce_add_ps(a[0]);
+}
+#endif
+/* 1: the peak is measured with 512-bit FMAs (the pipeline runs the AVX-512 kernel) */
+static int cli_fma_zmm;
 
 typedef struct cli_fma_job { long iters; float *sink; } cli_fma_job;
 
 static void cli_fma_task(void *user, int index, int thread) {
     cli_fma_job *j = (cli_fma_job *)user;
     (void)thread;
+#if SUPERMAT__HAS_AVX512
+    if (cli_fma_zmm) { j->sink[index] = cli_fma_loop512(j->iters, (float)index * 1e-3f); return; }
+#endif
 #if SUPERMAT__HAS_AVX2
     j->sink[index] = cli_fma_loop(j->iters, (float)index * 1e-3f);
 #else
@@ -70,7 +93,7 @@ static double cli_fma_peak(const supermat_threading *hook, int reps, long *iters
         if (hook) hook->parallel_for(hook->user, tasks, cli_fma_task, &job);
         else for (i = 0; i < tasks; i++) cli_fma_task(&job, i, 0);
         t = cli_now() - t;
-        gf = (double)tasks * (double)job.iters * CLI_FMA_CHAINS * 16.0 / t / 1e9;
+        gf = (double)tasks * (double)job.iters * CLI_FMA_CHAINS * (cli_fma_zmm ? 32.0 : 16.0) / t / 1e9;
         if (gf > best) best = gf;
     }
     return best;
@@ -187,12 +210,13 @@ static void cli_gemm_free(cli_gemm *g) {
 }
 
 /* best seconds of a few runs (at least one, more while under `budget` seconds) */
-static double cli_gemm_time(cli_gemm *g, supermat__ukr_fn ukr, const supermat_threading *hook, double budget, float *copy) {
+static double cli_gemm_time(cli_gemm *g, supermat__ukr_fn ukr, int mr, const supermat_threading *hook, double budget, float *copy) {
     supermat__ctx X;
     double best = 1e30, spent = 0.0;
     int runs = 0;
     memset(&X, 0, sizeof X);
     X.ukr = ukr;
+    X.mr = mr;
     X.thr = *hook;
     X.scratch = g->scratch;
     X.scratch_floats = (size_t)SUPERMAT__MC * SUPERMAT__KC;
@@ -848,7 +872,8 @@ static int cli_bench_image(const cli_bench_opts *o) {
                hook.max_threads == 1 ? "" : "s", o->repeats, o->repeats == 1 ? "" : "s");
         {
             long fma_iters = 0;
-            cli_bi_peak = mi.kernel == SUPERMAT_KERNEL_AVX2 ? cli_fma_peak(&hook, 3, &fma_iters) : 0.0;
+            cli_fma_zmm = mi.kernel == SUPERMAT_KERNEL_AVX512;
+            cli_bi_peak = mi.kernel == SUPERMAT_KERNEL_AVX2 || mi.kernel == SUPERMAT_KERNEL_AVX512 ? cli_fma_peak(&hook, 3, &fma_iters) : 0.0;
             if (cli_bi_peak > 0) printf("FMA peak %.1f GFLOP/s on %d thread%s (measured now; %%peak = GFLOP/s / this)\n", cli_bi_peak, hook.max_threads, hook.max_threads == 1 ? "" : "s");
         }
         if (in.any_truth) {
@@ -987,7 +1012,8 @@ static int cli_bench(int argc, char **argv) {
     supermat_pool *pool = NULL;
     double peak = 0.0, peak1 = 0.0, create_s = 0.0, best_total = 1e30, sum_total = 0.0;
     double gemm_flops = 2.0 * CLI_GEMM_HW * CLI_GEMM_HW * (double)CLI_GEMM_C * 9.0 * CLI_GEMM_C;
-    double t_avx2 = -1.0, t_scalar = -1.0, gemm_diff = 0.0;
+    double t_avx2 = -1.0, t_scalar = -1.0, t_avx512 = -1.0, gemm_diff = 0.0;
+    int avx512_same = 0;
     cli_row rows[CLI_MAX_ROWS];
     cli_events ev;
     char outs_s[64];
@@ -1085,7 +1111,9 @@ static int cli_bench(int argc, char **argv) {
 #endif
     (void)cli_serial_for;
 
-    /* (a) here and again at the end (the best counts: a busy neighbour only lowers it) */
+    /* (a) here and again at the end (the best counts: a busy neighbour only lowers it); with 512-bit FMAs
+       when the pipeline runs the AVX-512 kernel */
+    cli_fma_zmm = kernel == SUPERMAT_KERNEL_AVX512 || (kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512());
     if (!pipeline_only) {
         peak1 = cli_fma_peak(NULL, 3, &fma_iters);
         peak = cli_fma_peak(&hook, 3, &fma_iters);
@@ -1210,9 +1238,15 @@ static int cli_bench(int argc, char **argv) {
             rc = CLI_FAIL;
         } else {
 #if SUPERMAT__HAS_AVX2
-            if (supermat_cpu_has_avx2()) t_avx2 = cli_gemm_time(&g, supermat__ukr_avx2, &hook, 0.5, ref);
+            if (supermat_cpu_has_avx2()) t_avx2 = cli_gemm_time(&g, supermat__ukr_avx2, SUPERMAT__MR, &hook, 0.5, ref);
 #endif
-            t_scalar = cli_gemm_time(&g, supermat__ukr_scalar, &hook, 1.0, NULL);
+#if SUPERMAT__HAS_AVX512
+            if (supermat_cpu_has_avx512()) {
+                t_avx512 = cli_gemm_time(&g, supermat__ukr_avx512, SUPERMAT__MR512, &hook, 0.5, NULL);
+                avx512_same = t_avx512 > 0 && ref && !memcmp(ref, g.out.d, nout * sizeof(float));
+            }
+#endif
+            t_scalar = cli_gemm_time(&g, supermat__ukr_scalar, SUPERMAT__MR, &hook, 1.0, NULL);
             if (t_avx2 > 0) {
                 double mx = 0.0, md = 0.0;
                 for (k = 0; k < nout; k++) {
@@ -1243,8 +1277,9 @@ static int cli_bench(int argc, char **argv) {
         printf("supermat bench: %s (%s, kernel %s), %dx%d%s, outputs %s, %d thread%s\n", model_path, cli_kind_name(mi.kind),
                cli_kernel_name(mi.kernel), w, h, vs, outs_s, hook.max_threads, hook.max_threads == 1 ? "" : "s");
         if (pipeline_only) printf("FMA peak      skipped (--pipeline-only)\n");
-        else if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (AVX2, %d independent _mm256_fmadd_ps chains; best of 6)\n",
-                             peak, hook.max_threads, hook.max_threads == 1 ? "" : "s", peak1, CLI_FMA_CHAINS);
+        else if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (%s, %d independent %s chains; best of 6)\n",
+                             peak, hook.max_threads, hook.max_threads == 1 ? "" : "s", peak1, cli_fma_zmm ? "AVX-512" : "AVX2", CLI_FMA_CHAINS,
+                             cli_fma_zmm ? "_mm512_fmadd_ps" : "_mm256_fmadd_ps");
         else printf("FMA peak      n/a (no AVX2/FMA on this CPU or in this build)\n");
         printf("model create  %.3f s (validation and weight packing)\n", create_s);
         printf("\n%-32s %9s %9s %9s %7s\n", repeats > 1 ? "stage (fastest run)" : "stage", "seconds", "GFLOP", "GFLOP/s", "% peak");
@@ -1272,9 +1307,13 @@ static int cli_bench(int argc, char **argv) {
                hook.max_threads, hook.max_threads == 1 ? "" : "s");
         if (t_avx2 > 0) printf("              avx2   %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_avx2 / 1e9, t_avx2);
         else if (!pipeline_only) printf("              avx2   n/a\n");
+        if (t_avx512 > 0) printf("              avx512 %8.2f GFLOP/s (%.4f s), %.2fx avx2, %s bits as avx2\n", gemm_flops / t_avx512 / 1e9, t_avx512,
+                                 t_avx2 > 0 ? t_avx2 / t_avx512 : 0.0, avx512_same ? "the same" : "NOT the same");
+        else if (!pipeline_only) printf("              avx512 n/a (no AVX-512F on this CPU or in this build)\n");
         if (t_scalar > 0) printf("              scalar %8.2f GFLOP/s (%.4f s)\n", gemm_flops / t_scalar / 1e9, t_scalar);
         if (t_avx2 > 0) printf("              ratio  %.1fx (avx2 / scalar); max difference %.2g of max |C|; avx2 at %.1f%% of the FMA peak\n",
                                t_scalar / t_avx2, gemm_diff, peak > 0 ? 100.0 * gemm_flops / t_avx2 / 1e9 / peak : 0.0);
+        if (t_avx512 > 0 && peak > 0) printf("              avx512 at %.1f%% of the FMA peak\n", 100.0 * gemm_flops / t_avx512 / 1e9 / peak);
 
         if (json_path) {
             jf = cli_mem_open(&jm, json_path);
@@ -1305,9 +1344,10 @@ static int cli_bench(int argc, char **argv) {
                     (unsigned long long)mi.model_bytes, (unsigned long long)session_bytes, (unsigned long long)planned,
                     (unsigned long long)rss, (unsigned long long)file_size);
             if (pipeline_only) fprintf(jf, "  \"gemm\": null\n}\n");
-            else fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g}\n}\n",
+            else fprintf(jf, "  \"gemm\": {\"M\": %d, \"K\": %d, \"N\": %d, \"gflop\": %.6g, \"avx2_gflops\": %.6g, \"avx512_gflops\": %.6g, \"avx512_same_bits\": %s, \"scalar_gflops\": %.6g, \"ratio\": %.6g, \"max_rel_diff\": %.6g},\n  \"fma_peak_isa\": \"%s\"\n}\n",
                     CLI_GEMM_HW * CLI_GEMM_HW, 9 * CLI_GEMM_C, CLI_GEMM_C, gemm_flops / 1e9, t_avx2 > 0 ? gemm_flops / t_avx2 / 1e9 : 0.0,
-                    t_scalar > 0 ? gemm_flops / t_scalar / 1e9 : 0.0, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff);
+                    t_avx512 > 0 ? gemm_flops / t_avx512 / 1e9 : 0.0, avx512_same ? "true" : "false",
+                    t_scalar > 0 ? gemm_flops / t_scalar / 1e9 : 0.0, t_avx2 > 0 ? t_scalar / t_avx2 : 0.0, gemm_diff, cli_fma_zmm ? "avx512" : "avx2");
             if (cli_mem_commit(&jm, json_path, 1, 0) != CLI_OK) rc = CLI_FAIL;
         }
     }
