@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # tests/test_batch.sh - `supermat batch` on a small asset library with the tiny model.
 #
-#   tests/test_batch.sh BUILD/supermat TINY_SUPERMAT_MODEL TESTS_DATA_DIR
+#   tests/test_batch.sh BUILD/supermat TINY_SUPERMAT_MODEL TESTS_DATA_DIR [CUBE_GLTF]
 #
 # 21 pictures in nested folders (three sizes) plus a corrupt one. The reference: `supermat image` on each
 # folder. Checks, each against that reference (cmp of every map):
@@ -15,9 +15,15 @@
 #   - --jobs 3: the same maps, every item done once;
 #   - a manifest: plain lines and JSON Lines with per-item "outputs"; malformed lines are usage errors;
 #   - GNU parallel (when installed): 3 workers, one per shard, one killed mid-run; `parallel
-#     --resume-failed` finishes it; every item done exactly once, maps identical to the reference.
+#     --resume-failed` finishes it; every item done exactly once, maps identical to the reference;
+#   - tools/slurm_batch.sh run as Slurm runs array tasks, then the merge;
+#   - batch mesh (with CUBE_GLTF, a textured glTF with its .bin and texture beside it, and a supermat built
+#     with mesh): 6 assets in folders and a broken one, outputs identical to `supermat mesh`, 6 SIGKILLs
+#     then a run to the end: each asset done once, no staging folder left.
 set -u
-if [ $# -ne 3 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR" >&2; exit 2; fi
+if [ $# -lt 3 ] || [ $# -gt 4 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR [CUBE_GLTF]" >&2; exit 2; fi
+CUBE=""
+[ $# -eq 4 ] && [ -f "$4" ] && CUBE=$(realpath "$4")
 BIN=$(realpath "$1")
 MODEL=$(realpath "$2")
 DATA=$(realpath "$3")
@@ -184,6 +190,42 @@ check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard don
 check "slurm: 4 journals, every item once" each_done_once slurm/journal.*-of-4.jsonl
 "$BIN" batch --merge --out slurm lib 2>/dev/null; check "slurm: the merge step finds every item" [ $? -eq 0 ]
 check "slurm: maps identical to the reference" same_as_ref slurm
+
+# ---- batch mesh ----
+if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
+    cdir=$(dirname "$CUBE")
+    for d in m/a m/a/deep m/b; do
+        mkdir -p "$d"
+        for k in 1 2; do
+            sed "s/cube_texture.png/tex_$k.png/; s/cube.bin/geo_$k.bin/" "$CUBE" > "$d/asset_$k.gltf"
+            cp "$cdir/cube_texture.png" "$d/tex_$k.png"; cp "$cdir/cube.bin" "$d/geo_$k.bin"
+        done
+    done
+    echo '{"asset": ' > m/b/broken.gltf
+    MESH=(--passthrough --size 64 --views-size 64 --threads 1)
+    "$BIN" mesh "${MESH[@]}" m/a/asset_1.gltf mref.gltf >/dev/null 2>&1 || bad "reference mesh run"
+    "$BIN" batch mesh "${MESH[@]}" --out mout m > /dev/null 2> log; rc=$?
+    check "batch mesh: exit 1 with a broken asset (got $rc)" [ $rc -eq 1 ]
+    check "batch mesh: 6 done, 1 failed" [ "$(count mout/journal.jsonl '"status":"done"')$(count mout/journal.jsonl '"status":"failed"')" = 61 ]
+    check "batch mesh: the asset mirrored, its textures as supermat mesh bakes them" cmp -s mref_baseColor.png mout/a/deep/asset_1_baseColor.png
+    check "batch mesh: a .gltf with its buffer beside it" [ -f mout/b/asset_2.gltf ] && [ -f mout/b/geo_2.bin ]
+    "$BIN" batch mesh --model x --out mout m 2>/dev/null; check "batch mesh: an image option is a usage error" [ $? -eq 2 ]
+    rm -f m/b/broken.gltf
+    for k in $(seq 6); do
+        "$BIN" batch mesh "${MESH[@]}" --out mkill m >/dev/null 2>&1 &
+        pid=$!
+        sleep "0.0$((RANDOM % 10))"
+        kill -9 $pid 2>/dev/null
+        wait $pid 2>/dev/null
+    done
+    "$BIN" batch mesh "${MESH[@]}" --out mkill m >/dev/null 2>&1; rc=$?
+    check "batch mesh after 6 kills: exit 0 (got $rc)" [ $rc -eq 0 ]
+    check "batch mesh after the kills: each asset done once" [ "$(grep '"status":"done"' mkill/journal.jsonl | sed 's/^{"item":"\([^"]*\)".*/\1/' | sort | uniq -c | awk '$1 == 1' | wc -l)" -eq 6 ]
+    check "batch mesh after the kills: no staging folder or FILE.tmp left" [ -z "$(find mkill -name '.supermat-mesh-*' -o -name '*.tmp')" ]
+    check "batch mesh after the kills: textures identical" cmp -s mref_baseColor.png mkill/a/deep/asset_1_baseColor.png
+else
+    echo "SKIP: batch mesh (no CUBE_GLTF given, or supermat built without tinygltf)"
+fi
 
 echo "$PASS passed, $FAIL failed"
 [ $FAIL -eq 0 ]

@@ -93,12 +93,15 @@ oom:
     return CLI_FAIL;
 }
 
+static int cli_batch_mesh_mode; /* 1: items are glTF assets (`batch mesh`), 0: pictures */
 static int cli_is_picture_name(const char *name) {
-    static const char *const ext[] = {"png", "jpg", "jpeg", "webp", "bmp", "tga"};
+    static const char *const pics[] = {"png", "jpg", "jpeg", "webp", "bmp", "tga"}, *const meshes[] = {"gltf", "glb"};
+    const char *const *ext = cli_batch_mesh_mode ? meshes : pics;
+    size_t next = cli_batch_mesh_mode ? 2 : 6;
     const char *d = strrchr(name, '.');
     size_t k;
     if (!d || d == name) return 0;
-    for (k = 0; k < sizeof ext / sizeof ext[0]; k++) {
+    for (k = 0; k < next; k++) {
         const char *a = d + 1, *b = ext[k];
         while (*a && *b && tolower((unsigned char)*a) == *b) { a++; b++; }
         if (!*a && !*b) return 1;
@@ -381,9 +384,20 @@ static void cli_journal_status(void *user, const cli_jrec *r, const char *line) 
 }
 
 /* the names of an item's outputs relative to DIR */
+static const char *cli_ext_of(const char *path) {
+    const char *d = strrchr(path, '.'), *sl = strrchr(path, '/');
+    return d && (!sl || d > sl) ? d : "";
+}
 static void cli_item_outputs(FILE *f, const cli_bitem *it) {
     int k, e, first = 1;
     fputc('[', f);
+    if (cli_batch_mesh_mode) { /* the asset file (its textures and buffer lie beside it) */
+        char name[8192];
+        snprintf(name, sizeof name, "%s%s%s%s", it->sub, it->sub[0] ? "/" : "", it->stem, cli_ext_of(it->input));
+        cli_json_string(f, name);
+        fputc(']', f);
+        return;
+    }
     for (k = 0; k < 3; k++) {
         static const unsigned bit[3] = {SUPERMAT_OUTPUT_ALBEDO, SUPERMAT_OUTPUT_ROUGHNESS, SUPERMAT_OUTPUT_METALLIC};
         if (!(it->outputs & bit[k])) continue;
@@ -430,6 +444,8 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
 
 static const char cli_usage_batch[] =
     "usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
+    "       supermat batch mesh (--mv-model F --albedo-refine F --rm-refine F | --passthrough) --out DIR\n"
+    "                           [mesh options] [batch options] INPUT...\n"
     "       supermat batch --merge --out DIR [INPUT...]\n"
     "\n"
     "Runs `supermat image` over an asset library, resumably. INPUT is a picture, a folder (searched\n"
@@ -456,6 +472,11 @@ static const char cli_usage_batch[] =
     "  --fail-fast       stop at the first failed item (default: go on, exit 1 at the end)\n"
     "  --json FILE       a summary: items, done, failed, skipped, seconds, journal\n"
     "  --outputs, --float, --native, --work-size, --threads, --kernel, --weights   as `supermat image`\n"
+    "\n"
+    "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
+    "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
+    "--mv-model, --albedo-refine, --rm-refine, --passthrough, --size, --views-size, --threads, --gutter,\n"
+    "--edge-reject, --weight, --supersample go to `supermat mesh`, which loads the models for each asset.\n"
     "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
     "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
     "\n"
@@ -570,6 +591,72 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
     return failed || missing ? CLI_FAIL : CLI_OK;
 }
 
+/* removes a folder and everything below it (no links followed) */
+static void cli_rmtree(const char *path) {
+    DIR *d = opendir(path);
+    struct dirent *e;
+    if (d) {
+        while ((e = readdir(d)) != NULL) {
+            struct stat st;
+            char *p;
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+            if (!(p = cli_join(path, e->d_name, ""))) continue;
+            if (lstat(p, &st) == 0 && S_ISDIR(st.st_mode)) cli_rmtree(p);
+            else remove(p);
+            free(p);
+        }
+        closedir(d);
+    }
+    rmdir(path);
+}
+
+#ifdef SUPERMAT_CLI_MESH
+int supermat_cli_mesh(int argc, char **argv); /* tools/cli/mesh.cpp */
+#endif
+/* one asset through `supermat mesh ARGS --force IN DIR/<stem>.<ext>`; a staging folder a killed run left
+   beside it (.supermat-mesh-<pid>.tmp of a process that is gone) is removed first */
+static int cli_batch_mesh_item(char **fwd, int nfwd, const cli_bitem *it, const char *dir) {
+#ifdef SUPERMAT_CLI_MESH
+    char *out, **av;
+    int rc, n = 0, k;
+    DIR *d = opendir(dir);
+    if (d) {
+        struct dirent *e;
+        long pid;
+        char tail[8];
+        while ((e = readdir(d)) != NULL)
+            if (sscanf(e->d_name, ".supermat-mesh-%ld.%3s", &pid, tail) == 2 && !strcmp(tail, "tmp") && pid > 0 && kill((pid_t)pid, 0) != 0 &&
+                errno == ESRCH) {
+                char *stage = cli_join(dir, e->d_name, "");
+                if (stage) {
+                    cli_rmtree(stage);
+                    free(stage);
+                }
+            }
+        closedir(d);
+    }
+    out = cli_join(dir, it->stem, cli_ext_of(it->input));
+    av = (char **)malloc(sizeof(char *) * (size_t)(nfwd + 4));
+    if (!out || !av) { free(out); free(av); cli_error("out of memory"); return CLI_FAIL; }
+    for (k = 0; k < nfwd; k++) av[n++] = fwd[k];
+    av[n++] = (char *)"--force";
+    av[n++] = it->input;
+    av[n++] = out;
+    av[n] = NULL;
+    fflush(stdout);
+    rc = supermat_cli_mesh(n, av);
+    fflush(stdout);
+    if (rc != 0) cli_error("supermat mesh %s: exit %d (its message is above)", it->input, rc);
+    free(out);
+    free(av);
+    return rc == 0 ? CLI_OK : CLI_FAIL;
+#else
+    (void)fwd; (void)nfwd; (void)it; (void)dir;
+    cli_error("built without tinygltf");
+    return CLI_FAIL;
+#endif
+}
+
 static int cli_batch(int argc, char **argv) {
     const char *cmd = "batch", *v, *model_arg = NULL, *model_path = NULL, *out_dir = NULL, *json_path = NULL;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
@@ -586,7 +673,8 @@ static int cli_batch(int argc, char **argv) {
     char *jpath = NULL;
     double t0 = cli_now();
     const char **inputs;
-    int ninputs = 0;
+    int ninputs = 0, nfwd = 0;
+    char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
 
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
@@ -594,51 +682,80 @@ static int cli_batch(int argc, char **argv) {
     i = 2;
     if (argc >= 3 && !strcmp(argv[2], "image")) i = 3;
     else if (argc >= 3 && !strcmp(argv[2], "--merge")) { merge = 1; i = 3; }
-    else if (argc >= 3 && !strcmp(argv[2], "mesh"))
-        return cli_usage_error(cmd, "`batch mesh` is not there yet: run `supermat mesh` per asset (the batch journal covers `image`)");
+    else if (argc >= 3 && !strcmp(argv[2], "mesh")) {
+#ifdef SUPERMAT_CLI_MESH
+        cli_batch_mesh_mode = 1;
+        i = 3;
+#else
+        cli_error("this supermat was built without tinygltf (libtinygltf-dev): `batch mesh` is not available");
+        return CLI_FAIL;
+#endif
+    }
     else return cli_usage_error(cmd, "give what to run: `supermat batch image ...` (or `supermat batch --merge --out DIR`)");
     inputs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
-    if (!inputs) { cli_error("out of memory"); return CLI_FAIL; }
+    fwd = (char **)malloc(sizeof(char *) * (size_t)(argc + 8));
+    if (!inputs || !fwd) { free(inputs); free(fwd); cli_error("out of memory"); return CLI_FAIL; }
+    fwd[nfwd++] = (char *)"mesh";
     for (; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_batch, stdout); free(inputs); return CLI_OK; }
+        if (cli_batch_mesh_mode) { /* the options of `supermat mesh`, passed on */
+            static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--size", "--views-size", "--threads",
+                                                     "--gutter", "--edge-reject", "--weight", "--supersample"};
+            size_t q;
+            int hit = 0;
+            if (!strcmp(a, "--passthrough")) { fwd[nfwd++] = argv[i]; continue; }
+            for (q = 0; q < sizeof with_value / sizeof with_value[0]; q++)
+                if (!strcmp(a, with_value[q])) {
+                    if (i + 1 >= argc) { free(inputs); free(fwd); return cli_usage_error(cmd, "option '%s' needs a value", a); }
+                    fwd[nfwd++] = argv[i]; fwd[nfwd++] = argv[++i];
+                    hit = 1;
+                    break;
+                }
+            if (hit) continue;
+            if (!strcmp(a, "--model") || !strcmp(a, "--outputs") || !strcmp(a, "--float") || !strcmp(a, "--native") ||
+                !strcmp(a, "--work-size") || !strcmp(a, "--kernel") || !strcmp(a, "--weights")) {
+                free(inputs); free(fwd);
+                return cli_usage_error(cmd, "'%s' is an option of `batch image`, not of `batch mesh`", a);
+            }
+        }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_batch, stdout); free(inputs); free(fwd); return CLI_OK; }
         if (!strcmp(a, "--")) { for (i++; i < argc; i++) inputs[ninputs++] = argv[i]; break; }
         if (!strcmp(a, "--merge")) { merge = 1; continue; }
         if (!strcmp(a, "--retry-failed")) { retry = 1; continue; }
         if (!strcmp(a, "--fail-fast")) { fail_fast = 1; continue; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             model_arg = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             out_dir = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             json_path = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--shard", &v)) != 0) {
             char extra;
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             if (sscanf(v, "%d/%d%c", &shard_i, &shard_n, &extra) != 2 || shard_n < 1 || shard_i < 0 || shard_i >= shard_n) {
-                free(inputs);
+                free(inputs); free(fwd);
                 return cli_usage_error(cmd, "--shard I/N: 0 <= I < N (got '%s')", v);
             }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--jobs", &v)) != 0) {
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             jobs = atoi(v);
-            if (jobs < 1 || jobs > 256) { free(inputs); return cli_usage_error(cmd, "--jobs J: 1 to 256 (got '%s')", v); }
+            if (jobs < 1 || jobs > 256) { free(inputs); free(fwd); return cli_usage_error(cmd, "--jobs J: 1 to 256 (got '%s')", v); }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(inputs); return CLI_USAGE; }
         } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
-            if (m < 0) { free(inputs); return CLI_USAGE; }
+            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
-            free(inputs);
+            free(inputs); free(fwd);
             return cli_usage_error(cmd, "unknown option '%s'", a);
         } else
             inputs[ninputs++] = a;
     }
-    if (!out_dir) { free(inputs); return cli_usage_error(cmd, "--out DIR is required"); }
-    if (!merge && !ninputs) { free(inputs); return cli_usage_error(cmd, "no input (pictures, folders or @LIST)"); }
-    if (cli_policy == CLI_POLICY_SKIP) { free(inputs); return cli_usage_error(cmd, "--skip-existing does not apply: the journal says what is done"); }
+    if (!out_dir) { free(inputs); free(fwd); return cli_usage_error(cmd, "--out DIR is required"); }
+    if (!merge && !ninputs) { free(inputs); free(fwd); return cli_usage_error(cmd, "no input (pictures, folders or @LIST)"); }
+    if (cli_policy == CLI_POLICY_SKIP) { free(inputs); free(fwd); return cli_usage_error(cmd, "--skip-existing does not apply: the journal says what is done"); }
     cli_policy = CLI_POLICY_FORCE; /* DIR belongs to the batch: an unfinished item's outputs are replaced */
 
     if (!merge && (rc = cli_mkdirs(out_dir)) != CLI_OK) { free(inputs); return rc; }
@@ -646,6 +763,12 @@ static int cli_batch(int argc, char **argv) {
     for (i = 0; i < ninputs && rc == CLI_OK; i++) rc = cli_add_input(&L, cmd, inputs[i], have_out_st ? &out_st : NULL, outputs, want_float);
     have_inputs = ninputs > 0;
     free(inputs);
+    if (rc == CLI_OK && cli_batch_mesh_mode) { /* the asset keeps its extension: a.gltf and a.glb share a key */
+        for (k = 0; k < L.n; k++) {
+            const char *e = cli_ext_of(L.v[k].input);
+            if (strcmp(e, ".gltf") && strcmp(e, ".glb")) { rc = cli_usage_error(cmd, "'%s' is not a .gltf or .glb asset", L.v[k].input); break; }
+        }
+    }
     if (rc == CLI_OK && L.n > 1) {
         qsort(L.v, L.n, sizeof *L.v, cli_bitem_cmp);
         for (k = 1; k < L.n && rc == CLI_OK; k++)
@@ -660,8 +783,8 @@ static int cli_batch(int argc, char **argv) {
                     rc = cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", L.v[k - 1].input, L.v[k].input, L.v[k].key);
             }
     }
-    if (rc != CLI_OK) { cli_blist_free(&L); return rc; }
-    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); return rc; }
+    if (rc != CLI_OK) { cli_blist_free(&L); free(fwd); return rc; }
+    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); free(fwd); return rc; }
 
     /* this shard's items, and what the journal says of them */
     {
@@ -669,7 +792,7 @@ static int cli_batch(int argc, char **argv) {
         if (shard_n > 1) snprintf(name, sizeof name, "journal.%d-of-%d", shard_i, shard_n);
         else snprintf(name, sizeof name, "journal");
         jpath = cli_join(out_dir, name, ".jsonl");
-        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); return CLI_FAIL; }
+        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); free(fwd); return CLI_FAIL; }
     }
     if (cli_journal_read(jpath, cli_journal_status, &L) != 0) {
         cli_error("cannot read the journal '%s': %s", jpath, strerror(errno));
@@ -688,23 +811,23 @@ static int cli_batch(int argc, char **argv) {
         fprintf(stderr, "batch: %zu item(s)%s: %zu done before, %zu failed before%s, %zu to run; journal %s\n", mine, of,
                 done_before, failed_before, failed_before ? " (--retry-failed runs them)" : "", left, jpath);
     }
-    if (rc == CLI_OK && left) {
+    if (rc == CLI_OK && left && !cli_batch_mesh_mode) { /* one model load for the whole batch (mesh loads per asset) */
         rc = cli_model_path("image", model_arg, 1, &mref);
         if (rc == CLI_OK) model_path = mref.path;
         if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &X.model, NULL);
         if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
         if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
-        if (rc == CLI_OK && (fd = open(jpath, O_RDWR | O_APPEND | O_CREAT, 0644)) < 0) {
-            cli_error("cannot open the journal '%s': %s", jpath, strerror(errno));
+    }
+    if (rc == CLI_OK && left && (fd = open(jpath, O_RDWR | O_APPEND | O_CREAT, 0644)) < 0) {
+        cli_error("cannot open the journal '%s': %s", jpath, strerror(errno));
+        rc = CLI_FAIL;
+    }
+    if (rc == CLI_OK && fd >= 0) { /* a line torn by a kill gets its end, so the next record starts a line of its own */
+        struct stat jst;
+        char last = '\n';
+        if (fstat(fd, &jst) == 0 && jst.st_size > 0 && pread(fd, &last, 1, jst.st_size - 1) == 1 && last != '\n' && write(fd, "\n", 1) != 1) {
+            cli_error("cannot append to the journal '%s': %s", jpath, strerror(errno));
             rc = CLI_FAIL;
-        }
-        if (rc == CLI_OK) { /* a line torn by a kill gets its end, so the next record starts a line of its own */
-            struct stat jst;
-            char last = '\n';
-            if (fstat(fd, &jst) == 0 && jst.st_size > 0 && pread(fd, &last, 1, jst.st_size - 1) == 1 && last != '\n' && write(fd, "\n", 1) != 1) {
-                cli_error("cannot append to the journal '%s': %s", jpath, strerror(errno));
-                rc = CLI_FAIL;
-            }
         }
     }
     if (json_path && rc == CLI_OK && cli_report_allowed(json_path) != CLI_OK) rc = CLI_FAIL;
@@ -748,7 +871,10 @@ static int cli_batch(int argc, char **argv) {
                 s0 = cli_now();
                 cli_last_error[0] = 0;
                 if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
-                else if ((r = cli_mkdirs(dir)) == CLI_OK) r = cli_image_one(&X, it->input, dir, it->stem);
+                else if ((r = cli_mkdirs(dir)) == CLI_OK) {
+                    if (!cli_batch_mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
+                    else r = cli_batch_mesh_item(fwd, nfwd, it, dir);
+                }
                 free(dir);
                 if (r == CLI_SKIPPED) r = CLI_OK;
                 if (cli_journal_append(fd, jpath, it, r == CLI_OK, cli_now() - s0, r == CLI_OK ? NULL : cli_last_error) != CLI_OK) {
@@ -819,5 +945,6 @@ static int cli_batch(int argc, char **argv) {
     cli_free_file(file);
     cli_blist_free(&L);
     free(jpath);
+    free(fwd);
     return rc;
 }
