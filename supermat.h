@@ -274,6 +274,17 @@ typedef enum supermat_model_kind {
     SUPERMAT_KIND_COUNT
 } supermat_model_kind;
 
+/* What the GEMMs (convolutions, linears) multiply in. BF16: the weights are stored as bf16 and each GEMM
+   rounds its activations to bf16 at its input, then multiplies pairs with AVX512_BF16 (vdpbf16ps: two
+   products per lane, float32 accumulation); norms, softmax, attention scores, residuals and everything else
+   stay float32. Needs a CPU with AVX512_BF16 (UNSUPPORTED otherwise) and float weights (not I8); the 3x3
+   convolutions that Winograd computes stay float32. Its error is measured by `supermat bench --image`. */
+typedef enum supermat_compute {
+    SUPERMAT_COMPUTE_F32 = 0,   /* the reference */
+    SUPERMAT_COMPUTE_BF16,      /* bf16 x bf16 products, f32 sums */
+    SUPERMAT_COMPUTE_COUNT
+} supermat_compute;
+
 typedef enum supermat_weights {
     SUPERMAT_WEIGHTS_DEFAULT = 0, /* as stored in the file: F32 -> f32, F16 -> f16, BF16 -> bf16 */
     SUPERMAT_WEIGHTS_F32,         /* the reference */
@@ -306,6 +317,7 @@ typedef struct supermat_model_desc {
                                  norms, biases and softmax stay float32 */
     supermat_conv conv;       /* 3x3 convolution algorithm (DIRECT = the reference) */
     supermat_allocator allocator;
+    supermat_compute compute; /* F32 (0) or BF16 products in the GEMMs (see supermat_compute) */
 } supermat_model_desc;
 
 typedef struct supermat_model_info {
@@ -313,6 +325,7 @@ typedef struct supermat_model_info {
     supermat_kernel kernel;        /* the kernel set chosen */
     supermat_weights weights;      /* DEFAULT resolved: the storage of the first GEMM weight */
     supermat_conv conv;            /* the 3x3 convolution algorithm */
+    supermat_compute compute;      /* what the GEMMs multiply in */
     int unet_in_channels, unet_out_channels, unet_levels, layers_per_block, norm_groups;
     int block_channels[8], num_heads[8];
     int cross_attention_dim, context_tokens, branches, class_embed_in;
@@ -459,6 +472,7 @@ SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
 SUPERMAT_API int supermat_default_threads(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
+SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
@@ -513,6 +527,7 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #if SUPERMAT__HAS_AVX2 && !defined(SUPERMAT_NO_AVX512)
 #define SUPERMAT__HAS_AVX512 1
 #define SUPERMAT__AVX512 __attribute__((target("avx512f,avx2,fma,f16c")))
+#define SUPERMAT__AVX512BF16 __attribute__((target("avx512f,avx512bf16,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX512 0
 #endif
@@ -1099,6 +1114,15 @@ SUPERMAT__DEF int supermat_cpu_has_avx512(void) {
 #endif
 }
 
+SUPERMAT__DEF int supermat_cpu_has_avx512_bf16(void) {
+#if SUPERMAT__HAS_AVX512
+    unsigned a, b, c, d;
+    return supermat_cpu_has_avx512() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 5) & 1);
+#else
+    return 0;
+#endif
+}
+
 /* >>convert : f16 / bf16 to f32 (scalar, exact) */
 static float supermat__f16_to_f32(uint16_t h) {
     uint32_t s = (uint32_t)(h >> 15) << 31, e = (h >> 10) & 31, m = h & 1023, bits;
@@ -1350,6 +1374,43 @@ SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a,
     }
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
+
+/* bf16 compute: B panels as bf16 pairs [K/2][16][2] (one ZMM per pair of rows), A rows as bf16 pairs
+   (uint32); acc += a[2j] b[2j] + a[2j+1] b[2j+1] per lane with vdpbf16ps */
+SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *const *a, const uint16_t *b, float *c, size_t ldc, int mr,
+                                                    int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc[SUPERMAT__MR512];
+    const uint32_t *ap[SUPERMAT__MR512];
+    __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
+    int i, k;
+    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+    for (i = 0; i < SUPERMAT__MR512; i++) {
+        __m512 v = _mm512_setzero_ps();
+        if (i < mr) {
+            if (accumulate) v = _mm512_maskz_loadu_ps(mask, c + (size_t)i * ldc);
+            else {
+                if (bias) v = _mm512_loadu_ps(bias);
+                if (r) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(mask, r + (size_t)i * ldr));
+            }
+        }
+        acc[i] = v;
+    }
+    for (k = 0; k < kc2; k++) {
+        __m512bh bv = (__m512bh)_mm512_loadu_si512((const void *)(b + (size_t)k * 32));
+        for (i = 0; i < SUPERMAT__MR512; i++) acc[i] = _mm512_dpbf16_ps(acc[i], (__m512bh)_mm512_set1_epi32((int)ap[i][k]), bv);
+    }
+    for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
+}
+/* n floats -> n/2 bf16 pairs (round to nearest even; an odd tail pairs with 0) */
+SUPERMAT__AVX512BF16 static void supermat__to_bf16_pairs(const float *x, int n, uint32_t *out) {
+    int i = 0;
+    for (; i + 32 <= n; i += 32)
+        _mm512_storeu_si512((void *)(out + i / 2), (__m512i)_mm512_cvtne2ps_pbh(_mm512_loadu_ps(x + i + 16), _mm512_loadu_ps(x + i)));
+    for (; i < n; i += 2) {
+        uint32_t lo = supermat__f32_to_bf16(x[i]), hi = i + 1 < n ? supermat__f32_to_bf16(x[i + 1]) : 0;
+        out[i / 2] = lo | hi << 16;
+    }
+}
 #endif
 
 /* A operand of a GEMM */
@@ -1432,6 +1493,25 @@ static void supermat__gemm_task(void *user, int index, int thread) {
         } else {
             abase = A->a + (size_t)m0 * A->lda + k0; lda = A->lda;
         }
+#if SUPERMAT__HAS_AVX512
+        if (g->fmt == 4) { /* bf16 compute: this block of A as bf16 pairs once, then every panel */
+            int kc2 = (kc + 1) / 2, K2 = (g->K + 1) / 2, rows_n = m1 - m0, r;
+            uint32_t *ab = (uint32_t *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
+            for (r = 0; r < rows_n; r++) supermat__to_bf16_pairs(abase + (size_t)r * lda, kc, ab + (size_t)r * kc2);
+            for (p = p0; p < p1; p++) {
+                const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
+                int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+                for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                    const uint32_t *rows[SUPERMAT__MR512];
+                    int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                    for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = ab + (size_t)(i < mr ? m - m0 + i : m - m0) * kc2;
+                    supermat__ukr_bf16(kc2, rows, bq, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
+                                       g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                }
+            }
+            continue;
+        }
+#endif
         for (p = p0; p < p1; p++) {
             size_t boff = ((size_t)p * g->K + k0) * SUPERMAT__NR;
             const float *bp = g->B + (g->fmt ? 0 : boff);
@@ -1675,7 +1755,15 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     g.ukr = X->ukr; g.mr = X->mr > 0 ? X->mr : SUPERMAT__MR; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
-    if (W->fmt && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (W->fmt && W->fmt != 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+#if SUPERMAT__HAS_AVX512
+    if (W->fmt == 4 && (!X->avx512 || X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
+        X->status = SUPERMAT_ERROR_INTERNAL;
+        return;
+    }
+#else
+    if (W->fmt == 4) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+#endif
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
     npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     tasks_m = (M + SUPERMAT__MC - 1) / SUPERMAT__MC;
@@ -2345,6 +2433,7 @@ typedef struct supermat__loader {
     int weights;            /* requested supermat_weights */
     int conv;               /* requested supermat_conv */
     int keep_f32;           /* supermat__pack leaves the f32 panels (they are transformed next) */
+    int bf16c;              /* SUPERMAT_COMPUTE_BF16: GEMM weights as bf16 pairs (fmt 4) */
     int *qsc;               /* per tensor: its scale tensor (I8) or -1 */
 } supermat__loader;
 
@@ -2577,6 +2666,21 @@ static void supermat__release(supermat__loader *L, const void *p) {
             return;
         }
 }
+/* f32 panels [K][16] -> bf16 pair panels [ceil(K/2)][16][2] (round to nearest even; an odd K pads a 0) */
+static void supermat__bf16_pairs(supermat__loader *L, supermat__pw *pw) {
+    int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, K2 = (pw->K + 1) / 2, pnl, k, c;
+    uint16_t *q = (uint16_t *)supermat__mem(L, (size_t)np * K2 * 32 * sizeof(uint16_t));
+    if (L->r) return;
+    for (pnl = 0; pnl < np; pnl++)
+        for (k = 0; k < 2 * K2; k++)
+            for (c = 0; c < SUPERMAT__NR; c++)
+                q[(((size_t)pnl * K2 + k / 2) * SUPERMAT__NR + c) * 2 + (k & 1)] =
+                    k < pw->K ? supermat__f32_to_bf16(pw->p[((size_t)pnl * pw->K + k) * SUPERMAT__NR + c]) : 0;
+    pw->q = q;
+    pw->fmt = 4;
+    supermat__release(L, pw->p);
+    pw->p = NULL;
+}
 /* converts a packed f32 weight to its storage format and releases the f32 copy */
 static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, size_t total, const char *name) {
     size_t bad = 0;
@@ -2696,6 +2800,7 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
     }
     if (L->r) return;
     if (direct) pw->fmt = 3;
+    else if (L->bf16c && !L->keep_f32) supermat__bf16_pairs(L, pw);
     else if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
 }
 
@@ -3024,6 +3129,15 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
     if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
+    if ((unsigned)desc->compute >= SUPERMAT_COMPUTE_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown compute mode %d", (int)desc->compute);
+    if (desc->compute == SUPERMAT_COMPUTE_BF16) {
+        if (!supermat_cpu_has_avx512_bf16())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "bf16 compute needs AVX512_BF16, which this CPU (or build) lacks");
+        if (desc->kernel == SUPERMAT_KERNEL_SCALAR || desc->kernel == SUPERMAT_KERNEL_AVX2)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute runs on the AVX-512 kernel (kernel auto or avx512)");
+        if (desc->weights == SUPERMAT_WEIGHTS_I8)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute multiplies bf16 weights: not with int8 weights");
+    }
     if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
     a = supermat__resolve_allocator(&desc->allocator);
@@ -3038,6 +3152,8 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     L.js = (const char *)desc->data + 8; L.meta = -1;
     L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
     L.weights = (int)desc->weights;
+    L.bf16c = desc->compute == SUPERMAT_COMPUTE_BF16;
+    m->info.compute = desc->compute;
     L.conv = (int)desc->conv;
     m->info.conv = desc->conv;
     r = supermat__st_tokens(desc->data, desc->size, desc->size, &a, &L.toks, &ntok, err);
@@ -3142,6 +3258,7 @@ done:
     if (L.qsc) supermat__free(&a, L.qsc, sizeof(int) * ((size_t)n + 1));
     if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
     if (L.r) { supermat__model_free(m); return L.r; }
+    if (L.bf16c) m->info.weights = SUPERMAT_WEIGHTS_BF16;
     m->info.kernel = !L.avx2 ? SUPERMAT_KERNEL_SCALAR
                    : desc->kernel == SUPERMAT_KERNEL_AVX512 || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512())
                          ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
@@ -3519,7 +3636,7 @@ static int supermat__branch_mask(const supermat_model *m, unsigned outputs) {
 }
 
 static size_t supermat__scratch_floats(const supermat_model *m) {
-    size_t s = (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR, dmax = 16, cmax = 0;
+    size_t s = (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR, dmax = 16, cmax = 0; /* + bf16 A pairs */
     int l;
     for (l = 0; l < m->L; l++) {
         size_t d = (size_t)(m->boc[l] / m->heads[l] + 15) / 16 * 16;

@@ -437,11 +437,58 @@ static void test_mv_uv(const char *mv_path, const char *uv_path) {
     free(data);
 }
 
+/* the compute mode's refusals: bf16 compute without AVX512_BF16, on the scalar / AVX2 kernels, with int8
+   weights, and an unknown mode; on a CPU with AVX512_BF16 the valid request gives a model that says so */
+static void test_compute(void) {
+    static const struct { int kernel, weights, compute; supermat_result want; const char *what; } cases[] = {
+        {SUPERMAT_KERNEL_SCALAR, 0, SUPERMAT_COMPUTE_BF16, SUPERMAT_ERROR_INVALID_ARGUMENT, "bf16 compute on the scalar kernel"},
+        {SUPERMAT_KERNEL_AVX2, 0, SUPERMAT_COMPUTE_BF16, SUPERMAT_ERROR_INVALID_ARGUMENT, "bf16 compute on the AVX2 kernel"},
+        {SUPERMAT_KERNEL_AUTO, SUPERMAT_WEIGHTS_I8, SUPERMAT_COMPUTE_BF16, SUPERMAT_ERROR_INVALID_ARGUMENT, "bf16 compute with int8 weights"},
+        {SUPERMAT_KERNEL_AUTO, 0, SUPERMAT_COMPUTE_COUNT, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown compute mode"},
+    };
+    int i, has = supermat_cpu_has_avx512_bf16();
+    for (i = 0; i < (int)(sizeof cases / sizeof cases[0]); i++) {
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        supermat_error err;
+        supermat_result r, want = cases[i].want;
+        memset(&md, 0, sizeof md);
+        md.data = model_data; md.size = model_size;
+        md.kernel = (supermat_kernel)cases[i].kernel; md.weights = (supermat_weights)cases[i].weights; md.compute = (supermat_compute)cases[i].compute;
+        if (!has && cases[i].compute == SUPERMAT_COMPUTE_BF16) want = SUPERMAT_ERROR_UNSUPPORTED; /* refused for the CPU first */
+        r = supermat_model_create(&md, &m, &err);
+        TU_CHECK(r == want && !m, "%s: got %s (%s), want %s", cases[i].what, supermat_result_string(r), err.message, supermat_result_string(want));
+        supermat_model_destroy(m);
+    }
+    {
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        supermat_error err;
+        supermat_model_info info;
+        supermat_result r;
+        memset(&md, 0, sizeof md);
+        md.data = model_data; md.size = model_size; md.compute = SUPERMAT_COMPUTE_BF16;
+        r = supermat_model_create(&md, &m, &err);
+        if (!has) TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED, "bf16 compute without AVX512_BF16: got %s", supermat_result_string(r));
+        else {
+            TU_CHECK(r == SUPERMAT_SUCCESS, "bf16 compute: %s", err.message);
+            if (m) {
+                supermat_model_get_info(m, &info);
+                TU_CHECK(info.compute == SUPERMAT_COMPUTE_BF16 && info.kernel == SUPERMAT_KERNEL_AVX512 && info.weights == SUPERMAT_WEIGHTS_BF16,
+                         "bf16 compute model info: compute %d kernel %d weights %d", (int)info.compute, (int)info.kernel, (int)info.weights);
+            }
+        }
+        supermat_model_destroy(m);
+        printf("  compute modes: refusals checked%s\n", has ? ", bf16 compute model created" : " (no AVX512_BF16: UNSUPPORTED)");
+    }
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) { fprintf(stderr, "usage: %s MODEL [MV_MODEL UV_MODEL]\n", argv[0]); return 2; }
     model_data = tu_load(argv[1], &model_size);
     if (!model_data) { printf("cannot read %s\n", argv[1]); return 1; }
     test_semantic();
+    test_compute();
     test_truncated();
     test_corrupted();
     test_allocator();

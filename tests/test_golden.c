@@ -225,10 +225,14 @@ int main(int argc, char **argv) {
     /* "KERNEL:WEIGHTS" runs with reduced-precision weights against the same goldens, chained only,
        with the bound given by GOLDEN_TOL */
     if (strstr(kern, ":f16")) md.weights = SUPERMAT_WEIGHTS_F16;
-    if (strstr(kern, ":bf16")) md.weights = SUPERMAT_WEIGHTS_BF16;
+    if (strstr(kern, ":bf16") && !strstr(kern, ":bf16c")) md.weights = SUPERMAT_WEIGHTS_BF16;
     if (strstr(kern, ":i8")) md.weights = SUPERMAT_WEIGHTS_I8;
     if (strstr(kern, ":wf2")) md.conv = SUPERMAT_CONV_WINOGRAD_F2;
     if (strstr(kern, ":wf4")) md.conv = SUPERMAT_CONV_WINOGRAD_F4;
+    if (strstr(kern, ":bf16c")) { /* bf16 compute (AVX512_BF16) */
+        if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16 on this CPU (or build)\n"); free(file); return 77; }
+        md.compute = SUPERMAT_COMPUTE_BF16;
+    }
     if (!strncmp(kern, "avx2", 4)) {
         if (!supermat_cpu_has_avx2()) { printf("SKIP: no AVX2 on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX2;
@@ -244,7 +248,7 @@ int main(int argc, char **argv) {
         if (info.kind == SUPERMAT_KIND_SUPERMAT_MV) check_mv_layers(model, argv[4]);
         const char *mode = getenv("GOLDEN_MODE"); /* both (default), stages, chain */
         double tol = getenv("GOLDEN_TOL") ? atof(getenv("GOLDEN_TOL")) : 0.0;
-        if (md.weights) mode = "chain";
+        if (md.weights || md.compute) mode = "chain";
         for (i = 4; i < argc; i++) {
             if (!mode || strcmp(mode, "chain")) run_case(model, argv[i], 1, tol > 0 ? tol : 1e-5, threads);   /* the bound, per stage */
             if (!mode || strcmp(mode, "stages")) run_case(model, argv[i], 0, tol > 0 ? tol : 1e-4, threads);  /* the whole chain (errors compound) */

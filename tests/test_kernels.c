@@ -495,6 +495,61 @@ static void test_same_bits(void) {
     printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions\n");
 }
 
+/* bf16 compute (AVX512_BF16): the pair kernel against float64 sums of the bf16-rounded operands (the
+   rounding is the mode's; what is left is float32 accumulation: 1e-5), and against the float32 operands
+   (the mode's own error: 1e-2 of max |C|); bias, residual, odd K, several K blocks, 1 and 3 threads */
+#if SUPERMAT__HAS_AVX512
+static float bf16_round(float x) { uint16_t h = supermat__f32_to_bf16(x); return supermat__bf16_to_f32(h); }
+#endif
+static void test_bf16_compute(void) {
+#if SUPERMAT__HAS_AVX512
+    kctx k[2];
+    int t, th;
+    double worst_r = 0, worst_x = 0;
+    if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16: bf16 compute not tested\n"); return; }
+    kctx_init(&k[0], 2, 1);
+    kctx_init(&k[1], 2, 3);
+    for (t = 0; t < 30; t++) {
+        int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np = (N + 15) / 16, K2 = (K + 1) / 2;
+        float *a = rvec((size_t)M * K, 1.0), *w = rvec((size_t)N * K, 1.0), *b = rvec((size_t)N, 1.0), *R = rvec((size_t)M * N, 1.0), *c[2];
+        double *ref_r = (double *)malloc(sizeof(double) * (size_t)M * N), *ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
+        supermat__pw pw;
+        uint16_t *q = (uint16_t *)calloc((size_t)np * K2 * 32, sizeof(uint16_t));
+        int use_b = t % 2, use_r = t % 3 == 0;
+        pack_w(&pw, w, use_b ? b : NULL, N, K, 1);
+        for (n = 0; n < np * 16; n++) /* [K/2][16][2] pairs */
+            for (kk = 0; kk < K; kk++) q[(((size_t)(n / 16) * K2 + kk / 2) * 16 + n % 16) * 2 + (kk & 1)] = supermat__f32_to_bf16(pw.p[((size_t)(n / 16) * K + kk) * 16 + n % 16]);
+        free(pw.p); pw.p = NULL; pw.q = q; pw.fmt = 4;
+        for (m = 0; m < M; m++)
+            for (n = 0; n < N; n++) {
+                double sr = use_b ? b[n] : 0.0, sx = sr;
+                if (use_r) { sr += R[(size_t)m * N + n]; sx += R[(size_t)m * N + n]; }
+                for (kk = 0; kk < K; kk++) {
+                    sr += (double)bf16_round(a[(size_t)m * K + kk]) * bf16_round(w[(size_t)n * K + kk]);
+                    sx += (double)a[(size_t)m * K + kk] * w[(size_t)n * K + kk];
+                }
+                ref_r[(size_t)m * N + n] = sr; ref_x[(size_t)m * N + n] = sx;
+            }
+        for (th = 0; th < 2; th++) {
+            double er, ex;
+            c[th] = (float *)malloc(sizeof(float) * (size_t)M * N);
+            k[th].X.status = SUPERMAT_SUCCESS;
+            supermat__linear(&k[th].X, a, (size_t)K, M, &pw, c[th], (size_t)N, use_r ? R : NULL, (size_t)N);
+            er = maxerr(c[th], ref_r, (size_t)M * N); ex = maxerr(c[th], ref_x, (size_t)M * N);
+            TU_CHECK(k[th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 1e-2, "bf16 compute t%d M%d N%d K%d: err %.3g vs bf16 operands, %.3g vs f32",
+                     th ? 3 : 1, M, N, K, er, ex);
+            if (er > worst_r) worst_r = er;
+            if (ex > worst_x) worst_x = ex;
+        }
+        TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "bf16 compute M%d N%d K%d: 1 and 3 threads differ", M, N, K);
+        free(a); free(w); free(b); free(R); free(c[0]); free(c[1]); free(ref_r); free(ref_x); free(q); free(pw.bias);
+    }
+    kctx_free(&k[0]);
+    kctx_free(&k[1]);
+    printf("bf16 compute: worst %.3g vs bf16-rounded operands, %.3g vs f32 operands (30 GEMMs)\n", worst_r, worst_x);
+#endif
+}
+
 static void test_scheduler(void) {
     float a = supermat__alphas_cumprod(1000, 0.00085, 0.012, 1, 999);
     uint32_t bits;
@@ -546,6 +601,7 @@ int main(void) {
     test_exp();
     test_winograd();
     test_same_bits();
+    test_bf16_compute();
     for (avx2 = 0; avx2 <= 2; avx2++) {
         if (!mode_ok(avx2)) { printf("SKIP: this CPU (or build) has no %s: that kernel was not tested\n", avx2 == 2 ? "AVX-512F" : "AVX2"); continue; }
         test_gemm_conv(avx2, 1);

@@ -89,6 +89,7 @@ static const char cli_usage_image[] =
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
+    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
     "Each file is written as FILE.tmp and renamed when complete. Progress (and the default model's\n"
     "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
@@ -127,6 +128,7 @@ static const char cli_usage_views[] =
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
+    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -156,6 +158,7 @@ static const char cli_usage_refine[] =
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
+    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -171,7 +174,8 @@ static const char cli_usage_info[] =
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto)\n"
-    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n";
+    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
+    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n";
 
 static const char cli_usage_bench[] =
     "usage: supermat bench [--model FILE] [options]\n"
@@ -198,6 +202,7 @@ static const char cli_usage_bench[] =
     "                    makes its one refined map)\n"
     "  --kernel K        auto | scalar | avx2 | avx512: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
+    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
 /* (the rest of `bench --help`: one string literal would be longer than C99 promises) */
@@ -237,6 +242,9 @@ static const char cli_usage_bench_image[] =
     "  res512, res768      uv-refine: the same at 512 / 768\n"
     "  mv_window_own       supermat-mv: highest-resolution attention within each view only\n"
     "  mv_window_stride4   supermat-mv: own view + every 4th key of the other views\n"
+    "  bf16_compute        bf16 x bf16 products in the GEMMs (AVX512_BF16; skipped without it)\n"
+    "  kernel_avx2         the AVX2 micro-kernel where f32 runs the AVX-512 one (same bits; skipped\n"
+    "                      without AVX-512)\n"
     "\n"
     "options with --image (besides --model, --threads, --repeats, --kernel, --views above):\n"
     "  --image FILE      the input (see above; repeated for the views of a supermat-mv model)\n"
@@ -308,6 +316,13 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
 
 /* --weights: the storage of the GEMM weights (a speed / accuracy lever, see README) */
 static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
+static supermat_compute cli_compute = SUPERMAT_COMPUTE_F32;
+static int cli_parse_compute(const char *cmd, const char *s) {
+    if (!strcmp(s, "f32")) cli_compute = SUPERMAT_COMPUTE_F32;
+    else if (!strcmp(s, "bf16")) cli_compute = SUPERMAT_COMPUTE_BF16;
+    else { cli_usage_error(cmd, "--compute: '%s' is not f32 or bf16", s); return -1; }
+    return 0;
+}
 static int cli_parse_weights(const char *cmd, const char *s) {
     if (!strcmp(s, "default")) cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
     else if (!strcmp(s, "f32")) cli_weights = SUPERMAT_WEIGHTS_F32;

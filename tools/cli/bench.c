@@ -261,6 +261,7 @@ enum {
     CLI_MODE_F32, CLI_MODE_F16, CLI_MODE_BF16, CLI_MODE_INT8, CLI_MODE_WINOGRAD_F2, CLI_MODE_WINOGRAD_F4,
     CLI_MODE_TILED_VAE, CLI_MODE_FOREGROUND, CLI_MODE_BRANCH_ALBEDO, CLI_MODE_BRANCH_RM, CLI_MODE_RES256,
     CLI_MODE_RES384, CLI_MODE_RES512, CLI_MODE_RES768, CLI_MODE_MV_WINDOW_OWN, CLI_MODE_MV_WINDOW_STRIDE4,
+    CLI_MODE_BF16_COMPUTE, CLI_MODE_KERNEL_AVX2,
     CLI_MODE_COUNT
 };
 /* the model kinds a mode applies to */
@@ -276,7 +277,11 @@ static const struct { const char *name; unsigned kinds; } cli_modes[CLI_MODE_COU
     {"res256", CLI_KS | CLI_KMV},                {"res384", CLI_KS | CLI_KMV},
     {"res512", CLI_KUV},                         {"res768", CLI_KUV},
     {"mv_window_own", CLI_KMV},                  {"mv_window_stride4", CLI_KMV},
+    {"bf16_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"kernel_avx2", CLI_KS | CLI_KMV | CLI_KUV},
 };
+/* set by cli_mode_setup: the mode's compute and kernel (-1: the run's own kernel) */
+static supermat_compute cli_mode_compute;
+static int cli_mode_kernel = -1;
 
 static unsigned cli_kind_bit(supermat_model_kind k) {
     return k == SUPERMAT_KIND_SUPERMAT ? CLI_KS : k == SUPERMAT_KIND_SUPERMAT_MV ? CLI_KMV : k == SUPERMAT_KIND_UV_REFINE ? CLI_KUV : 0u;
@@ -322,7 +327,17 @@ static int cli_mode_setup(int mode, int w, int h, supermat_weights *weights, sup
     *weights = SUPERMAT_WEIGHTS_F32;
     *conv = SUPERMAT_CONV_DIRECT;
     *outputs = SUPERMAT_OUTPUT_ALL;
+    cli_mode_compute = SUPERMAT_COMPUTE_F32;
+    cli_mode_kernel = -1;
     switch (mode) {
+    case CLI_MODE_BF16_COMPUTE:
+        if (!supermat_cpu_has_avx512_bf16()) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_BF16"); return 1; }
+        cli_mode_compute = SUPERMAT_COMPUTE_BF16;
+        break;
+    case CLI_MODE_KERNEL_AVX2: /* beside the f32 row's AVX-512 kernel: the same bits, the time of the narrower one */
+        if (!supermat_cpu_has_avx512()) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
+        cli_mode_kernel = SUPERMAT_KERNEL_AVX2;
+        break;
     case CLI_MODE_F16: *weights = SUPERMAT_WEIGHTS_F16; break;
     case CLI_MODE_BF16: *weights = SUPERMAT_WEIGHTS_BF16; break;
     case CLI_MODE_INT8: *weights = SUPERMAT_WEIGHTS_I8; break;
@@ -593,7 +608,8 @@ static supermat_result cli_bi_model(const unsigned char *buf, size_t size, super
                                     supermat_conv conv, supermat_model **model, supermat_error *err) {
     supermat_model_desc md;
     memset(&md, 0, sizeof md);
-    md.data = buf; md.size = size; md.kernel = kernel; md.weights = weights; md.conv = conv;
+    md.data = buf; md.size = size; md.kernel = cli_mode_kernel >= 0 ? (supermat_kernel)cli_mode_kernel : kernel; md.weights = weights;
+    md.conv = conv; md.compute = cli_mode_compute;
     return supermat_model_create(&md, model, err);
 }
 
@@ -909,7 +925,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         nrows++;
         snprintf(what, sizeof what, "mode %s", cli_modes[mode].name);
         r = SUPERMAT_SUCCESS;
-        if (wt != SUPERMAT_WEIGHTS_F32 || conv != SUPERMAT_CONV_DIRECT) {
+        if (wt != SUPERMAT_WEIGHTS_F32 || conv != SUPERMAT_CONV_DIRECT || cli_mode_compute != SUPERMAT_COMPUTE_F32 || cli_mode_kernel >= 0) {
             r = cli_bi_model(file, file_size, o->kernel, wt, conv, &extra, &err);
             model = extra;
         }
@@ -1049,6 +1065,8 @@ static int cli_bench(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
             if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
             weights_given = 1;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) {
+            if (m < 0 || cli_parse_compute(cmd, v)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             json_path = v;

@@ -83,7 +83,7 @@ static int cli_info(int argc, char **argv) {
 
     /* the loaded model */
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights;
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;

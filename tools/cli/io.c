@@ -347,7 +347,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     *model = NULL;
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
-    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights;
+    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);
     if (create_seconds) *create_seconds = cli_now() - t0;

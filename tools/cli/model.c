@@ -156,6 +156,7 @@ static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want
         return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v) ? -1 : 1;
     return 0;
 }
 
