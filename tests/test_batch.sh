@@ -99,10 +99,12 @@ rm -f lib/chars/broken.png
 
 # ---- SIGKILL at random instants ----
 RANDOM=7
-for k in $(seq 12); do
+for k in $(seq 12); do # each kill once the journal has 0 or 1 more items than before, plus 0-90 ms (any speed of machine)
+    target=$(( $(count killed/journal.jsonl '"status":"done"') + RANDOM % 2 ))
     "$BIN" batch image "${RUN[@]}" --out killed lib 2>/dev/null &
     pid=$!
-    sleep "0.$((RANDOM % 9))$((RANDOM % 10))"
+    while [ "$(count killed/journal.jsonl '"status":"done"')" -lt $target ] && kill -0 $pid 2>/dev/null; do sleep 0.01; done
+    sleep "0.0$((RANDOM % 10))"
     kill -9 $pid 2>/dev/null
     wait $pid 2>/dev/null
 done
