@@ -434,24 +434,18 @@ def encode_all(vae, data, idx, sf, flip=False, bs=32):
     return tuple(torch.cat(out[k]) for k in ("inp", "alb", "orm"))
 
 
-def cached_latents(args, data, vae):
-    """{False: (input, albedo, ORM) latents of the training set, True: the same mirrored}, encoded once
-    into RUN/latents.pt (the latent and e2e phases read them)."""
-    cache = os.path.join(args.out, "latents.pt")
-    if os.path.exists(cache):
-        return {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu").items()}
-    t0 = time.time()
-    sf = vae.config.scaling_factor
-    lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in (False, True)}
-    torch.save({k: tuple(t.cpu() for t in v) for k, v in lat.items()}, cache + ".tmp")
-    os.replace(cache + ".tmp", cache)
-    print(f"latents: encoded {len(data.train)} x 3 images x 2 flips in {time.time() - t0:.0f} s", flush=True)
-    return lat
-
-
 def phase_latent(args, data):
     vae = load_vae(args.out)
-    lat = cached_latents(args, data, vae)
+    sf = vae.config.scaling_factor
+    cache = os.path.join(args.out, "latents.pt")
+    if os.path.exists(cache):
+        lat = {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu").items()}
+    else:
+        t0 = time.time()
+        lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in (False, True)}
+        torch.save({k: tuple(t.cpu() for t in v) for k, v in lat.items()}, cache + ".tmp")
+        os.replace(cache + ".tmp", cache)
+        print(f"latent: encoded {len(data.train)} x 3 images x 2 flips in {time.time() - t0:.0f} s", flush=True)
     ctx = context(args.out)
     coef, _ = x0_coefficient()
     torch.manual_seed(args.seed + 1)
@@ -478,31 +472,18 @@ def phase_latent(args, data):
 def map_losses(pa, po, b):
     m = b["mask"]
     w = 0.1 + 0.9 * m
-    la = 4 * (((pa - b["alb"]) ** 2) * w).mean() + 0.5 * grad_l1(pa, b["alb"], m)
-    lr = 4 * (((po[:, 1:2] - b["orm"][:, 1:2]) ** 2) * w).mean() + 0.5 * grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
-    lm = 4 * (((po[:, 2:3] - b["orm"][:, 2:3]) ** 2) * w).mean() + 0.5 * grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
+    la = ((pa - b["alb"]).abs() * w).mean() + grad_l1(pa, b["alb"], m)
+    lr = ((po[:, 1:2] - b["orm"][:, 1:2]).abs() * w).mean() + grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
+    lm = ((po[:, 2:3] - b["orm"][:, 2:3]).abs() * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
     lo = ((po[:, 0:1] - 1).abs() * m).mean()
     return la, lr, lm, lo
 
 
-def mirror(b):
-    """A batch of pixel tensors mirrored left-right (normals' x negated), as the mirrored cached latents."""
-    out = {k: v.flip(-1) for k, v in b.items()}
-    out["nrm"] = out["nrm"] * torch.tensor([-1.0, 1, 1], device=DEV)[None, :, None, None]
-    return out
-
-
 def phase_e2e(args, data):
-    """The UNet on the cached input latents (whole pictures, so it sees the whole object), the frozen
-    decoder on a random window of its predicted latents (--e2e-crop latent pixels plus one of margin on
-    each side, whose decoded pixels are left out of the losses: no zero-padding edge is trained on) --
-    the decoder's backward pass dominates a step, and a 10x10 window of the 16x16 latents costs 39 % of
-    the whole.  --e2e-crop 0 decodes everything."""
     vae = load_vae(args.out)
     for p in vae.parameters():
         p.requires_grad_(False)
     sf = vae.config.scaling_factor
-    lat = cached_latents(args, data, vae)
     ctx = context(args.out)
     coef, _ = x0_coefficient()
     unet = build_unet()
@@ -511,29 +492,16 @@ def phase_e2e(args, data):
     opt = torch.optim.AdamW(unet.parameters(), lr=args.e2e_lr, weight_decay=0.0)
     ph = Phase(args.out, "e2e", {"unet": unet}, opt, args.e2e_steps, args.ckpt_every, args.seed)
     unet.train()
-    n = len(data.train)
-    side = lat[False][0].shape[-1]
     while ph.step < ph.total:
         for g in opt.param_groups:
             g["lr"] = lr_at(ph.step, ph.total, args.e2e_lr, warm=20)
-        j = ph.rng.choice(n, args.e2e_batch, replace=False)
-        flip = bool(ph.rng.integers(2))
-        zi = lat[flip][0][torch.from_numpy(j).to(DEV)]
-        b = data.batch(data.train[j])
-        if flip:
-            b = mirror(b)
+        idx = ph.rng.choice(data.train, args.e2e_batch, replace=False)
+        b = data.batch(idx, ph.rng)
+        with torch.no_grad():
+            zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode() * sf
         x0a, x0o = unet_forward(unet, zi, ctx, coef)
-        if args.e2e_crop and args.e2e_crop + 2 <= side:
-            c = args.e2e_crop + 2
-            y0, x0 = (int(v) for v in ph.rng.integers(0, side - c + 1, 2))
-            x0a, x0o = (t[:, :, y0:y0 + c, x0:x0 + c] for t in (x0a, x0o))
-            f = b["inp"].shape[-1] // side                       # pixels per latent (8)
-            b = {k: v[:, :, f * (y0 + 1):f * (y0 + c - 1), f * (x0 + 1):f * (x0 + c - 1)] for k, v in b.items()}
-            inner = (slice(None), slice(None), slice(f, -f), slice(f, -f))
-        else:
-            inner = (slice(None),) * 4
-        pa = (vae.decode(x0a / sf).sample[inner] / 2 + 0.5).clamp(0, 1)
-        po = (vae.decode(x0o / sf).sample[inner] / 2 + 0.5).clamp(0, 1)
+        pa = (vae.decode(x0a / sf).sample / 2 + 0.5).clamp(0, 1)
+        po = (vae.decode(x0o / sf).sample / 2 + 0.5).clamp(0, 1)
         la, lr, lm, lo = map_losses(pa, po, b)
         # re-render under another environment map (random rotation), both tone mapped the same way
         env = envs[int(ph.rng.integers(len(envs)))]
@@ -660,14 +628,12 @@ def main():
     ap.add_argument("--vae-batch", type=int, default=8)
     ap.add_argument("--vae-lr", type=float, default=4e-4)
     ap.add_argument("--vae-kl", type=float, default=1e-4)
-    ap.add_argument("--latent-steps", type=int, default=3600)
+    ap.add_argument("--latent-steps", type=int, default=600)
     ap.add_argument("--latent-batch", type=int, default=16)
     ap.add_argument("--unet-lr", type=float, default=4e-4)
-    ap.add_argument("--e2e-steps", type=int, default=300)
-    ap.add_argument("--e2e-batch", type=int, default=16)
-    ap.add_argument("--e2e-lr", type=float, default=2e-4)
-    ap.add_argument("--e2e-crop", type=int, default=8,
-                    help="latent window the e2e losses decode (0: all; default 8 = 64x64 pixels of loss)")
+    ap.add_argument("--e2e-steps", type=int, default=100)
+    ap.add_argument("--e2e-batch", type=int, default=8)
+    ap.add_argument("--e2e-lr", type=float, default=1e-4)
     ap.add_argument("--rerender-weight", type=float, default=0.5)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
