@@ -188,7 +188,8 @@ typedef enum supermat_result {
     SUPERMAT_ERROR_CANCELLED = -8,        /* the progress callback asked to stop */
     SUPERMAT_ERROR_BAD_IMAGE = -9,        /* image size or layout does not match the session */
     SUPERMAT_ERROR_INTERNAL = -10,
-    SUPERMAT_RESULT_COUNT_ = 11
+    SUPERMAT_ERROR_IO = -11,              /* the caller's write callback failed (supermat_model_write_packed) */
+    SUPERMAT_RESULT_COUNT_ = 12
 } supermat_result;
 
 typedef struct supermat_error {
@@ -239,6 +240,7 @@ typedef enum supermat_dtype {
     SUPERMAT_DTYPE_DEFAULT = 0, SUPERMAT_DTYPE_F32, SUPERMAT_DTYPE_F16, SUPERMAT_DTYPE_BF16,
     SUPERMAT_DTYPE_I8, /* int8 GEMM weights: the F32 tensor NAME_scale beside tensor NAME holds their scales
                           (see INT8 WEIGHTS in the manual) */
+    SUPERMAT_DTYPE_U8, /* raw bytes: a pre-packed model's panels and index (PRE-PACKED MODELS) */
     SUPERMAT_DTYPE_COUNT
 } supermat_dtype;
 typedef struct supermat_tensor_info {
@@ -336,6 +338,9 @@ typedef struct supermat_model_info {
     int v_prediction;              /* 1 v-prediction, 0 epsilon */
     uint64_t unet_params, branch_params, vae_params;
     size_t model_bytes;            /* memory held by the model (packed weights etc.) */
+    int prepacked;                 /* created from a pre-packed file (supermat_model_write_packed) */
+    size_t prepacked_bytes;        /* of it: the panels used in place from the caller's buffer (not in
+                                      model_bytes; with copy_data they are copied and counted there) */
 } supermat_model_info;
 
 typedef struct supermat_model supermat_model;
@@ -345,6 +350,14 @@ SUPERMAT_API supermat_result supermat_model_create(const supermat_model_desc *de
                                                    supermat_error *err);
 SUPERMAT_API void supermat_model_get_info(const supermat_model *model, supermat_model_info *info);
 SUPERMAT_API void supermat_model_destroy(supermat_model *model);
+
+/* Writes the pre-packed form of the model file desc->data (see PRE-PACKED MODELS in the manual): the
+   same safetensors file with its GEMM weights replaced by the runtime's packed panels for desc's weights,
+   conv and compute options. `write` gets the new file front to back in pieces and returns 0 when a piece
+   was written (anything else stops the writing: SUPERMAT_ERROR_IO). *bytes (may be NULL) gets the size. */
+typedef int (*supermat_write_fn)(void *user, const void *data, size_t size);
+SUPERMAT_API supermat_result supermat_model_write_packed(const supermat_model_desc *desc, supermat_write_fn write,
+                                                         void *user, uint64_t *bytes, supermat_error *err);
 
 /* ---- session --------------------------------------------------------------------------------- */
 enum {
@@ -669,6 +682,7 @@ SUPERMAT__DEF const char *supermat_result_string(supermat_result r) {
     case SUPERMAT_ERROR_CANCELLED: return "cancelled";
     case SUPERMAT_ERROR_BAD_IMAGE: return "bad image";
     case SUPERMAT_ERROR_INTERNAL: return "internal error";
+    case SUPERMAT_ERROR_IO: return "write failed";
     default: return "unknown result";
     }
 }
@@ -994,7 +1008,8 @@ static supermat_result supermat__st_entry(const char *js, const supermat_json_to
     else if (!strcmp(dt, "F16")) { o->dtype = SUPERMAT_DTYPE_F16; esz = 2; }
     else if (!strcmp(dt, "BF16")) { o->dtype = SUPERMAT_DTYPE_BF16; esz = 2; }
     else if (!strcmp(dt, "I8")) { o->dtype = SUPERMAT_DTYPE_I8; esz = 1; }
-    else return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has dtype %s (F32, F16, BF16 and I8 are supported)", o->name, dt);
+    else if (!strcmp(dt, "U8")) { o->dtype = SUPERMAT_DTYPE_U8; esz = 1; }
+    else return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has dtype %s (F32, F16, BF16, I8 and U8 are supported)", o->name, dt);
     if (toks[s].size > 8) return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, o->name, "tensor '%s' has %d dimensions", o->name, toks[s].size);
     o->ndim = toks[s].size;
     for (k = 0; k < o->ndim; k++) {
@@ -2435,7 +2450,28 @@ typedef struct supermat__loader {
     int keep_f32;           /* supermat__pack leaves the f32 panels (they are transformed next) */
     int bf16c;              /* SUPERMAT_COMPUTE_BF16: GEMM weights as bf16 pairs (fmt 4) */
     int *qsc;               /* per tensor: its scale tensor (I8) or -1 */
+    /* pre-packed models (PRE-PACKED MODELS in the manual) */
+    const unsigned char *pk;     /* the panels (tensor supermat.packed.data) when the file is pre-packed */
+    uint64_t pk_size;
+    const unsigned char *pk_idx; /* SUPERMAT__PKF int64 per record (tensor supermat.packed.index) */
+    int pk_n, pk_next;
+    struct supermat__pkrec *rec; /* supermat_model_write_packed: what gets packed, in order */
 } supermat__loader;
+
+/* A pre-packed model's index: one record of SUPERMAT__PKF little-endian int64 per packed weight, in the
+   order model creation packs them: kind (1 panels, 2 Winograd-transformed 3x3 convolution), K, N, the
+   panels' format (0 f32, 1 f16, 2 bf16, 3 int8, 4 bf16 pairs), the storage format before bf16 pairing
+   (kind 1) or the Winograd tile a = m + 2 (kind 2), and the byte offsets in the panel blob of the panels,
+   the int8 scales and the bias (-1 = none). Offsets are multiples of 64; sizes follow from K, N and the
+   format and are never read from the file. */
+#define SUPERMAT__PKF 8
+typedef struct supermat__pkitem { supermat__pw *pw; const supermat__wino *wino; int sfmt; } supermat__pkitem;
+typedef struct supermat__pkrec {
+    supermat__pkitem *items;
+    int n, cap;
+    int *uses, *pkuses; /* per tensor: lookups, and lookups by the packing (a tensor only packed is left out) */
+    int nt;             /* tensors in the file (the length of uses and pkuses, less one) */
+} supermat__pkrec;
 
 static void *supermat__mem(supermat__loader *L, size_t bytes) {
     supermat_model *m = L->m;
@@ -2531,6 +2567,7 @@ static int supermat__wtensor(supermat__loader *L, const char *name, int ndim, co
     if (L->ti[i].ndim != ndim) goto bad;
     for (k = 0; k < ndim; k++) if (want[k] >= 0 && L->ti[i].shape[k] != want[k]) goto bad;
     L->used[i] = 1;
+    if (L->rec) L->rec->uses[i]++;
     return i;
 bad: {
         char exp[96], got[96];
@@ -2697,15 +2734,107 @@ static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, s
     pw->p = NULL;
 }
 
+/* a weight's rows to pack: `first`/`count` rows of tensor `name` (`rows_total` rows; `bias` or NULL) */
+typedef struct supermat__wpart { const char *name; const char *bias; int rows_total, first, count; } supermat__wpart;
+
+/* ---- pre-packed models: replaying a file's packed panels (and recording them for the writer) ---- */
+static int64_t supermat__pk_field(const supermat__loader *L, int rec, int f) {
+    int64_t v;
+    memcpy(&v, L->pk_idx + ((size_t)rec * SUPERMAT__PKF + (size_t)f) * 8, 8);
+    return v;
+}
+/* the blob bytes [off, off + bytes), checked; used in place or (copy_data) copied into the model */
+static void *supermat__pk_use(supermat__loader *L, int64_t off, uint64_t bytes, const char *name) {
+    void *p;
+    if (L->r) return NULL;
+    if (off < 0 || (off & 63) || (uint64_t)off > L->pk_size || bytes > L->pk_size - (uint64_t)off) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, name, "pre-packed panels of '%s' at offset %lld (%llu bytes) lie outside the %llu-byte blob or are not 64-byte aligned",
+                              name, (long long)off, (unsigned long long)bytes, (unsigned long long)L->pk_size);
+        return NULL;
+    }
+    if (!L->copy) {
+        L->m->info.prepacked_bytes += (size_t)bytes;
+        return (void *)(uintptr_t)(L->pk + off);
+    }
+    p = supermat__mem(L, (size_t)bytes);
+    if (p) memcpy(p, L->pk + off, (size_t)bytes);
+    return p;
+}
+/* the next record, which must be of `kind` with these K and N (and a bias when need_bias) */
+static int supermat__pk_take(supermat__loader *L, int kind, int K, int N, int need_bias, const char *name) {
+    int i = L->pk_next;
+    if (L->r) return -1;
+    if (i >= L->pk_n) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, name, "the pre-packed index ends (%d records) before '%s'", L->pk_n, name);
+        return -1;
+    }
+    if (supermat__pk_field(L, i, 0) != kind || supermat__pk_field(L, i, 1) != K || supermat__pk_field(L, i, 2) != N ||
+        (supermat__pk_field(L, i, 7) >= 0) != (need_bias != 0)) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, name, "pre-packed record %d does not fit '%s' (kind %d, K %d, N %d): the file was not packed from this architecture",
+                              i, name, kind, K, N);
+        return -1;
+    }
+    L->pk_next++;
+    return i;
+}
+static uint64_t supermat__pk_main_bytes(int fmt, int K, int N) {
+    uint64_t np = (uint64_t)(N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    if (fmt == 4) return np * (uint64_t)((K + 1) / 2) * SUPERMAT__NR * 2 * 2;
+    return np * SUPERMAT__NR * (uint64_t)K * (fmt == 0 ? 4u : fmt == 3 ? 1u : 2u);
+}
+static uint64_t supermat__pk_qs_bytes(int fmt, int K, int N, int qcin) {
+    return fmt == 3 ? (uint64_t)supermat__qgroups(K, qcin) * (uint64_t)((N + SUPERMAT__NR - 1) / SUPERMAT__NR) * SUPERMAT__NR * 4 : 0;
+}
+/* supermat__pack for a pre-packed file: the panels come from the blob */
+static void supermat__pk_pw(supermat__loader *L, supermat__pw *pw, const supermat__wpart *parts, int nparts, int cin, int k, int need_bias) {
+    int p, K = cin * k * k, N = 0, rec, fmt, sfmt;
+    uint64_t np;
+    for (p = 0; p < nparts; p++) {
+        N += parts[p].count;
+        L->params += (uint64_t)parts[p].rows_total * (uint64_t)K + (need_bias && parts[p].bias ? (uint64_t)parts[p].rows_total : 0);
+    }
+    memset(pw, 0, sizeof *pw);
+    rec = supermat__pk_take(L, 1, K, N, need_bias, parts[0].name);
+    if (rec < 0) return;
+    fmt = (int)supermat__pk_field(L, rec, 3);
+    sfmt = (int)supermat__pk_field(L, rec, 4);
+    if (supermat__pk_field(L, rec, 3) < 0 || supermat__pk_field(L, rec, 3) > 4 || supermat__pk_field(L, rec, 4) < 0 ||
+        supermat__pk_field(L, rec, 4) > 3 || (fmt == 4 && !L->bf16c) || (fmt != 4 && fmt != sfmt)) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, parts[0].name, "pre-packed record %d ('%s') has a bad format", rec, parts[0].name);
+        return;
+    }
+    np = (uint64_t)(N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    pw->K = K; pw->N = N; pw->qcin = cin; pw->fmt = fmt;
+    if (fmt == 0) pw->p = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 5), supermat__pk_main_bytes(fmt, K, N), parts[0].name);
+    else pw->q = supermat__pk_use(L, supermat__pk_field(L, rec, 5), supermat__pk_main_bytes(fmt, K, N), parts[0].name);
+    if (fmt == 3) pw->qs = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 6), supermat__pk_qs_bytes(fmt, K, N, cin), parts[0].name);
+    if (need_bias) pw->bias = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 7), np * SUPERMAT__NR * 4, parts[0].name);
+}
+/* the writer's record of one packed weight */
+static void supermat__pk_note(supermat__loader *L, supermat__pw *pw, int sfmt) {
+    supermat__pkrec *R = L->rec;
+    if (L->r) return;
+    if (R->n == R->cap) {
+        int nc = R->cap ? 2 * R->cap : 256;
+        supermat__pkitem *ni = (supermat__pkitem *)supermat__alloc(&L->m->alloc, sizeof *ni * (size_t)nc);
+        if (!ni) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory (packing index)"); return; }
+        if (R->n) memcpy(ni, R->items, sizeof *ni * (size_t)R->n);
+        supermat__free(&L->m->alloc, R->items, sizeof *ni * (size_t)R->cap);
+        R->items = ni; R->cap = nc;
+    }
+    R->items[R->n].pw = pw; R->items[R->n].wino = NULL; R->items[R->n].sfmt = sfmt;
+    R->n++;
+}
+
 /* Packs rows of one or more weight tensors [rows][K] (or convs [rows][Cin][k][k], reordered to
    K = (ky*k + kx)*Cin + ci) into GEMM panels. `first`/`count` select rows of each tensor. */
-typedef struct supermat__wpart { const char *name; const char *bias; int rows_total, first, count; } supermat__wpart;
 
 static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat__wpart *parts, int nparts, int cin, int k,
                            int is_conv, int need_bias) {
     int p, K = cin * k * k, N = 0, n0 = 0, np, fmt, direct;
     size_t total, ngq = 0;
     if (L->r) return;
+    if (L->pk) { supermat__pk_pw(L, pw, parts, nparts, cin, k, need_bias); return; }
     for (p = 0; p < nparts; p++) N += parts[p].count;
     np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     if (!supermat__mul_ok((size_t)np * SUPERMAT__NR, (size_t)K, &total)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, parts[0].name, "weight too large"); return; }
@@ -2749,6 +2878,7 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
         want[0] = parts[p].rows_total; want[1] = cin; want[2] = k; want[3] = k;
         t = supermat__wtensor(L, parts[p].name, is_conv ? 4 : 2, want);
         if (t < 0) return;
+        if (L->rec) L->rec->pkuses[t]++;
         if (direct) {
             const signed char *raw = (const signed char *)(L->data + L->ti[t].offset);
             const unsigned char *sc = L->data + L->ti[L->qsc[t]].offset;
@@ -2789,6 +2919,7 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
             wb[0] = parts[p].rows_total;
             tb = supermat__wtensor(L, parts[p].bias, 1, wb);
             if (tb < 0) return;
+            if (L->rec) L->rec->pkuses[tb]++;
             for (r = 0; r < parts[p].count; r++) {
                 float v = supermat__tval(L, tb, (size_t)parts[p].first + r);
                 if (!(v - v == 0.0f)) { L->r = supermat__fail(L->err, SUPERMAT_ERROR_NONFINITE, parts[p].bias, "tensor '%s' contains NaN or Inf", parts[p].bias); return; }
@@ -2802,6 +2933,7 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
     if (direct) pw->fmt = 3;
     else if (L->bf16c && !L->keep_f32) supermat__bf16_pairs(L, pw);
     else if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
+    if (L->rec) supermat__pk_note(L, pw, direct ? 3 : fmt);
 }
 
 static void supermat__bind_linear(supermat__loader *L, supermat__pw *pw, const char *prefix, int out, int in, int bias) {
@@ -2820,6 +2952,30 @@ static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const c
     supermat__name(bn, sizeof bn, "%s.bias", prefix);
     part.name = wn; part.bias = bn; part.rows_total = cout; part.first = 0; part.count = cout;
     cv->k = k; cv->stride = stride; cv->cin = cin; cv->cout = cout; cv->wino = NULL;
+    if (L->pk && wino) { /* pre-packed: the transformed weights come from the blob */
+        int rec, a = (L->conv == SUPERMAT_CONV_WINOGRAD_F2 ? 2 : 4) + 2, xi;
+        uint64_t total = (uint64_t)((cout + 15) / 16) * 16 * (uint64_t)cin;
+        supermat__wino *wg;
+        float *u;
+        L->params += (uint64_t)cout * (uint64_t)cin * (uint64_t)(k * k) + (uint64_t)cout;
+        memset(&cv->w, 0, sizeof cv->w);
+        rec = supermat__pk_take(L, 2, cin * k * k, cout, 1, wn);
+        if (rec < 0) return;
+        if (supermat__pk_field(L, rec, 3) != 0 || supermat__pk_field(L, rec, 4) != a) {
+            L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, wn, "pre-packed record %d ('%s') is not a Winograd F(%dx%d) convolution", rec, wn, a - 2, a - 2);
+            return;
+        }
+        cv->w.K = cin * k * k; cv->w.N = cout; cv->w.qcin = cin;
+        u = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 5), (uint64_t)(a * a) * total * 4, wn);
+        cv->w.bias = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 7), (uint64_t)((cout + 15) / 16) * 16 * 4, wn);
+        wg = (supermat__wino *)supermat__mem(L, sizeof *wg);
+        if (L->r) return;
+        memset(wg, 0, sizeof *wg);
+        wg->m = a - 2; wg->a = a;
+        for (xi = 0; xi < a * a; xi++) { wg->u[xi].K = cin; wg->u[xi].N = cout; wg->u[xi].p = u + (size_t)xi * (size_t)total; }
+        cv->wino = wg;
+        return;
+    }
     L->keep_f32 = wino;
     supermat__pack(L, &cv->w, &part, 1, cin, k, 1, 1);
     L->keep_f32 = 0;
@@ -2841,6 +2997,7 @@ static void supermat__bind_conv(supermat__loader *L, supermat__conv *cv, const c
         supermat__release(L, cv->w.p);
         cv->w.p = NULL;
         cv->wino = wg;
+        if (L->rec && L->rec->n) L->rec->items[L->rec->n - 1].wino = wg;
     }
 }
 static void supermat__bind_norm(supermat__loader *L, supermat__norm *nm, const char *prefix, int c, float eps) {
@@ -3113,7 +3270,7 @@ static void supermat__model_free(supermat_model *m) {
     supermat__free(&a, m, sizeof *m);
 }
 
-SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err) {
+static supermat_result supermat__model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err, supermat__pkrec *rec) {
     supermat__loader L;
     supermat_model *m;
     supermat_allocator a;
@@ -3170,6 +3327,16 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     L.qsc = (int *)supermat__alloc(&a, sizeof(int) * ((size_t)n + 1));
     if (!L.ti || !L.used || !L.qsc) { L.r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the tensor table"); goto done; }
     memset(L.used, 0, (size_t)n + 1);
+    if (rec) {
+        rec->nt = n;
+        rec->uses = (int *)supermat__alloc(&a, sizeof(int) * ((size_t)n + 1));
+        rec->pkuses = (int *)supermat__alloc(&a, sizeof(int) * ((size_t)n + 1));
+        if (!rec->uses || !rec->pkuses) { L.r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the packing table"); goto done; }
+        memset(rec->uses, 0, sizeof(int) * ((size_t)n + 1));
+        memset(rec->pkuses, 0, sizeof(int) * ((size_t)n + 1));
+        rec->nt = n;
+        L.rec = rec;
+    }
     for (i = 0, k = 1; i < L.toks[0].size && !L.r; i++, k = L.toks[k].next) {
         if (supermat__json_eq(L.js, &L.toks[k], "__metadata__")) continue;
         L.r = supermat__st_entry(L.js, L.toks, k, 8 + hlen, desc->size, &L.ti[L.nt], err);
@@ -3246,12 +3413,47 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
     if (m->info.kind == SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent + 4) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a UV-refine model takes latent + mask + position = %d input channels, the file says %d", m->latent + 4, m->in_ch); goto done; }
     if (m->info.kind != SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the UNet takes %d channels, the VAE latent has %d", m->in_ch, m->latent); goto done; }
     m->temb_dim = 4 * m->boc[0];
+    {   /* a pre-packed file: its panels replace the packing (PRE-PACKED MODELS) */
+        char pkv[32];
+        if (!supermat__meta_str(&L, "supermat.packed", pkv, sizeof pkv, 0)) {
+            int td = supermat__find_tensor(&L, "supermat.packed.data"), tx = supermat__find_tensor(&L, "supermat.packed.index");
+            int pconv = (int)supermat__meta_num(&L, "supermat.packed.conv", 0, SUPERMAT_CONV_COUNT - 1, 0, 1);
+            int pcomp = (int)supermat__meta_num(&L, "supermat.packed.compute", 0, SUPERMAT_COMPUTE_COUNT - 1, 0, 1);
+            int pwts = (int)supermat__meta_num(&L, "supermat.packed.weights", 1, SUPERMAT_WEIGHTS_COUNT - 1, 1, 1);
+            static const char *const wn[] = {"default", "f32", "f16", "bf16", "int8"}, *const cn[] = {"direct", "winograd-f2", "winograd-f4"}, *const xn[] = {"f32", "bf16"};
+            if (L.r) goto done;
+            if (strcmp(pkv, "1")) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "pre-packed format '%s' (this version reads 1): pack the original model file again", pkv); goto done; }
+            if (rec) { L.r = supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the model file is pre-packed already: pack the original file"); goto done; }
+            if (td < 0 || tx < 0 || L.ti[td].dtype != SUPERMAT_DTYPE_U8 || L.ti[tx].dtype != SUPERMAT_DTYPE_U8 || L.ti[td].ndim != 1 || L.ti[tx].ndim != 1 ||
+                L.ti[tx].nbytes % (8 * SUPERMAT__PKF) || L.ti[tx].nbytes / (8 * SUPERMAT__PKF) > 0x7fffffff) {
+                L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a pre-packed model needs the U8 tensors supermat.packed.data and supermat.packed.index (a multiple of %d bytes)", 8 * SUPERMAT__PKF);
+                goto done;
+            }
+            if (pconv != (int)desc->conv || pcomp != (int)desc->compute || (desc->weights != SUPERMAT_WEIGHTS_DEFAULT && (int)desc->weights != pwts)) {
+                L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "this file was pre-packed for weights %s, conv %s, compute %s; create the model with those (weights may be default) or pack the original file for weights %s, conv %s, compute %s",
+                                     wn[pwts], cn[pconv], xn[pcomp], wn[desc->weights], cn[desc->conv], xn[desc->compute]);
+                goto done;
+            }
+            L.pk = L.data + L.ti[td].offset;
+            L.pk_size = L.ti[td].nbytes;
+            L.pk_idx = L.data + L.ti[tx].offset;
+            L.pk_n = (int)(L.ti[tx].nbytes / (8 * SUPERMAT__PKF));
+            if (!L.copy && ((uintptr_t)L.pk & 63)) {
+                L.r = supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "a pre-packed model is used in place: its buffer must start at a 64-byte aligned address (map the file, allocate aligned, or set copy_data)");
+                goto done;
+            }
+            m->info.weights = (supermat_weights)pwts;
+            m->info.prepacked = 1;
+        }
+    }
     /* bind and pack everything */
     supermat__bind_unet(&L);
     m->info.unet_params = L.params;
     L.params = 0;
     supermat__bind_vae(&L);
     m->info.vae_params = L.params;
+    if (L.pk && !L.r && L.pk_next != L.pk_n)
+        L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the pre-packed index has %d records; this architecture packs %d", L.pk_n, L.pk_next);
 done:
     if (L.ti) supermat__free(&a, L.ti, sizeof(supermat_tensor_info) * (size_t)(n + 1));
     if (L.used) supermat__free(&a, L.used, (size_t)n + 1);
@@ -3272,6 +3474,210 @@ done:
     *out = m;
     supermat__ok(err);
     return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err) {
+    return supermat__model_create(desc, out, err, NULL);
+}
+
+/* the growing text of a safetensors header */
+typedef struct supermat__text { char *p; size_t n, cap; const supermat_allocator *a; int oom; } supermat__text;
+static void supermat__text_put(supermat__text *t, const char *s, size_t n) {
+    if (t->oom) return;
+    if (t->n + n + 1 > t->cap) {
+        size_t nc = t->cap ? t->cap : 4096;
+        char *np;
+        while (nc < t->n + n + 1) nc *= 2;
+        np = (char *)supermat__alloc(t->a, nc);
+        if (!np) { t->oom = 1; return; }
+        if (t->n) memcpy(np, t->p, t->n);
+        supermat__free(t->a, t->p, t->cap);
+        t->p = np; t->cap = nc;
+    }
+    memcpy(t->p + t->n, s, n);
+    t->n += n;
+}
+static void supermat__text_str(supermat__text *t, const char *s) { supermat__text_put(t, s, strlen(s)); }
+static void supermat__text_entry(supermat__text *t, const char *js, const supermat_json_tok *key, const char *dtype,
+                                 const char *name, const int64_t *shape, int ndim, uint64_t b0, uint64_t b1) {
+    char num[96];
+    int d;
+    supermat__text_str(t, ",\"");
+    if (key) supermat__text_put(t, js + key->start, (size_t)(key->end - key->start));
+    else supermat__text_str(t, name);
+    supermat__text_str(t, "\":{\"dtype\":\"");
+    supermat__text_str(t, dtype);
+    supermat__text_str(t, "\",\"shape\":[");
+    for (d = 0; d < ndim; d++) { snprintf(num, sizeof num, d ? ",%lld" : "%lld", (long long)shape[d]); supermat__text_str(t, num); }
+    snprintf(num, sizeof num, "],\"data_offsets\":[%llu,%llu]}", (unsigned long long)b0, (unsigned long long)b1);
+    supermat__text_str(t, num);
+}
+
+static int supermat__wput(supermat_write_fn write, void *user, const void *p, uint64_t n, uint64_t *done) {
+    static const unsigned char zeros[64] = {0};
+    if (!n) return 0;
+    if (write(user, p ? p : zeros, (size_t)n)) return -1;
+    *done += n;
+    return 0;
+}
+
+SUPERMAT__DEF supermat_result supermat_model_write_packed(const supermat_model_desc *desc, supermat_write_fn write, void *user,
+                                                          uint64_t *bytes, supermat_error *err) {
+    static const char *const dtn[] = {"", "F32", "F16", "BF16", "I8", "U8"};
+    supermat__pkrec R;
+    supermat_model *m = NULL;
+    supermat_allocator a;
+    supermat_json_tok *toks = NULL;
+    supermat__text T;
+    supermat_tensor_info *ti = NULL;
+    unsigned char *strip = NULL;
+    int64_t *idx = NULL;
+    int ntok = 0, nt = 0, ntab = 0, i, k, meta = -1, pass;
+    uint64_t hlen = 0, blob = 0, done = 0, off, ib;
+    const char *js;
+    supermat_result r;
+    if (bytes) *bytes = 0;
+    if (!desc || !write) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and write must not be NULL");
+    memset(&R, 0, sizeof R);
+    memset(&T, 0, sizeof T);
+    r = supermat__model_create(desc, &m, err, &R);
+    a = supermat__resolve_allocator(&desc->allocator);
+    T.a = &a;
+    if (r) goto out;
+    js = (const char *)desc->data + 8;
+    supermat__st_header(desc->data, desc->size, desc->size, &hlen, NULL);
+    if ((r = supermat__st_tokens(desc->data, desc->size, desc->size, &a, &toks, &ntok, err))) goto out;
+    for (i = 0, k = 1; i < toks[0].size; i++, k = toks[k].next) {
+        if (supermat__json_eq(js, &toks[k], "__metadata__")) meta = k + 1;
+        else nt++;
+    }
+    ntab = nt;
+    ti = (supermat_tensor_info *)supermat__alloc(&a, sizeof *ti * ((size_t)ntab + 1));
+    strip = (unsigned char *)supermat__alloc(&a, (size_t)ntab + 1);
+    idx = (int64_t *)supermat__alloc(&a, sizeof *idx * SUPERMAT__PKF * ((size_t)R.n + 1));
+    if (!ti || !strip || !idx) { r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory writing the pre-packed model"); goto out; }
+    for (i = 0, k = 1, nt = 0; i < toks[0].size; i++, k = toks[k].next) {
+        if (k + 1 == meta) continue;
+        if ((r = supermat__st_entry(js, toks, k, 8 + hlen, desc->size, &ti[nt], err))) goto out;
+        strip[nt] = R.pkuses[nt] > 0 && R.pkuses[nt] == R.uses[nt]; /* only the packing reads it */
+        nt++;
+    }
+    for (i = 0; i < nt; i++) /* an int8 weight left out takes its scales with it */
+        if (strip[i] && ti[i].dtype == SUPERMAT_DTYPE_I8) {
+            char sn[sizeof ti[i].name + 8];
+            supermat__name(sn, sizeof sn, "%s_scale", ti[i].name);
+            for (k = 0; k < nt; k++) if (!strcmp(ti[k].name, sn)) strip[k] = 1;
+        }
+    /* the index: where each packed weight goes in the blob (64-byte aligned pieces) */
+    for (i = 0; i < R.n; i++) {
+        const supermat__pw *pw = R.items[i].pw;
+        int64_t *e = idx + (size_t)i * SUPERMAT__PKF;
+        int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+        uint64_t main, qs;
+        if (R.items[i].wino) {
+            const supermat__wino *wg = R.items[i].wino;
+            main = (uint64_t)(wg->a * wg->a) * (uint64_t)np * SUPERMAT__NR * (uint64_t)wg->u[0].K * 4;
+            e[0] = 2; e[3] = 0; e[4] = wg->a; qs = 0;
+        } else {
+            main = supermat__pk_main_bytes(pw->fmt, pw->K, pw->N);
+            qs = supermat__pk_qs_bytes(pw->fmt, pw->K, pw->N, pw->qcin);
+            e[0] = 1; e[3] = pw->fmt; e[4] = R.items[i].sfmt;
+        }
+        e[1] = pw->K; e[2] = pw->N;
+        e[5] = (int64_t)blob; blob += (main + 63) / 64 * 64;
+        e[6] = qs ? (int64_t)blob : -1; blob += (qs + 63) / 64 * 64;
+        e[7] = pw->bias ? (int64_t)blob : -1; blob += pw->bias ? (uint64_t)np * SUPERMAT__NR * 4 : 0;
+    }
+    ib = (uint64_t)R.n * SUPERMAT__PKF * 8;
+    /* the header: the metadata, the blob and index first (64-byte aligned), then the tensors kept, widest
+       elements first so each stays aligned to its element size */
+    supermat__text_str(&T, "{\"__metadata__\":{");
+    if (meta >= 0 && toks[meta].type == SUPERMAT_JSON_OBJECT)
+        for (i = 0, k = meta + 1; i < toks[meta].size; i++, k = toks[k].next) {
+            const supermat_json_tok *v = &toks[k + 1];
+            if (!strncmp(js + toks[k].start, "supermat.packed", 15)) continue;
+            supermat__text_str(&T, "\"");
+            supermat__text_put(&T, js + toks[k].start, (size_t)(toks[k].end - toks[k].start));
+            supermat__text_str(&T, v->type == SUPERMAT_JSON_STRING ? "\":\"" : "\":");
+            supermat__text_put(&T, js + v->start, (size_t)(v->end - v->start));
+            supermat__text_str(&T, v->type == SUPERMAT_JSON_STRING ? "\"," : ",");
+        }
+    {
+        char opt[160];
+        /* the storage format the packing resolved (before bf16 compute's pairing) */
+        int w = R.n ? R.items[0].sfmt + 1 : (int)m->info.weights;
+        snprintf(opt, sizeof opt, "\"supermat.packed\":\"1\",\"supermat.packed.weights\":\"%d\",\"supermat.packed.conv\":\"%d\",\"supermat.packed.compute\":\"%d\"}",
+                 w, (int)desc->conv, (int)desc->compute);
+        supermat__text_str(&T, opt);
+    }
+    {
+        int64_t sh[1];
+        sh[0] = (int64_t)blob;
+        supermat__text_entry(&T, NULL, NULL, "U8", "supermat.packed.data", sh, 1, 0, blob);
+        sh[0] = (int64_t)ib;
+        supermat__text_entry(&T, NULL, NULL, "U8", "supermat.packed.index", sh, 1, blob, blob + ib);
+    }
+    off = blob + ib;
+    for (pass = 4; pass >= 1; pass /= 2)
+        for (i = 0, k = 1, nt = 0; i < toks[0].size; i++, k = toks[k].next) {
+            uint64_t esz;
+            if (k + 1 == meta) continue;
+            esz = ti[nt].dtype == SUPERMAT_DTYPE_F32 ? 4 : ti[nt].dtype == SUPERMAT_DTYPE_F16 || ti[nt].dtype == SUPERMAT_DTYPE_BF16 ? 2 : 1;
+            if (!strip[nt] && esz == (uint64_t)pass) {
+                supermat__text_entry(&T, js, &toks[k], dtn[ti[nt].dtype], NULL, ti[nt].shape, ti[nt].ndim, off, off + ti[nt].nbytes);
+                off += ti[nt].nbytes;
+            }
+            nt++;
+        }
+    supermat__text_str(&T, "}");
+    while ((8 + T.n) % 64 && !T.oom) supermat__text_str(&T, " ");
+    if (T.oom) { r = supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory writing the pre-packed model's header"); goto out; }
+    {
+        unsigned char h8[8];
+        for (i = 0; i < 8; i++) h8[i] = (unsigned char)((uint64_t)T.n >> (8 * i));
+        if (supermat__wput(write, user, h8, 8, &done) || supermat__wput(write, user, T.p, T.n, &done)) goto io;
+    }
+    for (i = 0; i < R.n; i++) {
+        const supermat__pw *pw = R.items[i].pw;
+        const int64_t *e = idx + (size_t)i * SUPERMAT__PKF;
+        int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, xi;
+        uint64_t main = 0, qs = supermat__pk_qs_bytes(e[0] == 1 ? pw->fmt : 0, pw->K, pw->N, pw->qcin);
+        if (R.items[i].wino) {
+            const supermat__wino *wg = R.items[i].wino;
+            uint64_t one = (uint64_t)np * SUPERMAT__NR * (uint64_t)wg->u[0].K * 4;
+            for (xi = 0; xi < wg->a * wg->a; xi++) if (supermat__wput(write, user, wg->u[xi].p, one, &done)) goto io;
+            main = one * (uint64_t)(wg->a * wg->a);
+        } else {
+            main = supermat__pk_main_bytes(pw->fmt, pw->K, pw->N);
+            if (supermat__wput(write, user, pw->fmt == 0 ? (const void *)pw->p : pw->q, main, &done)) goto io;
+        }
+        if (supermat__wput(write, user, NULL, (64 - main % 64) % 64, &done)) goto io;
+        if (qs && (supermat__wput(write, user, pw->qs, qs, &done) || supermat__wput(write, user, NULL, (64 - qs % 64) % 64, &done))) goto io;
+        if (pw->bias && supermat__wput(write, user, pw->bias, (uint64_t)np * SUPERMAT__NR * 4, &done)) goto io;
+    }
+    if (supermat__wput(write, user, idx, ib, &done)) goto io;
+    for (pass = 4; pass >= 1; pass /= 2)
+        for (i = 0; i < nt; i++) {
+            uint64_t esz = ti[i].dtype == SUPERMAT_DTYPE_F32 ? 4 : ti[i].dtype == SUPERMAT_DTYPE_F16 || ti[i].dtype == SUPERMAT_DTYPE_BF16 ? 2 : 1;
+            if (!strip[i] && esz == (uint64_t)pass && supermat__wput(write, user, (const unsigned char *)desc->data + ti[i].offset, ti[i].nbytes, &done)) goto io;
+        }
+    if (bytes) *bytes = done;
+    supermat__ok(err);
+    r = SUPERMAT_SUCCESS;
+    goto out;
+io:
+    r = supermat__fail(err, SUPERMAT_ERROR_IO, NULL, "the write callback failed after %llu bytes", (unsigned long long)done);
+out:
+    if (T.p) supermat__free(&a, T.p, T.cap);
+    if (toks) supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+    if (ti) supermat__free(&a, ti, sizeof *ti * ((size_t)ntab + 1));
+    if (strip) supermat__free(&a, strip, (size_t)ntab + 1);
+    if (idx) supermat__free(&a, idx, sizeof *idx * SUPERMAT__PKF * ((size_t)R.n + 1));
+    if (R.items) supermat__free(&a, R.items, sizeof *R.items * (size_t)R.cap);
+    if (R.uses) supermat__free(&a, R.uses, sizeof(int) * ((size_t)R.nt + 1));
+    if (R.pkuses) supermat__free(&a, R.pkuses, sizeof(int) * ((size_t)R.nt + 1));
+    supermat_model_destroy(m);
+    return r;
 }
 
 SUPERMAT__DEF void supermat_model_get_info(const supermat_model *model, supermat_model_info *info) {
