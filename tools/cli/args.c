@@ -9,6 +9,7 @@ static const char cli_usage_main[] =
     "\n"
     "commands:\n"
     "  convert   official checkpoint (.pth) + Stable Diffusion 2.1 folder -> one model file\n"
+    "  pack      a model file -> its pre-packed form: created in milliseconds, shared by processes\n"
     "  image     albedo / roughness / metallic maps for images (a supermat model)\n"
     "  views     the same for the views of one object with their cameras (a supermat-mv model)\n"
     "  refine    complete a partial UV texture map (a uv-refine model)\n"
@@ -55,6 +56,26 @@ static const char cli_usage_convert[] =
     "                    each picture at its own size (for a model trained at one size, give that size)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
+
+static const char cli_usage_pack[] =
+    "usage: supermat pack [--model FILE] --out FILE.safetensors [--weights W] [--conv C] [--compute X]\n"
+    "\n"
+    "Writes the pre-packed form of a model file: the same file with its GEMM weights already in the\n"
+    "runtime's packed panel layout for the chosen options. A process that loads it uses the panels where\n"
+    "the file is mapped (no copy, no packing): the model is created in milliseconds and every process on\n"
+    "the machine shares one copy of the weights in the page cache. Every command loads it like any model\n"
+    "file, with the options it was packed for (asking for others is an error: pack again). The output is\n"
+    "written to FILE.tmp, then renamed.\n"
+    "\n"
+    "options:\n"
+    "  --model FILE      the model file (default: the default model, see `supermat image --help`)\n"
+    "  --out FILE        the pre-packed file to write (required)\n"
+    "  --weights W       default | f32 | f16 | bf16 | int8: the storage of the GEMM weights (default: as\n"
+    "                    the file stores them)\n"
+    "  --conv C          direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\n"
+    "                    Winograd weights are stored transformed, in f32: 16/9 or 4x their size)\n"
+    "  --compute X       f32 | bf16: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to load)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 (the panels are the same for every kernel)\n";
 
 static const char cli_usage_image[] =
     "usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
@@ -317,7 +338,9 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
 /* --weights: the storage of the GEMM weights (a speed / accuracy lever, see README) */
 static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
 static supermat_compute cli_compute = SUPERMAT_COMPUTE_F32;
+static int cli_compute_given; /* --compute was on the command line */
 static int cli_parse_compute(const char *cmd, const char *s) {
+    cli_compute_given = 1;
     if (!strcmp(s, "f32")) cli_compute = SUPERMAT_COMPUTE_F32;
     else if (!strcmp(s, "bf16")) cli_compute = SUPERMAT_COMPUTE_BF16;
     else { cli_usage_error(cmd, "--compute: '%s' is not f32 or bf16", s); return -1; }

@@ -84,6 +84,7 @@ static int cli_info(int argc, char **argv) {
     /* the loaded model */
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    cli_packed_options(&md);
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;
@@ -135,6 +136,11 @@ static int cli_info(int argc, char **argv) {
     }
     printf("model memory  %llu bytes (%.1f MiB) held by the model, created in %.3f s; it also borrows the file buffer\n",
            (unsigned long long)mi.model_bytes, cli_mib((double)mi.model_bytes), create_s);
+    if (mi.prepacked) {
+        static const char *cn[] = {"direct", "winograd-f2", "winograd-f4"};
+        printf("pre-packed    yes: %.1f MiB of panels used in place from the mapped file (conv %s, compute %s; `supermat pack`)\n",
+               cli_mib((double)mi.prepacked_bytes), (unsigned)mi.conv < 3 ? cn[mi.conv] : "?", mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32");
+    }
     {
         supermat_session_desc sd;
         size_t all = 0, alb = 0;

@@ -336,6 +336,17 @@ static int cli_write_png(const char *path, const float *px, int w, int h, int ch
     return cli_write_png_u8(path, tmp, w, h, channels);
 }
 
+/* A pre-packed file (`supermat pack`) runs with the convolution and compute options it was packed for,
+   unless the command line asked for another compute (then the library says why it cannot). */
+static void cli_packed_options(supermat_model_desc *md) {
+    char v[16];
+    if (supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 && atoi(v) < SUPERMAT_CONV_COUNT)
+        md->conv = (supermat_conv)atoi(v);
+    if (!cli_compute_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.compute", v, sizeof v) == 0 && atoi(v) >= 0 &&
+        atoi(v) < SUPERMAT_COMPUTE_COUNT)
+        md->compute = (supermat_compute)atoi(v);
+}
+
 /* loads the model file and creates the model; the buffer is borrowed by the model (free it after) */
 static int cli_load_model(const char *path, supermat_kernel kernel, unsigned char **buf, size_t *size,
                           supermat_model **model, double *create_seconds) {
@@ -348,6 +359,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
     md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    cli_packed_options(&md);
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);
     if (create_seconds) *create_seconds = cli_now() - t0;

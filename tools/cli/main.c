@@ -50,6 +50,7 @@
 #include "io.c"
 #include "model.c"
 #include "convert.c"
+#include "pack.c"
 #include "image.c"
 #include "views.c"
 #include "refine.c"
@@ -99,6 +100,7 @@ int main(int argc, char **argv) {
     }
     cli_accept16 = !strcmp(c, "image") || !strcmp(c, "sheet"); /* image: float input; sheet: shown at 8 bits */
     if (!strcmp(c, "convert")) return cli_convert(argc, argv);
+    if (!strcmp(c, "pack")) return cli_pack(argc, argv);
     if (!strcmp(c, "image")) return cli_image(argc, argv);
     if (!strcmp(c, "views")) return cli_views(argc, argv);
     if (!strcmp(c, "refine")) return cli_refine(argc, argv);
