@@ -19,11 +19,15 @@
 #   - tools/slurm_batch.sh run as Slurm runs array tasks, then the merge;
 #   - batch mesh (with CUBE_GLTF, a textured glTF with its .bin and texture beside it, and a supermat built
 #     with mesh): 6 assets in folders and a broken one, outputs identical to `supermat mesh`, 6 SIGKILLs
-#     then a run to the end: each asset done once, no staging folder left.
+#     then a run to the end: each asset done once, no staging folder left; with TINY_MV and TINY_UV,
+#     networks: each process loads the two models once for 3 assets (1 and 2 workers), textures identical
+#     to `supermat mesh`, pre-packed models (`supermat pack`) used in place with the same textures.
 set -u
-if [ $# -lt 3 ] || [ $# -gt 4 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR [CUBE_GLTF]" >&2; exit 2; fi
+if [ $# -lt 3 ] || [ $# -gt 6 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR [CUBE_GLTF [TINY_MV TINY_UV]]" >&2; exit 2; fi
 CUBE=""
-[ $# -eq 4 ] && [ -f "$4" ] && CUBE=$(realpath "$4")
+[ $# -ge 4 ] && [ -f "$4" ] && CUBE=$(realpath "$4")
+TINY_MV=""; TINY_UV=""
+[ $# -ge 6 ] && [ -f "$5" ] && [ -f "$6" ] && TINY_MV=$(realpath "$5") && TINY_UV=$(realpath "$6")
 BIN=$(realpath "$1")
 MODEL=$(realpath "$2")
 DATA=$(realpath "$3")
@@ -225,6 +229,29 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     check "batch mesh after the kills: each asset done once" [ "$(grep '"status":"done"' mkill/journal.jsonl | sed 's/^{"item":"\([^"]*\)".*/\1/' | sort | uniq -c | awk '$1 == 1' | wc -l)" -eq 6 ]
     check "batch mesh after the kills: no staging folder or FILE.tmp left" [ -z "$(find mkill -name '.supermat-mesh-*' -o -name '*.tmp')" ]
     check "batch mesh after the kills: textures identical" cmp -s mref_baseColor.png mkill/a/deep/asset_1_baseColor.png
+    # with networks (the tiny multi-view and UV-refine models): each process loads the models once for the
+    # whole batch, and the textures equal `supermat mesh`'s; pre-packed models give the same textures
+    if [ -n "$TINY_MV" ] && [ -n "$TINY_UV" ]; then
+        mkdir -p mm
+        for k in 1 2 3; do
+            sed "s/cube_texture.png/tex_$k.png/; s/cube.bin/geo_$k.bin/" "$CUBE" > "mm/asset_$k.gltf"
+            cp "$cdir/cube_texture.png" "mm/tex_$k.png"; cp "$cdir/cube.bin" "mm/geo_$k.bin"
+        done
+        NET=(--mv-model "$TINY_MV" --albedo-refine "$TINY_UV" --rm-refine "$TINY_UV" --size 64 --views-size 64 --threads 1)
+        "$BIN" mesh "${NET[@]}" mm/asset_2.gltf mmref.gltf >/dev/null 2>&1 || bad "reference mesh run with models"
+        "$BIN" batch mesh "${NET[@]}" --out mmout mm > /dev/null 2> log2; rc=$?
+        check "batch mesh with models: exit 0 (got $rc)" [ $rc -eq 0 ]
+        check "batch mesh with models: 3 assets, the two models loaded once ($(grep -c 'supermat mesh: loaded' log2) loads)" [ "$(grep -c 'supermat mesh: loaded' log2)" -eq 2 ]
+        check "batch mesh with models: textures as supermat mesh bakes them" cmp -s mmref_baseColor.png mmout/asset_2_baseColor.png
+        check "batch mesh with models: metallicRoughness as supermat mesh bakes it" cmp -s mmref_metallicRoughness.png mmout/asset_2_metallicRoughness.png
+        "$BIN" pack --model "$TINY_MV" --out mv.packed.safetensors >/dev/null && "$BIN" pack --model "$TINY_UV" --out uv.packed.safetensors >/dev/null || bad "pack the tiny models"
+        "$BIN" batch mesh --mv-model mv.packed.safetensors --albedo-refine uv.packed.safetensors --rm-refine uv.packed.safetensors \
+            --size 64 --views-size 64 --threads 1 --jobs 2 --out mmpk mm > /dev/null 2> log3; rc=$?
+        check "batch mesh, pre-packed models, 2 workers: exit 0 (got $rc)" [ $rc -eq 0 ]
+        check "batch mesh, pre-packed models: used in place" grep -q "pre-packed: panels used in place" log3
+        check "batch mesh, 2 workers: each loads the two models once ($(grep -c 'supermat mesh: loaded' log3) loads)" [ "$(grep -c 'supermat mesh: loaded' log3)" -eq 4 ]
+        check "batch mesh, pre-packed models: the same textures" cmp -s mmref_baseColor.png mmpk/asset_2_baseColor.png
+    fi
 else
     echo "SKIP: batch mesh (no CUBE_GLTF given, or supermat built without tinygltf)"
 fi

@@ -476,7 +476,7 @@ static const char cli_usage_batch[] =
     "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
     "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
     "--mv-model, --albedo-refine, --rm-refine, --passthrough, --size, --views-size, --threads, --gutter,\n"
-    "--edge-reject, --weight, --supersample go to `supermat mesh`, which loads the models for each asset.\n"
+    "--edge-reject, --weight, --supersample go to `supermat mesh`; each process loads the models once.\n"
     "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
     "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
     "\n"
@@ -612,6 +612,7 @@ static void cli_rmtree(const char *path) {
 
 #ifdef SUPERMAT_CLI_MESH
 int supermat_cli_mesh(int argc, char **argv); /* tools/cli/mesh.cpp */
+void supermat_cli_mesh_keep_models(int keep);   /* the models stay loaded from one asset to the next */
 #endif
 /* one asset through `supermat mesh ARGS --force IN DIR/<stem>.<ext>`; a staging folder a killed run left
    beside it (.supermat-mesh-<pid>.tmp of a process that is gone) is removed first */
@@ -811,7 +812,7 @@ static int cli_batch(int argc, char **argv) {
         fprintf(stderr, "batch: %zu item(s)%s: %zu done before, %zu failed before%s, %zu to run; journal %s\n", mine, of,
                 done_before, failed_before, failed_before ? " (--retry-failed runs them)" : "", left, jpath);
     }
-    if (rc == CLI_OK && left && !cli_batch_mesh_mode) { /* one model load for the whole batch (mesh loads per asset) */
+    if (rc == CLI_OK && left && !cli_batch_mesh_mode) { /* one model load for the whole batch (mesh: on its first asset) */
         rc = cli_model_path("image", model_arg, 1, &mref);
         if (rc == CLI_OK) model_path = mref.path;
         if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &X.model, NULL);
@@ -852,6 +853,9 @@ static int cli_batch(int argc, char **argv) {
                 prctl(PR_SET_PDEATHSIG, SIGKILL); /* a killed batch takes its workers along */
 #endif
             }
+#ifdef SUPERMAT_CLI_MESH
+            if (cli_batch_mesh_mode) supermat_cli_mesh_keep_models(1); /* each process loads the models once */
+#endif
             X.outputs = outputs; X.want_float = want_float; X.tty = tty && nworkers == 1;
             X.threads = nworkers > 1 ? (threads_total / nworkers > 0 ? threads_total / nworkers : 1) : threads;
             for (k = 0; k < L.n && wrc == CLI_OK; k++) {
@@ -889,6 +893,9 @@ static int cli_batch(int argc, char **argv) {
                 }
             }
             cli_image_ctx_release(&X);
+#ifdef SUPERMAT_CLI_MESH
+            if (cli_batch_mesh_mode) supermat_cli_mesh_keep_models(0);
+#endif
             if (nworkers > 1) _exit(wrc == CLI_OK && !ran_failed ? 0 : 1);
             if (wrc != CLI_OK && !ran_failed) rc = CLI_FAIL; /* the journal itself failed */
         }

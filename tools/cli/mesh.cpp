@@ -33,6 +33,8 @@
 #include <stb/stb_image_write.h>
 
 #include <dirent.h>
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -49,6 +51,7 @@
 #include <vector>
 
 extern "C" int supermat_cli_mesh(int argc, char **argv);
+extern "C" void supermat_cli_mesh_keep_models(int keep);
 
 namespace {
 
@@ -455,20 +458,60 @@ int usage() {
     return 2;
 }
 
-bool load_model(const char *path, std::vector<unsigned char> &bytes, supermat_model **m) {
-    bytes = read_whole(path);
-    if (bytes.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s\n", path); return false; }
-    supermat_model_desc md;
-    std::memset(&md, 0, sizeof md);
-    md.data = bytes.data(); md.size = bytes.size();
-    md.copy_data = 1; /* the model keeps what it needs: the file bytes go now */
-    supermat_error err;
-    supermat_result r = supermat_model_create(&md, m, &err);
-    std::vector<unsigned char>().swap(bytes);
-    if (r != SUPERMAT_SUCCESS) {
-        std::fprintf(stderr, "supermat mesh: %s: %s\n", path, err.message);
+/* A loaded model and the read-only mapping of its file (which it borrows: small tensors, and a
+   pre-packed file's panels). In a batch (supermat_cli_mesh_keep_models) the models stay loaded from one
+   asset to the next, keyed by path; otherwise each run releases them. */
+struct LoadedModel {
+    supermat_model *m = nullptr;
+    void *map = nullptr;
+    size_t size = 0;
+};
+std::map<std::string, LoadedModel> g_models;
+bool g_keep_models = false;
+
+void release_models() {
+    for (auto &e : g_models) {
+        supermat_model_destroy(e.second.m);
+        if (e.second.map) munmap(e.second.map, e.second.size);
+    }
+    g_models.clear();
+}
+
+bool load_model(const char *path, supermat_model **m) {
+    auto it = g_models.find(path);
+    if (it != g_models.end()) { *m = it->second.m; return true; }
+    LoadedModel lm;
+    int fd = open(path, O_RDONLY);
+    struct stat st;
+    if (fd < 0 || fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size <= 0) {
+        std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", path, fd < 0 ? std::strerror(errno) : "not a regular, non-empty file");
+        if (fd >= 0) close(fd);
         return false;
     }
+    lm.size = (size_t)st.st_size;
+    lm.map = mmap(nullptr, lm.size, PROT_READ, MAP_PRIVATE, fd, 0);
+    close(fd);
+    if (lm.map == MAP_FAILED) { std::fprintf(stderr, "supermat mesh: cannot map %s: %s\n", path, std::strerror(errno)); return false; }
+    supermat_model_desc md;
+    std::memset(&md, 0, sizeof md);
+    md.data = lm.map; md.size = lm.size;
+    char v[16];
+    if (supermat_safetensors_metadata(lm.map, lm.size, "supermat.packed.conv", v, sizeof v) == 0 && std::atoi(v) > 0 && std::atoi(v) < SUPERMAT_CONV_COUNT)
+        md.conv = (supermat_conv)std::atoi(v); /* a pre-packed file runs with the options it was packed for */
+    if (supermat_safetensors_metadata(lm.map, lm.size, "supermat.packed.compute", v, sizeof v) == 0 && std::atoi(v) > 0 && std::atoi(v) < SUPERMAT_COMPUTE_COUNT)
+        md.compute = (supermat_compute)std::atoi(v);
+    supermat_error err;
+    supermat_result r = supermat_model_create(&md, &lm.m, &err);
+    if (r != SUPERMAT_SUCCESS) {
+        std::fprintf(stderr, "supermat mesh: %s: %s\n", path, err.message);
+        munmap(lm.map, lm.size);
+        return false;
+    }
+    *m = lm.m;
+    g_models[path] = lm;
+    supermat_model_info mi;
+    supermat_model_get_info(lm.m, &mi);
+    std::fprintf(stderr, "supermat mesh: loaded %s (%.1f MiB held%s)\n", path, mi.model_bytes / 1048576.0, mi.prepacked ? ", pre-packed: panels used in place" : "");
     return true;
 }
 
@@ -499,6 +542,12 @@ bool normal_matrix(const Mat4 &world, double Nm[9]) {
 bool is_triangles(const tinygltf::Primitive &p) { return p.mode == TINYGLTF_MODE_TRIANGLES || p.mode == -1; }
 
 } // namespace
+
+/* a batch keeps the models loaded from one asset to the next (keep = 1), then releases them (keep = 0) */
+extern "C" void supermat_cli_mesh_keep_models(int keep) {
+    g_keep_models = keep != 0;
+    if (!keep) release_models();
+}
 
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
@@ -706,14 +755,14 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     }
 
     /* ---- models ---- */
-    std::vector<unsigned char> fmv, fbc, frm;
     supermat_model *mv = nullptr, *bc = nullptr, *rm = nullptr;
     if (!passthrough) {
         bool same = std::string(bc_path) == rm_path; /* one model serves both when given the same file */
-        if (!load_model(mv_path, fmv, &mv) || !load_model(bc_path, fbc, &bc) || (!same && !load_model(rm_path, frm, &rm))) {
-            supermat_model_destroy(mv); supermat_model_destroy(bc); supermat_model_destroy(rm);
+        if (!load_model(mv_path, &mv) || !load_model(bc_path, &bc) || (!same && !load_model(rm_path, &rm))) {
+            if (!g_keep_models) release_models();
             return 1;
         }
+        if (same) rm = nullptr;
     }
 
     /* ---- bake ---- */
@@ -768,7 +817,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     supermat_error serr;
     supermat_result r = supermat_uv_bake(&bd, outs.data(), &st, &serr);
     if (bd.progress) std::fprintf(stderr, "\r%-40s\r", "");
-    supermat_model_destroy(mv); supermat_model_destroy(bc); supermat_model_destroy(rm);
+    if (!g_keep_models) release_models();
     if (r != SUPERMAT_SUCCESS) {
         std::fprintf(stderr, "supermat mesh: %s (%s)\n", serr.message, supermat_result_string(r));
         return 1;
