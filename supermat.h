@@ -2459,13 +2459,21 @@ typedef struct supermat__loader {
 } supermat__loader;
 
 /* A pre-packed model's index: one record of SUPERMAT__PKF little-endian int64 per packed weight, in the
-   order model creation packs them: kind (1 panels, 2 Winograd-transformed 3x3 convolution), K, N, the
-   panels' format (0 f32, 1 f16, 2 bf16, 3 int8, 4 bf16 pairs), the storage format before bf16 pairing
-   (kind 1) or the Winograd tile a = m + 2 (kind 2), and the byte offsets in the panel blob of the panels,
-   the int8 scales and the bias (-1 = none). Offsets are multiples of 64; sizes follow from K, N and the
-   format and are never read from the file. */
+   order model creation packs them: kind (1 panels, 2 Winograd-transformed 3x3 convolution, 3 the packed
+   keys and values of the empty-prompt context in one cross-attention: K = its channels, N = the context
+   tokens), K, N, the panels' format (0 f32, 1 f16, 2 bf16, 3 int8, 4 bf16 pairs), the storage format
+   before bf16 pairing (kind 1) or the Winograd tile a = m + 2 (kind 2), and the byte offsets in the panel
+   blob of the panels (kind 3: the keys), the int8 scales (kind 3: the values) and the bias (-1 = none).
+   Offsets are multiples of 64; sizes follow from K, N and the format and are never read from the file. */
 #define SUPERMAT__PKF 8
-typedef struct supermat__pkitem { supermat__pw *pw; const supermat__wino *wino; int sfmt; } supermat__pkitem;
+typedef struct supermat__pkitem {
+    supermat__pw *pw;            /* kind 1, 2 */
+    const supermat__wino *wino;  /* kind 2 */
+    int sfmt;
+    const float *kp, *vp;        /* kind 3: a cross-attention's packed keys and values of the context */
+    size_t kpn, vpn;             /* their floats */
+    int c, tokens;
+} supermat__pkitem;
 typedef struct supermat__pkrec {
     supermat__pkitem *items;
     int n, cap;
@@ -2822,7 +2830,8 @@ static void supermat__pk_note(supermat__loader *L, supermat__pw *pw, int sfmt) {
         supermat__free(&L->m->alloc, R->items, sizeof *ni * (size_t)R->cap);
         R->items = ni; R->cap = nc;
     }
-    R->items[R->n].pw = pw; R->items[R->n].wino = NULL; R->items[R->n].sfmt = sfmt;
+    memset(&R->items[R->n], 0, sizeof R->items[R->n]);
+    R->items[R->n].pw = pw; R->items[R->n].sfmt = sfmt;
     R->n++;
 }
 
@@ -3048,6 +3057,16 @@ static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, co
     supermat__name(n, sizeof n, "%s.transformer_blocks.0.ff.net.0.proj", pre); supermat__bind_linear(L, &x->ff1, n, 8 * c, c, 1);
     supermat__name(n, sizeof n, "%s.transformer_blocks.0.ff.net.2", pre); supermat__bind_linear(L, &x->ff2, n, c, 4 * c, 1);
     /* cross-attention keys and values of the constant context, computed once and packed */
+    if (L->pk) { /* pre-packed: from the blob */
+        int rec;
+        size_t kpn = (size_t)heads * supermat__attn_kp_floats(m->ctx_tokens, x->d), vpn = (size_t)heads * supermat__attn_vp_floats(m->ctx_tokens, x->d);
+        L->params += 2u * (uint64_t)c * (uint64_t)m->cross_dim;
+        rec = supermat__pk_take(L, 3, c, m->ctx_tokens, 0, pre);
+        if (rec < 0) return;
+        x->kp2 = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 5), (uint64_t)kpn * 4, pre);
+        x->vp2 = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 6), (uint64_t)vpn * 4, pre);
+        return;
+    }
     {
         int64_t want[2];
         float *kv;
@@ -3096,6 +3115,16 @@ static void supermat__bind_xformer(supermat__loader *L, supermat__xformer *x, co
         pa.k = kv; pa.v = kv + (size_t)m->ctx_tokens * c; pa.ldk = pa.ldv = (size_t)c; pa.mk = m->ctx_tokens;
         pa.heads = heads; pa.d = x->d; pa.kp = x->kp2; pa.vp = x->vp2;
         for (i = 0; i < heads; i++) supermat__attn_pack_task(&pa, i, 0);
+        if (L->rec) { /* the writer keeps these; the two weights they came from are left out */
+            supermat__pk_note(L, NULL, 0);
+            if (!L->r) {
+                supermat__pkitem *it = &L->rec->items[L->rec->n - 1];
+                it->kp = x->kp2; it->vp = x->vp2; it->c = c; it->tokens = m->ctx_tokens;
+                it->kpn = (size_t)heads * supermat__attn_kp_floats(m->ctx_tokens, x->d);
+                it->vpn = (size_t)heads * supermat__attn_vp_floats(m->ctx_tokens, x->d);
+                L->rec->pkuses[wk]++; L->rec->pkuses[wv]++;
+            }
+        }
     }
     (void)b;
 }
@@ -3572,8 +3601,16 @@ SUPERMAT__DEF supermat_result supermat_model_write_packed(const supermat_model_d
     for (i = 0; i < R.n; i++) {
         const supermat__pw *pw = R.items[i].pw;
         int64_t *e = idx + (size_t)i * SUPERMAT__PKF;
-        int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+        int np;
         uint64_t main, qs;
+        if (!pw) { /* kind 3: keys, then values */
+            e[0] = 3; e[1] = R.items[i].c; e[2] = R.items[i].tokens; e[3] = 0; e[4] = 0;
+            e[5] = (int64_t)blob; blob += ((uint64_t)R.items[i].kpn * 4 + 63) / 64 * 64;
+            e[6] = (int64_t)blob; blob += ((uint64_t)R.items[i].vpn * 4 + 63) / 64 * 64;
+            e[7] = -1;
+            continue;
+        }
+        np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
         if (R.items[i].wino) {
             const supermat__wino *wg = R.items[i].wino;
             main = (uint64_t)(wg->a * wg->a) * (uint64_t)np * SUPERMAT__NR * (uint64_t)wg->u[0].K * 4;
@@ -3605,7 +3642,8 @@ SUPERMAT__DEF supermat_result supermat_model_write_packed(const supermat_model_d
     {
         char opt[160];
         /* the storage format the packing resolved (before bf16 compute's pairing) */
-        int w = R.n ? R.items[0].sfmt + 1 : (int)m->info.weights;
+        int w = (int)m->info.weights;
+        for (i = 0; i < R.n; i++) if (R.items[i].pw) { w = R.items[i].sfmt + 1; break; }
         snprintf(opt, sizeof opt, "\"supermat.packed\":\"1\",\"supermat.packed.weights\":\"%d\",\"supermat.packed.conv\":\"%d\",\"supermat.packed.compute\":\"%d\"}",
                  w, (int)desc->conv, (int)desc->compute);
         supermat__text_str(&T, opt);
@@ -3640,8 +3678,16 @@ SUPERMAT__DEF supermat_result supermat_model_write_packed(const supermat_model_d
     for (i = 0; i < R.n; i++) {
         const supermat__pw *pw = R.items[i].pw;
         const int64_t *e = idx + (size_t)i * SUPERMAT__PKF;
-        int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, xi;
-        uint64_t main = 0, qs = supermat__pk_qs_bytes(e[0] == 1 ? pw->fmt : 0, pw->K, pw->N, pw->qcin);
+        int np, xi;
+        uint64_t main = 0, qs;
+        if (!pw) {
+            uint64_t kb = (uint64_t)R.items[i].kpn * 4, vb = (uint64_t)R.items[i].vpn * 4;
+            if (supermat__wput(write, user, R.items[i].kp, kb, &done) || supermat__wput(write, user, NULL, (64 - kb % 64) % 64, &done) ||
+                supermat__wput(write, user, R.items[i].vp, vb, &done) || supermat__wput(write, user, NULL, (64 - vb % 64) % 64, &done)) goto io;
+            continue;
+        }
+        np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+        qs = supermat__pk_qs_bytes(e[0] == 1 ? pw->fmt : 0, pw->K, pw->N, pw->qcin);
         if (R.items[i].wino) {
             const supermat__wino *wg = R.items[i].wino;
             uint64_t one = (uint64_t)np * SUPERMAT__NR * (uint64_t)wg->u[0].K * 4;
