@@ -127,6 +127,20 @@
  *   Optional, not read by the library: pipeline.work_size, the square size the official scripts resize
  *   pictures to (512; UV refine 1024; 0 = none), which the CLI uses as its default work_width/height.
  *
+ * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
+ *   A model file in which the GEMM weights are already the runtime's packed panels (16 columns per
+ *   panel; f32 / f16 / bf16 / int8, bf16 pairs for bf16 compute, Winograd-transformed 3x3 convolutions)
+ *   and each cross-attention's keys and values of the context are precomputed, for one set of options
+ *   (weights, conv, compute; the kernel does not matter). It is a safetensors file: the U8 tensors
+ *   `supermat.packed.data` (the panels, 64-byte aligned in the file) and `supermat.packed.index`, the
+ *   metadata keys supermat.packed ("1"), supermat.packed.weights / .conv / .compute (the enum values),
+ *   and every tensor of the original file except those only the packing read. supermat_model_create
+ *   uses its panels in place from desc->data, which must then be 64-byte aligned (a mapped file is) and
+ *   outlive the model, unless copy_data is set. Creating it asks for the options it was packed for
+ *   (weights may be DEFAULT), else UNSUPPORTED. Every offset and size in the index is checked against
+ *   the architecture and the blob; the panel values themselves are used as the file gives them (no
+ *   NaN scan, which would read every page: pack only files you trust, or run them once).
+ *
  * INT8 WEIGHTS (`supermat convert --precision int8`, or any file with `weights = SUPERMAT_WEIGHTS_I8`)
  *   A weight W [rows][cin] or [rows][cin][kh][kw] stored as I8 q comes with the F32 tensor
  *   `<name>_scale` [rows][kh*kw][ceil(cin/64)] (a linear weight: kh*kw = 1), and
