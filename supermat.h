@@ -334,6 +334,8 @@ typedef struct supermat_model_desc {
     supermat_conv conv;       /* 3x3 convolution algorithm (DIRECT = the reference) */
     supermat_allocator allocator;
     supermat_compute compute; /* F32 (0) or BF16 products in the GEMMs (see supermat_compute) */
+    size_t max_memory;        /* 0 = no limit; else creation fails with OUT_OF_MEMORY, before the allocation
+                                 that would take the model's memory (model_bytes) past it */
 } supermat_model_desc;
 
 typedef struct supermat_model_info {
@@ -415,6 +417,8 @@ typedef struct supermat_session_desc {
     /* SuperMatMV only: approximate the multi-view attention at the highest resolution. */
     supermat_mv_attention mv_attention;
     int mv_key_stride;           /* SUPERMAT_MV_ATTENTION_STRIDED: keep every n-th key of the other views (1 = all) */
+    size_t max_memory;           /* 0 = no limit; else a session whose plan (supermat_session_memory) needs more
+                                    fails with OUT_OF_MEMORY before anything is allocated */
 } supermat_session_desc;
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -2458,6 +2462,7 @@ typedef struct supermat__loader {
     supermat_error *err;
     supermat_result r;
     uint64_t params;
+    size_t cap;             /* model_desc.max_memory */
     int avx2;
     int weights;            /* requested supermat_weights */
     int conv;               /* requested supermat_conv */
@@ -2499,6 +2504,11 @@ static void *supermat__mem(supermat__loader *L, size_t bytes) {
     supermat_model *m = L->m;
     void *p;
     if (L->r) return NULL;
+    if (L->cap && (bytes > L->cap || m->info.model_bytes > L->cap - bytes)) {
+        L->r = supermat__fail(L->err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "the model needs more than max_memory = %llu bytes (%.1f MiB): %llu held, %llu more asked; pre-pack it (`supermat pack`) or choose smaller weights",
+                              (unsigned long long)L->cap, (double)L->cap / 1048576.0, (unsigned long long)m->info.model_bytes, (unsigned long long)bytes);
+        return NULL;
+    }
     if (m->nblocks == m->cap_blocks) {
         int nc = m->cap_blocks ? 2 * m->cap_blocks : 256;
         void **nb = (void **)supermat__alloc(&m->alloc, sizeof(void *) * (size_t)nc);
@@ -3352,6 +3362,7 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     L.js = (const char *)desc->data + 8; L.meta = -1;
     L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
     L.weights = (int)desc->weights;
+    L.cap = desc->max_memory;
     L.bf16c = desc->compute == SUPERMAT_COMPUTE_BF16;
     m->info.compute = desc->compute;
     L.conv = (int)desc->conv;
@@ -4500,6 +4511,14 @@ SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_des
     r = supermat__check_session_desc(desc, err);
     if (r) return r;
     if (!out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "out is NULL");
+    if (desc->max_memory) { /* the plan first, on the stack: nothing is allocated for a session that does not fit */
+        size_t need = 0;
+        if ((r = supermat_session_memory(desc, &need, err))) return r;
+        if (need > desc->max_memory)
+            return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "the session for %dx%d (%d view%s) needs %llu bytes (%.1f MiB), more than max_memory = %llu bytes (%.1f MiB): "
+                                  "use VAE tiles (vae_tile), a smaller work size or fewer outputs", desc->width, desc->height, supermat__views(desc), supermat__views(desc) == 1 ? "" : "s",
+                                  (unsigned long long)need, (double)need / 1048576.0, (unsigned long long)desc->max_memory, (double)desc->max_memory / 1048576.0);
+    }
     a = supermat__resolve_allocator(&desc->allocator);
     S = (supermat_session *)supermat__alloc(&a, sizeof *S);
     if (!S) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "out of memory for the session");

@@ -427,6 +427,23 @@ check "pack whose write fails: the message names the file" grep -q "cannot write
 absent "$PK/limited.safetensors"
 absent "$PK/limited.safetensors.tmp"
 
+# ---- --max-memory: refused before allocating, with the sizes in the message --------------------------
+run image --model "$MODEL" --max-memory 1M --out "$T/mm1" "$SPHERE"
+check "--max-memory below the model: exit 1" [ $RC -eq 1 ]
+check "--max-memory below the model: the message" grep -q "the model needs more than max_memory" "$T/err"
+absent "$T/mm1/sphere_64_albedo.png"
+MB=$(awk '/^model memory/ {print int($3 / 1048576) + 1}' < <("$BIN" info "$MODEL" 2>/dev/null))
+run image --model "$MODEL" --max-memory "${MB}M" --out "$T/mm2" "$SPHERE"
+check "--max-memory leaving no room for the session: exit 1" [ $RC -eq 1 ]
+check "--max-memory leaving no room for the session: the session's size in the message" grep -q "the session for 64x64 (1 view) needs [0-9]* bytes" "$T/err"
+check "--max-memory: the message says how it was shared" grep -q "the model holds" "$T/err"
+absent "$T/mm2/sphere_64_albedo.png"
+run image --model "$MODEL" --max-memory 4G --out "$T/mm3" "$SPHERE"
+check "--max-memory 4G: exit 0" [ $RC -eq 0 ]
+check_png "$T/mm3/sphere_64_albedo.png" 64 64 2
+run image --model "$MODEL" --max-memory lots --out "$T/mm4" "$SPHERE"
+check "--max-memory with a bad size: exit 2" [ $RC -eq 2 ]
+
 # ---- the overwrite policy (every command): refuse / --force / --skip-existing -------------------
 OW=$T/overwrite
 run image --model "$MODEL" --out "$OW" "$SPHERE"

@@ -483,6 +483,62 @@ static void test_compute(void) {
     }
 }
 
+
+/* memory caps: model_desc.max_memory and session_desc.max_memory refuse before allocating past them */
+static void test_memory_cap(void) {
+    supermat_model_desc md;
+    supermat_model *m = NULL, *m2 = NULL;
+    supermat_model_info mi;
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_error err;
+    counting c;
+    size_t need = 0;
+    supermat_result r;
+    memset(&md, 0, sizeof md);
+    md.data = model_data; md.size = model_size;
+    if (supermat_model_create(&md, &m, &err)) { TU_CHECK(0, "model: %s", err.message); return; }
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(m, &mi);
+    /* the model: exactly its memory fits, a byte less does not, and nothing stays allocated */
+    memset(&c, 0, sizeof c); c.fail_at = -1;
+    md.allocator.alloc = c_alloc; md.allocator.free = c_free; md.allocator.user = &c;
+    md.max_memory = mi.model_bytes - 1;
+    r = supermat_model_create(&md, &m2, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && strstr(err.message, "max_memory") && c.live == 0, "model cap one byte short: %s (%s), %ld blocks live",
+             supermat_result_string(r), err.message, c.live);
+    md.max_memory = mi.model_bytes;
+    r = supermat_model_create(&md, &m2, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "model cap = its memory: %s", err.message);
+    supermat_model_destroy(m2);
+    TU_CHECK(c.live == 0, "model with a cap leaks %ld blocks", c.live);
+    /* the session: its plan fits or nothing is allocated */
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = sd.height = 64; sd.threads = 1;
+    TU_CHECK(supermat_session_memory(&sd, &need, &err) == SUPERMAT_SUCCESS, "plan: %s", err.message);
+    memset(&c, 0, sizeof c); c.fail_at = -1;
+    sd.allocator.alloc = c_alloc; sd.allocator.free = c_free; sd.allocator.user = &c;
+    sd.max_memory = need - 1;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.calls == 0 && strstr(err.message, "max_memory"), "session cap one byte short: %s (%s), %ld allocations",
+             supermat_result_string(r), err.message, c.calls);
+    sd.max_memory = need;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "session cap = its plan: %s", err.message);
+    supermat_session_destroy(s);
+    /* the largest image a session takes, under a 1 GiB cap: refused from the plan, no allocation */
+    memset(&c, 0, sizeof c); c.fail_at = -1;
+    sd.width = sd.height = 16384; sd.max_memory = (size_t)1 << 30;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.calls == 0, "16384x16384 under 1 GiB: %s, %ld allocations", supermat_result_string(r), c.calls);
+    printf("memory caps: %s\n", err.message);
+    /* sizes past what a session takes are refused before any planning */
+    sd.width = sd.height = 65536;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && c.calls == 0, "65536x65536: %s", supermat_result_string(r));
+    supermat_model_destroy(m);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) { fprintf(stderr, "usage: %s MODEL [MV_MODEL UV_MODEL]\n", argv[0]); return 2; }
     model_data = tu_load(argv[1], &model_size);
@@ -492,6 +548,7 @@ int main(int argc, char **argv) {
     test_truncated();
     test_corrupted();
     test_allocator();
+    test_memory_cap();
     test_run();
     if (argc > 3) test_mv_uv(argv[2], argv[3]);
     free(model_data);

@@ -109,6 +109,8 @@ static const char cli_usage_image[] =
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
+    "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
+    "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
@@ -148,6 +150,8 @@ static const char cli_usage_views[] =
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
+    "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
+    "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
@@ -178,6 +182,8 @@ static const char cli_usage_refine[] =
     "                    float32, little endian)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto: the best this CPU has)\n"
+    "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
+    "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "\n"
@@ -195,6 +201,7 @@ static const char cli_usage_info[] =
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 (default auto)\n"
+    "  --max-memory SIZE refuse a model that needs more than SIZE (512M, 4G) while it is created\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n";
 
@@ -353,6 +360,27 @@ static int cli_parse_weights(const char *cmd, const char *s) {
     else if (!strcmp(s, "bf16")) cli_weights = SUPERMAT_WEIGHTS_BF16;
     else if (!strcmp(s, "int8") || !strcmp(s, "i8")) cli_weights = SUPERMAT_WEIGHTS_I8;
     else { cli_usage_error(cmd, "--weights: '%s' is not default, f32, f16, bf16 or int8", s); return -1; }
+    return 0;
+}
+
+/* --max-memory SIZE: bytes, or with K, M, G, T (powers of 1024; KiB... and KB... read the same) */
+static size_t cli_max_memory;
+static int cli_parse_bytes(const char *cmd, const char *opt, const char *s, size_t *out) {
+    char *end;
+    double v, mul = 1;
+    errno = 0;
+    v = strtod(s, &end);
+    if (end != s) {
+        char u = *end >= 'a' && *end <= 'z' ? (char)(*end - 32) : *end;
+        if (u == 'K') mul = 1024.0; else if (u == 'M') mul = 1048576.0; else if (u == 'G') mul = 1073741824.0; else if (u == 'T') mul = 1099511627776.0;
+        if (mul > 1) { end++; if (*end == 'i' || *end == 'I') end++; if (*end == 'B' || *end == 'b') end++; }
+        else if (*end == 'B' || *end == 'b') end++;
+    }
+    if (errno || end == s || *end || !(v >= 1) || v * mul > 1.8e19) {
+        cli_usage_error(cmd, "%s: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)", opt, s);
+        return -1;
+    }
+    *out = (size_t)(v * mul);
     return 0;
 }
 

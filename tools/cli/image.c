@@ -105,12 +105,14 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         supermat_session_desc sd;
         memset(&sd, 0, sizeof sd);
         sd.model = X->model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threads = X->threads;
+        sd.max_memory = cli_session_budget(X->model);
         cli_set_work(&sd, X->ws, w, h);
         r = supermat_session_create(&sd, &X->sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[600];
             snprintf(what, sizeof what, "session for '%s' (%dx%d)", input, w, h);
             cli_lib_error(what, r, &err);
+            cli_budget_note(X->model, r);
             stbi_image_free(px); free(fin);
             X->sess = NULL;
             return CLI_FAIL;

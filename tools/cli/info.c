@@ -84,6 +84,7 @@ static int cli_info(int argc, char **argv) {
     /* the loaded model */
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    md.max_memory = cli_max_memory;
     cli_packed_options(&md);
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);

@@ -359,6 +359,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
     md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    md.max_memory = cli_max_memory;
     cli_packed_options(&md);
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);

@@ -157,7 +157,25 @@ static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want
     if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &cli_max_memory) ? -1 : 1;
     return 0;
+}
+
+/* --max-memory: what is left of it for a session once the model holds its part (1 when nothing is) */
+static size_t cli_session_budget(const supermat_model *model) {
+    supermat_model_info mi;
+    if (!cli_max_memory) return 0;
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    return cli_max_memory > mi.model_bytes ? cli_max_memory - mi.model_bytes : 1;
+}
+/* after a session refused for its memory: how --max-memory was shared */
+static void cli_budget_note(const supermat_model *model, supermat_result r) {
+    supermat_model_info mi;
+    if (!cli_max_memory || r != SUPERMAT_ERROR_OUT_OF_MEMORY) return;
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    fprintf(stderr, "  (--max-memory %.1f MiB: the model holds %.1f MiB, which leaves the session the rest)\n", cli_mib((double)cli_max_memory), cli_mib((double)mi.model_bytes));
 }
 
 /* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */

@@ -87,12 +87,14 @@ static int cli_refine(int argc, char **argv) {
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
+        sd.max_memory = cli_session_budget(model);
         cli_set_work(&sd, ws, w, h);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char msg[64];
             snprintf(msg, sizeof msg, "session (%dx%d)", w, h);
             cli_lib_error(msg, r, &err);
+            cli_budget_note(model, r);
             rc = CLI_FAIL;
         }
     }

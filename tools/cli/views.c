@@ -296,12 +296,14 @@ static int cli_views(int argc, char **argv) {
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nimg; sd.threads = threads;
+        sd.max_memory = cli_session_budget(model);
         cli_set_work(&sd, ws, w, h);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[64];
             snprintf(what, sizeof what, "session (%d view%s, %dx%d)", nimg, nimg == 1 ? "" : "s", w, h);
             cli_lib_error(what, r, &err);
+            cli_budget_note(model, r);
             rc = CLI_FAIL;
         }
     }
