@@ -1372,13 +1372,11 @@ SUPERMAT__AVX2 static void supermat__widen_avx2(const void *src, int fmt, const 
 /* 12 x 16: one ZMM accumulator per row (12 of the 32 registers), the B row loaded once per k and each A
    element broadcast from memory into its FMA. Per output element the same fma chain as the other kernels. */
 #define SUPERMAT__MR512 12
-SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
-                                                  int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
-    __m512 acc[SUPERMAT__MR512];
-    const float *ap[SUPERMAT__MR512];
-    __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
-    int i, k;
-    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+/* the accumulators of the 512-bit kernels: C (accumulate) or bias + R on the first K block; rows past mr
+   are never stored, so they start at 0 */
+SUPERMAT__AVX512 static __attribute__((always_inline)) inline void supermat__acc512_init(__m512 *acc, int mr, __mmask16 mask, const float *c, size_t ldc,
+                                                                                       const float *bias, const float *r, size_t ldr, int accumulate) {
+    int i;
     for (i = 0; i < SUPERMAT__MR512; i++) {
         __m512 v = _mm512_setzero_ps();
         if (i < mr) {
@@ -1387,9 +1385,18 @@ SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a,
                 if (bias) v = _mm512_loadu_ps(bias); /* bias is padded to 16 */
                 if (r) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(mask, r + (size_t)i * ldr));
             }
-        } else if (!accumulate && bias) v = _mm512_loadu_ps(bias);
+        }
         acc[i] = v;
     }
+}
+SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
+                                                  int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc[SUPERMAT__MR512];
+    const float *ap[SUPERMAT__MR512];
+    __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
+    int i, k;
+    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+    supermat__acc512_init(acc, mr, mask, c, ldc, bias, r, ldr, accumulate);
     for (k = 0; k < kc; k++) {
         __m512 bv = _mm512_loadu_ps(b + (size_t)k * SUPERMAT__NR);
         acc[0] = _mm512_fmadd_ps(_mm512_set1_ps(ap[0][k]), bv, acc[0]);
@@ -1417,17 +1424,7 @@ SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *con
     __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
     int i, k;
     for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
-    for (i = 0; i < SUPERMAT__MR512; i++) {
-        __m512 v = _mm512_setzero_ps();
-        if (i < mr) {
-            if (accumulate) v = _mm512_maskz_loadu_ps(mask, c + (size_t)i * ldc);
-            else {
-                if (bias) v = _mm512_loadu_ps(bias);
-                if (r) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(mask, r + (size_t)i * ldr));
-            }
-        }
-        acc[i] = v;
-    }
+    supermat__acc512_init(acc, mr, mask, c, ldc, bias, r, ldr, accumulate);
     for (k = 0; k < kc2; k++) {
         __m512bh bv = (__m512bh)_mm512_loadu_si512((const void *)(b + (size_t)k * 32));
         for (i = 0; i < SUPERMAT__MR512; i++) acc[i] = _mm512_dpbf16_ps(acc[i], (__m512bh)_mm512_set1_epi32((int)ap[i][k]), bv);

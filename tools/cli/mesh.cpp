@@ -510,6 +510,7 @@ bool load_model(const char *path, supermat_model **m) {
     *m = lm.m;
     g_models[path] = lm;
     supermat_model_info mi;
+    std::memset(&mi, 0, sizeof mi);
     supermat_model_get_info(lm.m, &mi);
     std::fprintf(stderr, "supermat mesh: loaded %s (%.1f MiB held%s)\n", path, mi.model_bytes / 1048576.0, mi.prepacked ? ", pre-packed: panels used in place" : "");
     return true;
