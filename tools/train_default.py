@@ -442,10 +442,11 @@ def phase_latent(args, data):
         lat = {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu").items()}
     else:
         t0 = time.time()
-        lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in (False, True)}
+        flips = (False, True) if args.latent_flips else (False,)
+        lat = {flip: encode_all(vae, data, data.train, sf, flip) for flip in flips}
         torch.save({k: tuple(t.cpu() for t in v) for k, v in lat.items()}, cache + ".tmp")
         os.replace(cache + ".tmp", cache)
-        print(f"latent: encoded {len(data.train)} x 3 images x 2 flips in {time.time() - t0:.0f} s", flush=True)
+        print(f"latent: encoded {len(data.train)} x 3 images x {len(flips)} flip(s) in {time.time() - t0:.0f} s", flush=True)
     ctx = context(args.out)
     coef, _ = x0_coefficient()
     torch.manual_seed(args.seed + 1)
@@ -458,7 +459,7 @@ def phase_latent(args, data):
         for g in opt.param_groups:
             g["lr"] = lr_at(ph.step, ph.total, args.unet_lr)
         j = torch.from_numpy(ph.rng.choice(n, args.latent_batch, replace=False)).to(DEV)
-        flip = bool(ph.rng.integers(2))
+        flip = bool(ph.rng.integers(2)) and True in lat
         zi, za, zo = (t[j] for t in lat[flip])
         x0a, x0o = unet_forward(unet, zi, ctx, coef)
         la = F.mse_loss(x0a, za)
@@ -630,6 +631,7 @@ def main():
     ap.add_argument("--vae-kl", type=float, default=1e-4)
     ap.add_argument("--latent-steps", type=int, default=600)
     ap.add_argument("--latent-batch", type=int, default=16)
+    ap.add_argument("--latent-flips", type=int, default=1, help="also encode mirrored pictures (1; 0 halves the encoding time on large data)")
     ap.add_argument("--unet-lr", type=float, default=4e-4)
     ap.add_argument("--e2e-steps", type=int, default=100)
     ap.add_argument("--e2e-batch", type=int, default=8)
