@@ -393,7 +393,9 @@ static int cli_parse_kernel(const char *cmd, const char *s, supermat_kernel *out
     return 0;
 }
 
-static int cli_parse_outputs(const char *cmd, const char *s, unsigned *out) {
+/* "albedo,metallic" (or "all") -> SUPERMAT_OUTPUT_* bits; 0 = an empty list; -1 and the unknown name
+   (*bad, *badn) */
+static int cli_outputs_bits(const char *s, unsigned *out, const char **bad, size_t *badn) {
     unsigned bits = 0;
     const char *p = s;
     while (*p) {
@@ -403,15 +405,18 @@ static int cli_parse_outputs(const char *cmd, const char *s, unsigned *out) {
         else if (n == 9 && !strncmp(p, "roughness", 9)) bits |= SUPERMAT_OUTPUT_ROUGHNESS;
         else if (n == 8 && !strncmp(p, "metallic", 8)) bits |= SUPERMAT_OUTPUT_METALLIC;
         else if (n == 3 && !strncmp(p, "all", 3)) bits |= SUPERMAT_OUTPUT_ALL;
-        else if (n != 0) {
-            cli_usage_error(cmd, "--outputs: unknown output '%.*s' (albedo, roughness, metallic)", (int)n, p);
-            return -1;
-        }
+        else if (n != 0) { *bad = p; *badn = n; return -1; }
         p += n;
         if (*p == ',') p++;
     }
-    if (!bits) { cli_usage_error(cmd, "--outputs: empty list"); return -1; }
     *out = bits;
+    return 0;
+}
+static int cli_parse_outputs(const char *cmd, const char *s, unsigned *out) {
+    const char *bad = NULL;
+    size_t n = 0;
+    if (cli_outputs_bits(s, out, &bad, &n)) { cli_usage_error(cmd, "--outputs: unknown output '%.*s' (albedo, roughness, metallic)", (int)n, bad); return -1; }
+    if (!*out) { cli_usage_error(cmd, "--outputs: empty list"); return -1; }
     return 0;
 }
 

@@ -269,17 +269,10 @@ static int cli_manifest_member(void *user, const char *key, const char *v) {
         m->has_input = 1;
     } else if (!strcmp(key, "outputs")) {
         unsigned bits = 0;
-        const char *p = s;
+        const char *bad = NULL;
+        size_t n = 0;
         if (!cli_json_parse_string(v, s, sizeof s)) { snprintf(m->why, sizeof m->why, "\"outputs\" is not a string"); return 1; }
-        while (*p) {
-            const char *e = strchr(p, ',');
-            size_t n = e ? (size_t)(e - p) : strlen(p);
-            if (n == 6 && !strncmp(p, "albedo", 6)) bits |= SUPERMAT_OUTPUT_ALBEDO;
-            else if (n == 9 && !strncmp(p, "roughness", 9)) bits |= SUPERMAT_OUTPUT_ROUGHNESS;
-            else if (n == 8 && !strncmp(p, "metallic", 8)) bits |= SUPERMAT_OUTPUT_METALLIC;
-            else { snprintf(m->why, sizeof m->why, "\"outputs\": albedo, roughness, metallic (comma list)"); return 1; }
-            p += n + (e ? 1 : 0);
-        }
+        if (cli_outputs_bits(s, &bits, &bad, &n)) { snprintf(m->why, sizeof m->why, "\"outputs\": unknown '%.*s' (albedo, roughness, metallic: a comma list)", (int)(n < 32 ? n : 32), bad); return 1; }
         if (!bits) { snprintf(m->why, sizeof m->why, "\"outputs\" is empty"); return 1; }
         m->outputs = bits;
     } else if (!strcmp(key, "float")) {
