@@ -16,7 +16,9 @@
 #   - a manifest: plain lines and JSON Lines with per-item "outputs"; malformed lines are usage errors;
 #   - GNU parallel (when installed): 3 workers, one per shard, one killed mid-run; `parallel
 #     --resume-failed` finishes it; every item done exactly once, maps identical to the reference;
-#   - tools/slurm_batch.sh run as Slurm runs array tasks, then the merge;
+#   - tools/slurm_batch.sh run as Slurm runs array tasks, then the merge; and (as root, with Debian's
+#     slurmctld, slurmd, slurm-client, munge) on a real single-node Slurm cluster the test starts: the array
+#     over 4 shards, one task cancelled mid-run and resubmitted alone, every item once, the merge;
 #   - batch mesh (with CUBE_GLTF, a textured glTF with its .bin and texture beside it, and a supermat built
 #     with mesh): 6 assets in folders and a broken one, outputs identical to `supermat mesh`, 6 SIGKILLs
 #     then a run to the end: each asset done once, no staging folder left; with TINY_MV and TINY_UV,
@@ -196,6 +198,86 @@ check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard don
 check "slurm: 4 journals, every item once" each_done_once slurm/journal.*-of-4.jsonl
 "$BIN" batch --merge --out slurm lib 2>/dev/null; check "slurm: the merge step finds every item" [ $? -eq 0 ]
 check "slurm: maps identical to the reference" same_as_ref slurm
+
+# ---- a real single-node Slurm cluster (as root, with Debian's slurmctld, slurmd, slurm-client and munge):
+# the array over 4 shards, one task cancelled mid-run and resubmitted alone, the merge ----
+if [ "$(id -u)" = 0 ] && command -v slurmctld >/dev/null && command -v slurmd >/dev/null && command -v sbatch >/dev/null && command -v munged >/dev/null; then
+    SD=$T/slurmcluster
+    mkdir -p "$SD/state" "$SD/spool"
+    H=$(hostname -s)
+    started_munge=0
+    if ! pgrep -x munged >/dev/null; then
+        [ -f /etc/munge/munge.key ] || mungekey --create --keyfile /etc/munge/munge.key >/dev/null 2>&1
+        mkdir -p /run/munge && chown munge:munge /run/munge /etc/munge/munge.key 2>/dev/null
+        su -s /bin/sh munge -c /usr/sbin/munged 2>/dev/null || /usr/sbin/munged --force 2>/dev/null
+        started_munge=1
+    fi
+    port=$((20000 + RANDOM % 20000))
+    cat > "$SD/slurm.conf" <<EOC
+ClusterName=supermattest
+SlurmctldHost=$H(127.0.0.1)
+SlurmUser=root
+SlurmdUser=root
+AuthType=auth/munge
+ProctrackType=proctrack/linuxproc
+TaskPlugin=task/none
+SelectType=select/cons_tres
+SelectTypeParameters=CR_CPU
+StateSaveLocation=$SD/state
+SlurmdSpoolDir=$SD/spool
+SlurmctldPidFile=$SD/slurmctld.pid
+SlurmdPidFile=$SD/slurmd.pid
+SlurmctldLogFile=$SD/ctld.log
+SlurmdLogFile=$SD/d.log
+ReturnToService=2
+MpiDefault=none
+JobCompType=jobcomp/none
+AccountingStorageType=accounting_storage/none
+JobAcctGatherType=jobacct_gather/none
+SlurmctldPort=$port
+SlurmdPort=$((port + 1))
+NodeName=$H NodeAddr=127.0.0.1 CPUs=$(nproc) State=UNKNOWN
+PartitionName=test Nodes=$H Default=YES MaxTime=INFINITE State=UP
+EOC
+    export SLURM_CONF=$SD/slurm.conf
+    slurm_down() {
+        [ -f "$SD/slurmd.pid" ] && kill "$(cat "$SD/slurmd.pid")" 2>/dev/null
+        [ -f "$SD/slurmctld.pid" ] && kill "$(cat "$SD/slurmctld.pid")" 2>/dev/null
+        [ $started_munge = 1 ] && pkill -x munged
+        unset SLURM_CONF
+    }
+    trap 'slurm_down; rm -rf "$T"' EXIT
+    slurmctld -f "$SLURM_CONF" && slurmd -f "$SLURM_CONF"
+    up=0
+    for _ in $(seq 100); do [ "$(sinfo -h -o %t 2>/dev/null)" = idle ] && { up=1; break; }; sleep 0.2; done
+    if [ $up -eq 0 ]; then # a machine where the daemons cannot run (no hostname, ports): say so
+        echo "SKIP: the single-node Slurm cluster did not come up (sinfo: $(sinfo -h -o %t 2>&1 | head -1)); its log:"
+        tail -5 "$SD/ctld.log" "$SD/d.log" 2>/dev/null
+    else
+        jid=$(OUT=$T/sl SHARDS=4 SUPERMAT="$BIN" SUPERMAT_ARGS="${RUN[*]}" sbatch --parsable --array=0-3 --cpus-per-task=1 \
+              --chdir="$T" --output="$T/sl-%A_%a.log" "$SCRIPT" "$T/lib")
+        cancelled=0
+        for _ in $(seq 1500); do # cancel task 1 once it has finished an item and before it finishes all
+            if [ "$(count sl/journal.1-of-4.jsonl done)" -ge 1 ]; then scancel "${jid}_1" && cancelled=1; break; fi
+            sleep 0.02
+        done
+        for _ in $(seq 1500); do [ -z "$(squeue -h -j "$jid" 2>/dev/null)" ] && break; sleep 0.1; done
+        before=$(count sl/journal.1-of-4.jsonl done)
+        check "slurm cluster: task 1 cancelled mid-run (cancelled=$cancelled, it had $before of 5)" [ $cancelled -eq 1 ] && [ "$before" -lt 5 ]
+        check "slurm cluster: the other tasks finished their shards" [ "$(count sl/journal.0-of-4.jsonl done)$(count sl/journal.2-of-4.jsonl done)$(count sl/journal.3-of-4.jsonl done)" = 655 ]
+        jid2=$(OUT=$T/sl SHARDS=4 SUPERMAT="$BIN" SUPERMAT_ARGS="${RUN[*]}" sbatch --parsable --array=1 --cpus-per-task=1 \
+               --chdir="$T" --output="$T/sl-%A_%a.log" "$SCRIPT" "$T/lib")
+        for _ in $(seq 1500); do [ -z "$(squeue -h -j "$jid2" 2>/dev/null)" ] && break; sleep 0.1; done
+        check "slurm cluster: the resubmitted task finished shard 1" [ "$(count sl/journal.1-of-4.jsonl done)" -eq 5 ]
+        check "slurm cluster: every item done exactly once" each_done_once sl/journal.*-of-4.jsonl
+        "$BIN" batch --merge --out sl lib 2>/dev/null; check "slurm cluster: the merge finds every item" [ $? -eq 0 ]
+        check "slurm cluster: maps identical to the single-process run" same_as_ref sl
+    fi
+    slurm_down
+    trap 'rm -rf "$T"' EXIT
+else
+    echo "SKIP: a real Slurm cluster (needs root and Debian's slurmctld, slurmd, slurm-client, munge; tools/test.sh installs them)"
+fi
 
 # ---- batch mesh ----
 if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
