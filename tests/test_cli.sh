@@ -405,6 +405,13 @@ check "image on the pre-packed file exits 0" [ $RC -eq 0 ]
 for f in albedo roughness metallic; do
     check "pre-packed $f.pfm has the original's bytes" cmp -s "$PK/a/sphere_64_$f.pfm" "$PK/b/sphere_64_$f.pfm"
 done
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$PK/conv.packed.safetensors" --packed
+check "convert --packed exits 0" [ $RC -eq 0 ]
+run info "$PK/conv.packed.safetensors"
+check "convert --packed writes a pre-packed file" grep -q "^pre-packed    yes" "$T/out"
+absent "$PK/conv.packed.safetensors.tmp"
+run image --model "$PK/conv.packed.safetensors" --out "$PK/e" --float "$SPHERE"
+check "convert --packed: the same albedo as the unpacked file" cmp -s "$PK/a/sphere_64_albedo.pfm" "$PK/e/sphere_64_albedo.pfm"
 run pack --model "$MODEL" --out "$PK/tiny.wf4.safetensors" --weights f16 --conv winograd-f4
 check "pack --weights f16 --conv winograd-f4 exits 0" [ $RC -eq 0 ]
 run image --model "$PK/tiny.wf4.safetensors" --out "$PK/c" "$SPHERE"

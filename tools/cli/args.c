@@ -50,6 +50,8 @@ static const char cli_usage_convert[] =
     "  --precision D     even; int8: the GEMM weights as int8 with a scale per output channel, kernel\n"
     "                    tap and 64 input channels, the rest as stored; loads to the same bits as\n"
     "                    --weights int8 on an f32 file). Default: keep every tensor's stored dtype\n"
+    "  --packed          write the pre-packed form (`supermat pack` with its default options: the GEMM\n"
+    "                    panels used in place where the file is mapped, shared by processes)\n"
     "  --threads N       text encoder threads (default 0 = 2, 1 = none)\n"
     "  --work-size N     the square size `image`, `views` and `refine` resize pictures to by default, as\n"
     "                    the official scripts do (default: theirs, 512; uv-refine 1024); `native` = none:\n"

@@ -6,7 +6,7 @@ static int cli_convert(int argc, char **argv) {
     const char *cmd = "convert", *v;
     sm_convert_desc d;
     char err[1024];
-    int i, m, r;
+    int i, m, r, packed = 0;
     struct stat st;
     memset(&d, 0, sizeof d);
     for (i = 2; i < argc; i++) {
@@ -33,6 +33,8 @@ static int cli_convert(int argc, char **argv) {
             else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
             else if (!strcmp(v, "int8") || !strcmp(v, "i8")) d.dtype = SUPERMAT_DTYPE_I8;
             else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16, bf16 or int8", v);
+        } else if (!strcmp(a, "--packed")) {
+            packed = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
             if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--work-size", &v)) != 0) {
@@ -60,6 +62,23 @@ static int cli_convert(int argc, char **argv) {
         cli_error("convert: %s [%s]", err[0] ? err : "failed", supermat_result_string((supermat_result)r));
         return CLI_FAIL;
     }
-    if (stat(d.output, &st) == 0) printf("wrote %s (%.1f MiB)\n", d.output, cli_mib((double)st.st_size));
+    if (packed) { /* the converted file, replaced by its pre-packed form (default options) */
+        unsigned char *file = NULL;
+        size_t size = 0;
+        supermat_model_desc md;
+        supermat_error e;
+        cli_out o;
+        cli_note_written(d.output);
+        if (cli_read_file(d.output, &file, &size)) return CLI_FAIL;
+        if (cli_out_open(&o, d.output) != CLI_OK) { cli_free_file(file); return CLI_FAIL; }
+        memset(&md, 0, sizeof md);
+        md.data = file; md.size = size;
+        r = supermat_model_write_packed(&md, cli_pack_write, &o, NULL, &e);
+        if (r != SUPERMAT_SUCCESS && r != SUPERMAT_ERROR_IO) cli_lib_error("convert --packed", (supermat_result)r, &e);
+        r = cli_out_close(&o, r == SUPERMAT_SUCCESS || r == SUPERMAT_ERROR_IO);
+        cli_free_file(file);
+        if (r != CLI_OK) return CLI_FAIL;
+    }
+    if (stat(d.output, &st) == 0) printf("wrote %s (%.1f MiB%s)\n", d.output, cli_mib((double)st.st_size), packed ? ", pre-packed" : "");
     return CLI_OK;
 }
