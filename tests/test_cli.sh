@@ -405,7 +405,7 @@ check "image on the pre-packed file exits 0" [ $RC -eq 0 ]
 for f in albedo roughness metallic; do
     check "pre-packed $f.pfm has the original's bytes" cmp -s "$PK/a/sphere_64_$f.pfm" "$PK/b/sphere_64_$f.pfm"
 done
-run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$PK/conv.packed.safetensors" --packed
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$PK/conv.packed.safetensors" --packed --work-size native
 check "convert --packed exits 0" [ $RC -eq 0 ]
 run info "$PK/conv.packed.safetensors"
 check "convert --packed writes a pre-packed file" grep -q "^pre-packed    yes" "$T/out"
