@@ -694,6 +694,8 @@ cam_error "missing matrix" 'no "transform_matrix"' \
     "{\"locations\": [{\"index\": \"0000\", \"transform_matrix\": $ID}, {\"index\": \"0001\"}]}"
 cam_error "non-numeric index" 'index "front" is not a whole number' \
     "{\"locations\": [{\"index\": \"front\", \"transform_matrix\": $ID}]}"
+many=$(for i in $(seq 0 4100); do printf '{"index": %d, "transform_matrix": %s},' "$i" "$ID"; done)
+cam_error "4101 locations (the duplicate check is quadratic: capped)" 'at most 4096 are read' "{\"locations\": [${many%,}]}"
 
 # view errors
 mkdir -p "$T/vin"

@@ -4,6 +4,7 @@
 /* >>views */
 #define CLI_MAX_VIEWS 64
 #define CLI_MAX_INDEX 999999999L
+#define CLI_MAX_CAMERAS 4096
 
 typedef struct cli_camera { long index; float m[16]; } cli_camera;
 
@@ -122,6 +123,10 @@ static int cli_read_cameras(const char *path, cli_camera **out, int *count) {
     if (loc < 0 || toks[loc].type != SUPERMAT_JSON_ARRAY) {
         cli_error("cameras '%s' has no \"locations\" list (expected {\"locations\": [{\"index\": \"0000\", \"transform_matrix\": "
                   "[[...], [...], [...], [...]]}, ...]})", path);
+        goto done;
+    }
+    if (toks[loc].size > CLI_MAX_CAMERAS) { /* the duplicate check is quadratic: a hostile file must not make it hang */
+        cli_error("cameras '%s' lists %d locations; at most %d are read (SuperMatMV takes up to 64 views)", path, toks[loc].size, CLI_MAX_CAMERAS);
         goto done;
     }
     cams = (cli_camera *)calloc((size_t)(toks[loc].size > 0 ? toks[loc].size : 1), sizeof *cams);
