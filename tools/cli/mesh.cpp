@@ -109,8 +109,11 @@ struct AccessorReader {
         normalized = a.normalized;
         count = a.count;
         stride = a.ByteStride(bv) > 0 ? (size_t)a.ByteStride(bv) : (size_t)comps * csize;
-        size_t need = a.byteOffset + bv.byteOffset + (count ? (count - 1) * stride + (size_t)comps * csize : 0);
-        if (need > b.data.size()) { *err = std::string(what) + ": accessor runs past its buffer"; return false; }
+        /* inside the buffer, without overflow for any count, offset or stride */
+        size_t size = b.data.size(), elem = (size_t)comps * (size_t)csize;
+        if (a.byteOffset > size || bv.byteOffset > size - a.byteOffset) { *err = std::string(what) + ": accessor starts past its buffer"; return false; }
+        size_t avail = size - a.byteOffset - bv.byteOffset;
+        if (count && (elem > avail || count - 1 > (avail - elem) / stride)) { *err = std::string(what) + ": accessor runs past its buffer"; return false; }
         base = b.data.data() + bv.byteOffset + a.byteOffset;
         return true;
     }
@@ -378,13 +381,28 @@ void mkdirs(const std::string &path) { /* every folder of path (a file's folder:
 
 /* image bytes as the file holds them: tinygltf hands them to this loader, which keeps them (every image
    is written back byte for byte) and reads only the size; base colours are decoded when baked */
+/* the largest base colour texture decoded (8192 x 8192): more is refused before decoding */
+const int MAX_TEXTURE_PIXELS = 1 << 26;
+
 struct Raw {
     std::vector<std::vector<unsigned char>> bytes; /* per image; empty = a file that could not be read */
+    const tinygltf::Model *model = nullptr;         /* the model being loaded (its buffers come first) */
 };
-bool raw_image_loader(tinygltf::Image *image, const int idx, std::string *, std::string *, int, int, const unsigned char *bytes,
+bool raw_image_loader(tinygltf::Image *image, const int idx, std::string *err, std::string *, int, int, const unsigned char *bytes,
                       int size, void *user) {
     Raw *r = (Raw *)user;
     if (idx < 0 || size < 0) return false;
+    if (r->model && image->bufferView >= 0) { /* tinygltf hands over bufferView bytes without checking them against the buffer */
+        const tinygltf::Model &m = *r->model;
+        if ((size_t)image->bufferView >= m.bufferViews.size()) return false;
+        const tinygltf::BufferView &bv = m.bufferViews[(size_t)image->bufferView];
+        if (bv.buffer < 0 || (size_t)bv.buffer >= m.buffers.size()) return false;
+        const std::vector<unsigned char> &b = m.buffers[(size_t)bv.buffer].data;
+        if (bv.byteOffset > b.size() || bv.byteLength > b.size() - bv.byteOffset || (size_t)size > bv.byteLength) {
+            if (err) *err += "image " + std::to_string(idx) + ": its bufferView lies outside its buffer\n";
+            return false;
+        }
+    }
     if ((size_t)idx >= r->bytes.size()) r->bytes.resize((size_t)idx + 1);
     r->bytes[idx].assign(bytes, bytes + size);
     int w = 0, h = 0, c = 0;
@@ -599,6 +617,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     tinygltf::Model model;
     tinygltf::TinyGLTF loader;
     Raw raw;
+    raw.model = &model;
     loader.SetImageLoader(raw_image_loader, &raw);
     std::string err, warn, inpath = in, outpath = out;
     bool glb_in = inpath.size() > 4 && inpath.compare(inpath.size() - 4, 4, ".glb") == 0;
@@ -664,8 +683,14 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 }
                 int w = 0, h = 0, c = 0;
                 unsigned char *px = nullptr;
-                if (t.source >= 0 && t.source < (int)model.images.size() && !raw.bytes[t.source].empty() && raw.bytes[t.source].size() < (1u << 31))
-                    px = stbi_load_from_memory(raw.bytes[t.source].data(), (int)raw.bytes[t.source].size(), &w, &h, &c, 0);
+                if (t.source >= 0 && t.source < (int)model.images.size() && !raw.bytes[t.source].empty() && raw.bytes[t.source].size() < (1u << 31)) {
+                    const std::vector<unsigned char> &rb = raw.bytes[t.source];
+                    /* the header first: a few bytes may claim a huge picture (a decompression bomb) */
+                    if (stbi_info_from_memory(rb.data(), (int)rb.size(), &w, &h, &c) && (double)w * h > MAX_TEXTURE_PIXELS)
+                        std::fprintf(stderr, "supermat mesh: the base colour image of material %d is %dx%d, more than %d pixels\n", orig, w, h, MAX_TEXTURE_PIXELS);
+                    else
+                        px = stbi_load_from_memory(rb.data(), (int)rb.size(), &w, &h, &c, 0);
+                }
                 if (px) {
                     m.tw = w; m.th = h; m.tch = c;
                     m.tex.assign(px, px + (size_t)w * h * c);
@@ -741,8 +766,9 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             }
             if (p.indices >= 0) {
                 AccessorReader I;
-                if (!I.init(model, p.indices, &err, "indices") || I.comps != 1) {
-                    std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu: %s\n", mi, pi, err.empty() ? "indices are not scalars" : err.c_str());
+                if (!I.init(model, p.indices, &err, "indices") || I.comps != 1 ||
+                    (I.type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && I.type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT && I.type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)) {
+                    std::fprintf(stderr, "supermat mesh: mesh %zu primitive %zu: %s\n", mi, pi, err.empty() ? "indices are not unsigned integer scalars" : err.c_str());
                     return 1;
                 }
                 for (size_t k = 0; k < I.count; k++) q.idx.push_back((uint32_t)I.get(k, 0));
@@ -857,9 +883,10 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         for (int k = 0; k < 2; k++) {
             tinygltf::TextureInfo &ti = k ? pbr.metallicRoughnessTexture : pbr.baseColorTexture;
             int t = ti.index, im = -1;
-            if (t >= 0 && t < (int)model.textures.size() && texref[t] == 1 && model.textures[t].extensions.empty()) {
+            /* (textures and images added for earlier outputs are past texref / imgref: never reused) */
+            if (t >= 0 && t < (int)texref.size() && texref[t] == 1 && model.textures[t].extensions.empty()) {
                 int s = model.textures[t].source;
-                if (s >= 0 && s < (int)model.images.size() && imgref[s] == 1 && !ours[s]) im = s;
+                if (s >= 0 && s < (int)imgref.size() && imgref[s] == 1 && !ours[s]) im = s;
             }
             if (im < 0) { /* a new image and texture */
                 model.images.push_back(tinygltf::Image());
