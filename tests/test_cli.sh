@@ -514,6 +514,11 @@ check "a 16-bit PNG: the maps of its 8-bit twin" cmp -s "$T/in16/sphere_64_16bit
 run refine --model "$MODEL" --map "$DATA/img/sphere_64_16bit.png" --mask "$DATA/img/uv/uv_mask.png" --position "$DATA/img/uv/uv_position.png" --out "$T/in16r"
 check "a 16-bit PNG where 8 bits are read (refine) exits 1" [ $RC -eq 1 ]
 check "a 16-bit PNG where 8 bits are read: said so" grep -q "has 16 bits per channel" "$T/err"
+# a PNG header claiming 16400 x 16400 pixels (a few hundred bytes; decoding would take 800 MB): refused from the header
+printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x10\x00\x00\x40\x10\x08\x02\x00\x00\x00\x02\xd2\x04\xa0\x00\x00\x00\x00IEND\xae\x42\x60\x82' > "$T/huge.png"
+run image --model "$MODEL" --out "$T/huge" "$T/huge.png"
+check "a picture claiming 16400x16400: exit 1" [ $RC -eq 1 ]
+check "a picture claiming 16400x16400: refused from its header" grep -q "16400x16400: at most 16384 pixels a side" "$T/err"
 # a JPEG with EXIF orientation 6 (stored 48 wide, 72 high, shown 72 x 48): processed upright, as a viewer
 # shows it; its maps are those of the upright picture (ring_exif6_upright.png, decoded by another JPEG
 # decoder: measured 0.038 apart; turned 180 degrees or mirrored they are 0.87 / 1.0 apart)

@@ -590,6 +590,10 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         return 0;
     }
     if (cli_exif_orientation(path) >= 5) { int t = *w; *w = *h; *h = t; }
+    if (*w > 16384 || *h > 16384) { /* from the header, before decoding: a small file may claim a huge picture */
+        cli_error("%s '%s' is %dx%d: at most 16384 pixels a side (the largest a session takes)", what, path, *w, *h);
+        return 0;
+    }
     return 1;
 }
 
