@@ -1449,11 +1449,12 @@ static supermat_result supermat_uv__bake(supermat_uv__ctx *C, const supermat_uv_
         SUPERMAT_UV__TRY(supermat_uv__bake_output(C, o, fa, frm));
     }
     if (C->measure) return SUPERMAT_SUCCESS;
+    /* the last progress call comes before any output pixel is written, so that it too can cancel */
+    SUPERMAT_UV__CANCEL(C, 1.0f, "done");
     for (o = 0; o < d->output_count; o++) {
         if (outputs[o].base_color.pixels) supermat_uv__write(&outputs[o].base_color, d->texture_width, d->texture_height, finals[2 * o], 0);
         if (outputs[o].metallic_roughness.pixels) supermat_uv__write(&outputs[o].metallic_roughness, d->texture_width, d->texture_height, finals[2 * o + 1], 1);
     }
-    supermat_uv__progress(C, 1.0f, "done");
     return SUPERMAT_SUCCESS;
 }
 

@@ -1,5 +1,14 @@
 /* supermat_uv.h compiled as C99 (and, copied to a .cpp by CMake, as C++): the header's quick start,
-   a passthrough bake of a textured quad and the stats it reports. No libraries beyond libc/libm. */
+   a passthrough bake of a textured quad and the stats it reports. No libraries beyond libc/libm.
+   Sweeps (ufbx-style), passthrough and, given TINY_MV TINY_UV, with the networks (multi-view + both UV
+   refines inside the bake): the N-th allocation fails for every N (OUT_OF_MEMORY, nothing leaked, no
+   output pixel written), the progress callback cancels at every call in turn (CANCELLED, nothing leaked,
+   outputs untouched), and the bake afterwards gives the same bytes as before.
+
+   usage: test_uv_c [TINY_MV TINY_UV] */
+#if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
+#define _POSIX_C_SOURCE 200112L
+#endif
 #define SUPERMAT_IMPLEMENTATION
 #define SUPERMAT_UV_IMPLEMENTATION
 #include "supermat_uv.h"
@@ -37,7 +46,101 @@ static supermat_result quick_start(const float *xyz, const float *uv, uint32_t n
     return r;
 }
 
-int main(void) {
+/* ---- sweeps ---- */
+typedef struct counting { long calls, fail_at, live; } counting;
+static void *c_alloc(void *user, size_t size, size_t align) {
+    counting *c = (counting *)user;
+    void *p;
+    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
+    if (align < sizeof(void *)) align = sizeof(void *);
+    if (posix_memalign(&p, align, size ? size : 1)) return NULL;
+    c->live++;
+    return p;
+}
+static void c_free(void *user, void *p, size_t size) {
+    (void)size;
+    if (!p) return;
+    ((counting *)user)->live--;
+    free(p);
+}
+static int cancel_at, progress_calls;
+static int progress_cancel(void *user, float f, const char *what) { (void)user; (void)f; (void)what; return ++progress_calls >= cancel_at; }
+
+static int untouched(const unsigned char *p, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++) if (p[i] != 0xCD) return 0;
+    return 1;
+}
+
+static void sweeps(supermat_uv_bake_desc bd, const char *what) {
+    enum { S = 32 };
+    static unsigned char alb[S * S * 4], mr[S * S * 3], ref_a[S * S * 4], ref_m[S * S * 3];
+    supermat_uv_output out;
+    supermat_error err;
+    supermat_result r;
+    counting c;
+    long n, k, total, oom = 0;
+    char msg[600];
+    memset(&out, 0, sizeof out);
+    out.base_color.pixels = alb; out.base_color.channels = 4;
+    out.metallic_roughness.pixels = mr; out.metallic_roughness.channels = 3;
+    bd.texture_width = bd.texture_height = S;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    snprintf(msg, sizeof msg, "%s: reference bake: %s", what, err.message);
+    CHECK(r == SUPERMAT_SUCCESS, msg);
+    if (r) return;
+    memcpy(ref_a, alb, sizeof alb); memcpy(ref_m, mr, sizeof mr);
+    /* the N-th allocation fails, for every N */
+    for (n = 0;; n++) {
+        memset(&c, 0, sizeof c); c.fail_at = n;
+        bd.allocator.alloc = c_alloc; bd.allocator.free = c_free; bd.allocator.user = &c;
+        memset(alb, 0xCD, sizeof alb); memset(mr, 0xCD, sizeof mr);
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        if (r == SUPERMAT_SUCCESS) break;
+        oom++;
+        snprintf(msg, sizeof msg, "%s: allocation %ld failing: %s, %ld blocks live, outputs %s", what, n, supermat_result_string(r), c.live,
+                 untouched(alb, sizeof alb) && untouched(mr, sizeof mr) ? "untouched" : "WRITTEN");
+        CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.live == 0 && untouched(alb, sizeof alb) && untouched(mr, sizeof mr), msg);
+    }
+    snprintf(msg, sizeof msg, "%s: the bake after the allocation sweep leaks %ld blocks or differs", what, c.live);
+    CHECK(c.live == 0 && !memcmp(alb, ref_a, sizeof alb) && !memcmp(mr, ref_m, sizeof mr), msg);
+    memset(&bd.allocator, 0, sizeof bd.allocator);
+    /* cancellation at every progress call */
+    progress_calls = 0; cancel_at = 1 << 30;
+    bd.progress = progress_cancel;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    total = progress_calls;
+    for (k = 1; k <= total; k++) {
+        memset(&c, 0, sizeof c); c.fail_at = -1;
+        bd.allocator.alloc = c_alloc; bd.allocator.free = c_free; bd.allocator.user = &c;
+        progress_calls = 0; cancel_at = (int)k;
+        memset(alb, 0xCD, sizeof alb); memset(mr, 0xCD, sizeof mr);
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        snprintf(msg, sizeof msg, "%s: cancelled at progress call %ld of %ld: %s, %ld blocks live", what, k, total, supermat_result_string(r), c.live);
+        CHECK(r == SUPERMAT_ERROR_CANCELLED && c.live == 0 && untouched(alb, sizeof alb) && untouched(mr, sizeof mr), msg);
+    }
+    bd.progress = NULL;
+    memset(&bd.allocator, 0, sizeof bd.allocator);
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    snprintf(msg, sizeof msg, "%s: a bake after the cancellations gives other bytes", what);
+    CHECK(r == SUPERMAT_SUCCESS && !memcmp(alb, ref_a, sizeof alb) && !memcmp(mr, ref_m, sizeof mr), msg);
+    printf("%s sweeps: %ld allocations, each failing -> OUT_OF_MEMORY; %ld progress calls, each cancelling -> CANCELLED; "
+           "nothing leaked or written, the same bytes after\n", what, oom, total);
+}
+
+static unsigned char *read_all(const char *path, size_t *n) {
+    FILE *f = fopen(path, "rb");
+    unsigned char *b = NULL;
+    long sz;
+    if (!f) return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (sz = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0 && (b = (unsigned char *)malloc((size_t)sz)) != NULL &&
+        fread(b, 1, (size_t)sz, f) != (size_t)sz) { free(b); b = NULL; }
+    fclose(f);
+    if (b) *n = (size_t)sz;
+    return b;
+}
+
+int main(int argc, char **argv) {
     /* a quad in the XZ plane facing the front camera (-Y), UVs covering [0.25, 0.75]^2 */
     static const float xyz[12] = {-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1};
     static const float uv[8] = {0.25f, 0.75f, 0.75f, 0.75f, 0.75f, 0.25f, 0.25f, 0.25f};
@@ -103,6 +206,34 @@ int main(void) {
         for (i = 0; i < 64 * 64; i++) if (abs(albedo[i * 4] - 200) > 1 || abs(albedo[i * 4 + 1] - 100) > 1 || abs(albedo[i * 4 + 2] - 50) > 1) bad++;
         CHECK(bad == 0 && st.texels_seen == 32 * 32, "cos^900 blend at 45 degrees keeps the colour");
         printf("cos^900 at 45 degrees: %d texels off the colour, %llu seen\n", bad, (unsigned long long)st.texels_seen);
+    }
+    /* the sweeps, on the same quad, textures 32x32, views 16x16 (8x8 when passthrough) */
+    part.positions = xyz;
+    bd.weight = SUPERMAT_UV_WEIGHT_AVERAGE; bd.cos_power = 0.0f;
+    bd.view_size = 8; bd.supersample = 1;
+    sweeps(bd, "passthrough");
+    if (argc >= 3) {
+        size_t nmv = 0, nuv = 0;
+        unsigned char *fmv = read_all(argv[1], &nmv), *fuv = read_all(argv[2], &nuv);
+        supermat_model *mv = NULL, *uvm = NULL;
+        supermat_model_desc md;
+        CHECK(fmv && fuv, "read the tiny models");
+        memset(&md, 0, sizeof md);
+        if (fmv && fuv) {
+            md.data = fmv; md.size = nmv;
+            CHECK(supermat_model_create(&md, &mv, &err) == SUPERMAT_SUCCESS, err.message);
+            md.data = fuv; md.size = nuv;
+            CHECK(supermat_model_create(&md, &uvm, &err) == SUPERMAT_SUCCESS, err.message);
+        }
+        if (mv && uvm) {
+            bd.passthrough = 0; bd.view_size = 16;
+            bd.mv_model = mv; bd.albedo_refine_model = uvm; bd.rm_refine_model = uvm;
+            sweeps(bd, "networks (multi-view + UV refine)");
+        }
+        supermat_model_destroy(mv);
+        supermat_model_destroy(uvm);
+        free(fmv);
+        free(fuv);
     }
     free(albedo);
     free(mr);
