@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The same harnesses under AFL++ (Debian's afl++): built with afl-clang-fast / afl-clang-fast++ and
+# -fsanitize=fuzzer (AFL++'s libFuzzer driver), with ASan + UBSan, then optionally one run.
+#
+#   bash fuzz/afl.sh OUTDIR                      build every harness into OUTDIR
+#   bash fuzz/afl.sh OUTDIR json 3600            ... and run fuzz_json under afl-fuzz for 3600 s
+#                                                (corpus fuzz/corpus/json, findings in OUTDIR/afl_json)
+set -euo pipefail
+SRC=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+OUT=${1:?usage: afl.sh OUTDIR [HARNESS SECONDS]}
+mkdir -p "$OUT"
+export AFL_USE_ASAN=1 AFL_USE_UBSAN=1 AFL_QUIET=1
+FLAGS=(-g -O1 -fsanitize=fuzzer -I"$SRC" -I"$SRC/tools" -I"$SRC/tools/cli")
+for h in model json uv; do afl-clang-fast "${FLAGS[@]}" "$SRC/fuzz/fuzz_$h.c" -o "$OUT/fuzz_$h" -lm -lpthread; done
+for h in pth cameras; do afl-clang-fast "${FLAGS[@]}" "$SRC/fuzz/fuzz_$h.c" "$SRC/tools/sm_convert.c" -o "$OUT/fuzz_$h" -lm -lpthread; done
+if [ -f /usr/include/tiny_gltf.h ]; then
+    afl-clang-fast++ "${FLAGS[@]}" "$SRC/fuzz/fuzz_gltf.cpp" -o "$OUT/fuzz_gltf" -ltinygltf -lstb -lpthread
+fi
+echo "afl.sh: built $(ls "$OUT" | grep -c '^fuzz_') harnesses in $OUT"
+if [ $# -ge 3 ]; then
+    h=$2
+    seeds=$SRC/fuzz/corpus/$h
+    rm -rf "$OUT/afl_$h"
+    AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1 \
+        afl-fuzz -i "$seeds" -o "$OUT/afl_$h" -V "$3" -- "$OUT/fuzz_$h" >/dev/null
+    grep -E '^(execs_done|execs_per_sec|bitmap_cvg|saved_crashes|saved_hangs) ' "$OUT/afl_$h/default/fuzzer_stats"
+    [ "$(awk '/^saved_crashes/ {print $3}' "$OUT/afl_$h/default/fuzzer_stats")" = 0 ]
+fi
