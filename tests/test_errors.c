@@ -7,23 +7,6 @@
 #include "../supermat.h"
 #include "test_util.h"
 
-/* an allocator that counts and fails at the N-th call */
-typedef struct counting { long calls, fail_at, live; size_t bytes; } counting;
-static void *c_alloc(void *user, size_t size, size_t align) {
-    counting *c = (counting *)user;
-    void *p;
-    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
-    if (align < sizeof(void *)) align = sizeof(void *);
-    if (posix_memalign(&p, align, size)) return NULL;
-    c->live++; c->bytes += size;
-    return p;
-}
-static void c_free(void *user, void *p, size_t size) {
-    counting *c = (counting *)user;
-    if (!p) return;
-    c->live--; c->bytes -= size;
-    free(p);
-}
 
 static unsigned char *model_data;
 static size_t model_size;
@@ -155,7 +138,7 @@ static void test_allocator(void) {
     long n;
     int done = 0;
     for (n = 0; n < 100000 && !done; n += (n < 50 ? 1 : 37)) {
-        counting c;
+        tu_counting c;
         supermat_model_desc md;
         supermat_model *m = NULL;
         supermat_error err;
@@ -163,12 +146,12 @@ static void test_allocator(void) {
         c.fail_at = n;
         memset(&md, 0, sizeof md);
         md.data = model_data; md.size = model_size;
-        md.allocator.alloc = c_alloc; md.allocator.free = c_free; md.allocator.user = &c;
+        md.allocator.alloc = tu_count_alloc; md.allocator.free = tu_count_free; md.allocator.user = &c;
         if (supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS) {
             /* now the session, failing at each of its allocations */
             long k;
             for (k = 0; k < 64; k++) {
-                counting cs;
+                tu_counting cs;
                 supermat_session_desc sd;
                 supermat_session *s = NULL;
                 supermat_result r;
@@ -176,7 +159,7 @@ static void test_allocator(void) {
                 cs.fail_at = k;
                 memset(&sd, 0, sizeof sd);
                 sd.model = m; sd.width = 16; sd.height = 16; sd.threads = 2;
-                sd.allocator.alloc = c_alloc; sd.allocator.free = c_free; sd.allocator.user = &cs;
+                sd.allocator.alloc = tu_count_alloc; sd.allocator.free = tu_count_free; sd.allocator.user = &cs;
                 r = supermat_session_create(&sd, &s, &err);
                 if (r == SUPERMAT_SUCCESS) { supermat_session_destroy(s); TU_CHECK(cs.live == 0, "session leak: %ld blocks", cs.live); break; }
                 TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY, "session alloc failure %ld: %s", k, supermat_result_string(r));
@@ -492,7 +475,7 @@ static void test_memory_cap(void) {
     supermat_session_desc sd;
     supermat_session *s = NULL;
     supermat_error err;
-    counting c;
+    tu_counting c;
     size_t need = 0;
     supermat_result r;
     memset(&md, 0, sizeof md);
@@ -502,7 +485,7 @@ static void test_memory_cap(void) {
     supermat_model_get_info(m, &mi);
     /* the model: exactly its memory fits, a byte less does not, and nothing stays allocated */
     memset(&c, 0, sizeof c); c.fail_at = -1;
-    md.allocator.alloc = c_alloc; md.allocator.free = c_free; md.allocator.user = &c;
+    md.allocator.alloc = tu_count_alloc; md.allocator.free = tu_count_free; md.allocator.user = &c;
     md.max_memory = mi.model_bytes - 1;
     r = supermat_model_create(&md, &m2, &err);
     TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && strstr(err.message, "max_memory") && c.live == 0, "model cap one byte short: %s (%s), %ld blocks live",
@@ -517,7 +500,7 @@ static void test_memory_cap(void) {
     sd.model = m; sd.width = sd.height = 64; sd.threads = 1;
     TU_CHECK(supermat_session_memory(&sd, &need, &err) == SUPERMAT_SUCCESS, "plan: %s", err.message);
     memset(&c, 0, sizeof c); c.fail_at = -1;
-    sd.allocator.alloc = c_alloc; sd.allocator.free = c_free; sd.allocator.user = &c;
+    sd.allocator.alloc = tu_count_alloc; sd.allocator.free = tu_count_free; sd.allocator.user = &c;
     sd.max_memory = need - 1;
     r = supermat_session_create(&sd, &s, &err);
     TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.calls == 0 && strstr(err.message, "max_memory"), "session cap one byte short: %s (%s), %ld allocations",

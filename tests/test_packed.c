@@ -16,22 +16,6 @@
 #include "test_util.h"
 #include <stdint.h>
 
-typedef struct counting { long calls, fail_at, live; } counting;
-static void *c_alloc(void *user, size_t size, size_t align) {
-    counting *c = (counting *)user;
-    void *p;
-    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
-    if (align < sizeof(void *)) align = sizeof(void *);
-    if (posix_memalign(&p, align, size)) return NULL;
-    c->live++;
-    return p;
-}
-static void c_free(void *user, void *p, size_t size) {
-    (void)size;
-    if (!p) return;
-    ((counting *)user)->live--;
-    free(p);
-}
 
 /* a growing memory file; fail_at >= 0 makes that write call fail */
 typedef struct membuf { unsigned char *p; size_t n, cap; long calls, fail_at; } membuf;
@@ -225,12 +209,12 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
     printf("write callback failing at each of its %d calls: SUPERMAT_ERROR_IO\n", fails);
     /* allocation failures while packing and while creating from the packed file */
     for (i = 0;; i++) {
-        counting c;
+        tu_counting c;
         supermat_model_desc o;
         memset(&c, 0, sizeof c); c.fail_at = i;
         memset(&o, 0, sizeof o);
         o.data = file; o.size = size;
-        o.allocator.alloc = c_alloc; o.allocator.free = c_free; o.allocator.user = &c;
+        o.allocator.alloc = tu_count_alloc; o.allocator.free = tu_count_free; o.allocator.user = &c;
         memset(&b, 0, sizeof b); b.fail_at = -1;
         r = supermat_model_write_packed(&o, mem_write, &b, NULL, &err);
         free(b.p);
@@ -240,9 +224,9 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
     }
     printf("packing: every one of %d allocations failing gives OUT_OF_MEMORY without a leak\n", i);
     for (i = 0;; i++) {
-        counting c;
+        tu_counting c;
         memset(&c, 0, sizeof c); c.fail_at = i;
-        md.allocator.alloc = c_alloc; md.allocator.free = c_free; md.allocator.user = &c;
+        md.allocator.alloc = tu_count_alloc; md.allocator.free = tu_count_free; md.allocator.user = &c;
         r = supermat_model_create(&md, &m, &err);
         if (r == SUPERMAT_SUCCESS) { supermat_model_destroy(m); m = NULL; TU_CHECK(c.live == 0, "pre-packed model leaks %ld blocks", c.live); break; }
         TU_CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.live == 0, "pre-packed create with allocation %d failing: %s, %ld blocks live", i, supermat_result_string(r), c.live);

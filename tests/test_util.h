@@ -7,6 +7,25 @@
 #include <string.h>
 
 static int tu_pass, tu_fail;
+
+/* an allocator (supermat_allocator's alloc / free with a tu_counting as user) that counts the calls and the
+   live blocks and fails the call numbered fail_at (from 0; -1 = never) */
+typedef struct tu_counting { long calls, fail_at, live; size_t bytes; } tu_counting;
+static inline void *tu_count_alloc(void *user, size_t size, size_t align) {
+    tu_counting *c = (tu_counting *)user;
+    void *p;
+    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
+    if (align < sizeof(void *)) align = sizeof(void *);
+    if (posix_memalign(&p, align, size ? size : 1)) return NULL;
+    c->live++; c->bytes += size;
+    return p;
+}
+static inline void tu_count_free(void *user, void *p, size_t size) {
+    tu_counting *c = (tu_counting *)user;
+    if (!p) return;
+    c->live--; c->bytes -= size;
+    free(p);
+}
 #define TU_CHECK(cond, ...) do { if (cond) tu_pass++; else { tu_fail++; printf("FAIL %s:%d: ", __FILE__, __LINE__); printf(__VA_ARGS__); printf("\n"); } } while (0)
 
 static inline int tu_finish(const char *name) {

@@ -12,6 +12,7 @@
 #define SUPERMAT_IMPLEMENTATION
 #define SUPERMAT_UV_IMPLEMENTATION
 #include "supermat_uv.h"
+#include "test_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,22 +48,6 @@ static supermat_result quick_start(const float *xyz, const float *uv, uint32_t n
 }
 
 /* ---- sweeps ---- */
-typedef struct counting { long calls, fail_at, live; } counting;
-static void *c_alloc(void *user, size_t size, size_t align) {
-    counting *c = (counting *)user;
-    void *p;
-    if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
-    if (align < sizeof(void *)) align = sizeof(void *);
-    if (posix_memalign(&p, align, size ? size : 1)) return NULL;
-    c->live++;
-    return p;
-}
-static void c_free(void *user, void *p, size_t size) {
-    (void)size;
-    if (!p) return;
-    ((counting *)user)->live--;
-    free(p);
-}
 static int cancel_at, progress_calls;
 static int progress_cancel(void *user, float f, const char *what) { (void)user; (void)f; (void)what; return ++progress_calls >= cancel_at; }
 
@@ -78,7 +63,7 @@ static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     supermat_uv_output out;
     supermat_error err;
     supermat_result r;
-    counting c;
+    tu_counting c;
     long n, k, total, oom = 0;
     char msg[600];
     memset(&out, 0, sizeof out);
@@ -93,7 +78,7 @@ static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     /* the N-th allocation fails, for every N */
     for (n = 0;; n++) {
         memset(&c, 0, sizeof c); c.fail_at = n;
-        bd.allocator.alloc = c_alloc; bd.allocator.free = c_free; bd.allocator.user = &c;
+        bd.allocator.alloc = tu_count_alloc; bd.allocator.free = tu_count_free; bd.allocator.user = &c;
         memset(alb, 0xCD, sizeof alb); memset(mr, 0xCD, sizeof mr);
         r = supermat_uv_bake(&bd, &out, NULL, &err);
         if (r == SUPERMAT_SUCCESS) break;
@@ -112,7 +97,7 @@ static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     total = progress_calls;
     for (k = 1; k <= total; k++) {
         memset(&c, 0, sizeof c); c.fail_at = -1;
-        bd.allocator.alloc = c_alloc; bd.allocator.free = c_free; bd.allocator.user = &c;
+        bd.allocator.alloc = tu_count_alloc; bd.allocator.free = tu_count_free; bd.allocator.user = &c;
         progress_calls = 0; cancel_at = (int)k;
         memset(alb, 0xCD, sizeof alb); memset(mr, 0xCD, sizeof mr);
         r = supermat_uv_bake(&bd, &out, NULL, &err);
