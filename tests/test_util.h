@@ -2,6 +2,7 @@
 #ifndef SUPERMAT_TEST_UTIL_H
 #define SUPERMAT_TEST_UTIL_H
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,18 +14,24 @@ static int tu_pass, tu_fail;
 typedef struct tu_counting { long calls, fail_at, live; size_t bytes; } tu_counting;
 static inline void *tu_count_alloc(void *user, size_t size, size_t align) {
     tu_counting *c = (tu_counting *)user;
-    void *p;
+    unsigned char *raw, *p;
     if (c->fail_at >= 0 && c->calls++ == c->fail_at) return NULL;
     if (align < sizeof(void *)) align = sizeof(void *);
-    if (posix_memalign(&p, align, size ? size : 1)) return NULL;
+    raw = (unsigned char *)malloc(size + align + sizeof(void *)); /* aligned by hand (C99 has no aligned malloc) */
+    if (!raw) return NULL;
+    p = raw + sizeof(void *);
+    p += (align - (size_t)((uintptr_t)p % align)) % align;
+    memcpy(p - sizeof(void *), &raw, sizeof raw);
     c->live++; c->bytes += size;
     return p;
 }
 static inline void tu_count_free(void *user, void *p, size_t size) {
     tu_counting *c = (tu_counting *)user;
+    void *raw;
     if (!p) return;
+    memcpy(&raw, (unsigned char *)p - sizeof(void *), sizeof raw);
     c->live--; c->bytes -= size;
-    free(p);
+    free(raw);
 }
 #define TU_CHECK(cond, ...) do { if (cond) tu_pass++; else { tu_fail++; printf("FAIL %s:%d: ", __FILE__, __LINE__); printf(__VA_ARGS__); printf("\n"); } } while (0)
 
