@@ -522,6 +522,37 @@ static void test_memory_cap(void) {
     supermat_model_destroy(m);
 }
 
+
+/* sizes at the integer boundaries: tensor shapes whose element count or byte count passes 2^31, 2^32,
+   2^63 and 2^64, data offsets near 2^64; each refused with MALFORMED, never wrapped */
+static void test_size_overflow(void) {
+    static const struct { const char *shape, *dtype, *offsets, *want; } cases[] = {
+        {"[2147483648]", "F32", "[0, 8589934592]", "past the end"},              /* 2^31 elements: 8 GiB */
+        {"[65536, 65536]", "F16", "[0, 8589934592]", "past the end"},            /* 2^32 elements */
+        {"[3037000500, 3037000500]", "F32", "[0, 16]", "do not match"},         /* 2^63 < n, n*4 > 2^64 */
+        {"[4294967296, 4294967296]", "F32", "[0, 16]", "overflows"},            /* 2^64 elements */
+        {"[4294967296, 4294967296, 4]", "I8", "[0, 16]", "overflows"},
+        {"[4]", "F32", "[18446744073709551600, 18446744073709551616]", "data_offsets"}, /* past 2^64 */
+        {"[4]", "F32", "[16, 0]", "do not match"},                             /* end before start */
+    };
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char hdr[400];
+        unsigned char file[512];
+        supermat_tensor_info ti;
+        supermat_error err;
+        supermat_result r;
+        int n = snprintf(hdr, sizeof hdr, "{\"t\":{\"dtype\":\"%s\",\"shape\":%s,\"data_offsets\":%s}}", cases[i].dtype, cases[i].shape, cases[i].offsets), k;
+        memset(file, 0, sizeof file);
+        for (k = 0; k < 8; k++) file[k] = (unsigned char)((uint64_t)n >> (8 * k));
+        memcpy(file + 8, hdr, (size_t)n);
+        r = supermat_safetensors_tensor(file, 8 + (size_t)n + 16, 8 + (size_t)n + 16, 0, &ti, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, cases[i].want), "shape %s %s offsets %s: %s (%s), want '%s'", cases[i].shape,
+                 cases[i].dtype, cases[i].offsets, supermat_result_string(r), err.message, cases[i].want);
+    }
+    printf("size overflow: %d shapes / offsets past 2^31 .. 2^64 refused\n", (int)(sizeof cases / sizeof cases[0]));
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) { fprintf(stderr, "usage: %s MODEL [MV_MODEL UV_MODEL]\n", argv[0]); return 2; }
     model_data = tu_load(argv[1], &model_size);
@@ -532,6 +563,7 @@ int main(int argc, char **argv) {
     test_corrupted();
     test_allocator();
     test_memory_cap();
+    test_size_overflow();
     test_run();
     if (argc > 3) test_mv_uv(argv[2], argv[3]);
     free(model_data);
