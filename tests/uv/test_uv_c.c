@@ -192,6 +192,22 @@ int main(int argc, char **argv) {
         CHECK(bad == 0 && st.texels_seen == 32 * 32, "cos^900 blend at 45 degrees keeps the colour");
         printf("cos^900 at 45 degrees: %d texels off the colour, %llu seen\n", bad, (unsigned long long)st.texels_seen);
     }
+    /* counts at the integer boundaries: two parts of 2^31 vertices (2^32 in all), two of 2^32 - 1 indices
+       (2.9e9 triangles): refused from the counts, before anything is read or allocated */
+    {
+        supermat_uv_part big[2];
+        supermat_uv_bake_desc bb = bd;
+        big[0] = part; big[1] = part;
+        big[0].vertex_count = big[1].vertex_count = 0x80000000u;
+        bb.parts = big; bb.part_count = 2;
+        r = supermat_uv_bake(&bb, &out, &st, &err);
+        CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "too large"), "2^32 vertices in two parts");
+        big[0] = part; big[1] = part; /* 2 x (2^32 - 1) indices: 2.9e9 triangles, past 2^31 */
+        big[0].index_count = big[1].index_count = 0xFFFFFFFFu;
+        r = supermat_uv_bake(&bb, &out, &st, &err);
+        CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "too large"), "2 x (2^32 - 1) indices");
+        printf("counts past 2^31 / 2^32: refused (%s)\n", err.message);
+    }
     /* the sweeps, on the same quad, textures 32x32, views 16x16 (8x8 when passthrough) */
     part.positions = xyz;
     bd.weight = SUPERMAT_UV_WEIGHT_AVERAGE; bd.cos_power = 0.0f;
