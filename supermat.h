@@ -90,6 +90,10 @@
  *   weights (one copy, created once; f32, or f16 / bf16 / int8 with `supermat_model_desc.weights`) and borrows the caller's file buffer for small tensors unless
  *   `copy_data` is set. A session holds one arena planned before anything runs
  *   (`supermat_session_memory` answers its size without allocating); `supermat_run` allocates nothing.
+ *   Caps: `model_desc.max_memory` fails model creation (OUT_OF_MEMORY) before the allocation that would
+ *   take it past the cap; `session_desc.max_memory` refuses a session whose plan needs more, before any
+ *   allocation, with the planned size in the message. A pre-packed model (PRE-PACKED MODELS) holds
+ *   almost nothing: its panels stay in the caller's (mapped) buffer.
  *
  * THREADS
  *   A model is immutable and can be shared by any number of sessions on any threads. A session is used
