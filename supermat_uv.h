@@ -120,7 +120,9 @@
  *   71 MB; 4x4 samples: 34 MB of sample buffers reused view by view; a 1024^2 texture: about 100 MB
  *   of maps, per output texture 20 MB kept until the end), plus 44 bytes per vertex and 16 per
  *   triangle. The networks' sessions come on top (supermat_session_memory), one at a time, each
- *   freed after its run; the models are the caller's.
+ *   freed after its run; the models are the caller's. Measuring allocates nothing. A cap
+ *   (`max_memory`) makes the bake measure first and fail with OUT_OF_MEMORY, the planned size in
+ *   the message, before its first allocation.
  *   Threads: `threading` (a caller's parallel-for) or `threads` (0 all cores, 1 none: a supermat.h
  *   pool made for the call) serves rendering (bands of pixel rows), back-projection (bands of texel
  *   rows) and the networks; scratch memory does not grow with the thread count. Every pixel and texel
@@ -223,6 +225,9 @@ typedef struct supermat_uv_bake_desc {
     int threads;                 /* 0 = all cores, 1 = the calling thread only */
     supermat_threading threading;/* a caller's parallel-for: overrides `threads` */
     supermat_allocator allocator;
+    size_t max_memory;           /* 0 = no limit; else a bake whose peak (supermat_uv_bake_memory: mesh copy,
+                                    views, maps and the networks' sessions; not the models) would pass it
+                                    fails with OUT_OF_MEMORY before anything is allocated */
     int (*progress)(void *user, float fraction, const char *what); /* nonzero = cancel */
     void *progress_user;
     /* intermediate images as float32 (row-major, interleaved, row 0 at the top); valid during the call */
@@ -1460,7 +1465,7 @@ static supermat_result supermat_uv__bake(supermat_uv__ctx *C, const supermat_uv_
 
 static supermat_result supermat_uv__run(const supermat_uv_bake_desc *desc, const supermat_uv_output *outputs,
                                         supermat_uv_stats *stats, supermat_error *err, int measure, size_t *bytes) {
-    supermat_uv__ctx *C;
+    supermat_uv__ctx *C, plan; /* measuring needs no heap: its context lives on the stack (about 11 KB) */
     supermat_result r;
     supermat_allocator al;
 #if SUPERMAT_UV__HAS_POOL
@@ -1473,7 +1478,16 @@ static supermat_result supermat_uv__run(const supermat_uv_bake_desc *desc, const
     if (!measure) { r = supermat_uv__check_outputs(&d, outputs, err); if (r) return r; }
     al = d.allocator;
     if (!al.alloc || !al.free) { al.alloc = supermat_uv__malloc; al.free = supermat_uv__mfree; al.user = NULL; }
-    C = (supermat_uv__ctx *)al.alloc(al.user, sizeof *C, 64);
+    if (!measure && d.max_memory) { /* the plan first: nothing is allocated for a bake that does not fit */
+        size_t need = 0;
+        r = supermat_uv__run(&d, NULL, NULL, err, 1, &need);
+        if (r) return r;
+        if (need > d.max_memory)
+            return supermat_uv__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, "the bake (%d output%s of %dx%d, views %dx%d) needs %llu bytes (%.1f MiB), more than max_memory = %llu bytes (%.1f MiB)",
+                                     d.output_count, d.output_count == 1 ? "" : "s", d.texture_width, d.texture_height, d.view_size, d.view_size,
+                                     (unsigned long long)need, (double)need / 1048576.0, (unsigned long long)d.max_memory, (double)d.max_memory / 1048576.0);
+    }
+    C = measure ? &plan : (supermat_uv__ctx *)al.alloc(al.user, sizeof *C, 64);
     if (!C) return supermat_uv__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (context)");
     memset(C, 0, sizeof *C);
     C->d = d; C->err = err; C->al = al; C->measure = measure;
@@ -1492,7 +1506,7 @@ static supermat_result supermat_uv__run(const supermat_uv_bake_desc *desc, const
 #if SUPERMAT_UV__HAS_POOL
     if (pool) supermat_pool_destroy(pool);
 #endif
-    al.free(al.user, C, sizeof *C);
+    if (!measure) al.free(al.user, C, sizeof *C);
     return r;
 }
 

@@ -190,6 +190,20 @@ int main(int argc, char **argv) {
         CHECK(rc != 0 && msg.find("cannot write") != std::string::npos, "a failed write: rc %d, %s", rc, msg.c_str());
         CHECK(left.empty(), "a failed write left %zu file(s) in out_limited/, e.g. %s", left.size(), left.empty() ? "" : left[0].c_str());
     }
+    /* ---- --max-memory: a bake over the cap is refused before it allocates, nothing is written ---- */
+    {
+        std::string capped = exe + " --passthrough --size 1024 --views-size 512 " + dir + "/cube.gltf " + dir + "/out/capped.gltf";
+        rc = std::system((capped + " --max-memory 8M 2> " + dir + "/capped.txt").c_str());
+        std::string msg = slurp_str(dir + "/capped.txt");
+        struct stat sb;
+        CHECK(rc != 0 && msg.find("more than max_memory = 8388608 bytes") != std::string::npos && msg.find("needs") != std::string::npos &&
+              stat((dir + "/out/capped.gltf").c_str(), &sb) != 0, "--max-memory 8M: rc %d, %s", rc, msg.c_str());
+        rc = std::system((capped + " --max-memory lots 2> " + dir + "/capped.txt").c_str());
+        msg = slurp_str(dir + "/capped.txt");
+        CHECK(rc != 0 && msg.find("is not a size") != std::string::npos, "--max-memory lots: rc %d, %s", rc, msg.c_str());
+        rc = std::system((capped + " --max-memory 4G").c_str());
+        CHECK(rc == 0 && stat((dir + "/out/capped.gltf").c_str(), &sb) == 0, "--max-memory 4G: rc %d", rc);
+    }
     /* ---- the full path with the tiny models ---- */
     if (argc > 4) {
         cmd = exe + " --mv-model " + argv[3] + " --albedo-refine " + argv[4] + " --rm-refine " + argv[4] +
@@ -198,6 +212,10 @@ int main(int argc, char **argv) {
         CHECK(rc == 0, "%s failed (%d)", cmd.c_str(), rc);
         CHECK(out_textures(dir + "/out/cube_full.gltf", &bc, &mr) && read_image(bc, outp, w, h, c) && w == 128,
               "the full path wrote no textures");
+        /* a cap under the models' own size: the first model is refused while it is created */
+        rc = std::system((cmd + "_capped --max-memory 64K 2> " + dir + "/capped_models.txt").c_str());
+        std::string msg = slurp_str(dir + "/capped_models.txt");
+        CHECK(rc != 0 && msg.find("max_memory") != std::string::npos, "models over --max-memory 64K: rc %d, %s", rc, msg.c_str());
     }
     std::printf("%d passed, %d failed\n", g_pass, g_fail);
     return g_fail ? 1 : 0;

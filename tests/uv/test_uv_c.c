@@ -17,6 +17,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 static int fails = 0, passes = 0;
 #define CHECK(c, msg)                                                          \
@@ -57,6 +58,15 @@ static int untouched(const unsigned char *p, size_t n) {
     return 1;
 }
 
+/* tu_count_alloc that also records the most bytes held at once */
+static tu_counting *peak_watch;
+static size_t peak_seen;
+static void *peak_alloc(void *user, size_t size, size_t align) {
+    void *p = tu_count_alloc(user, size, align);
+    if (p && peak_watch && peak_watch->bytes > peak_seen) peak_seen = peak_watch->bytes;
+    return p;
+}
+
 static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     enum { S = 32 };
     static unsigned char alb[S * S * 4], mr[S * S * 3], ref_a[S * S * 4], ref_m[S * S * 3];
@@ -75,6 +85,33 @@ static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     CHECK(r == SUPERMAT_SUCCESS, msg);
     if (r) return;
     memcpy(ref_a, alb, sizeof alb); memcpy(ref_m, mr, sizeof mr);
+    /* the memory cap: at the planned peak the bake runs (same bytes, the allocator never holds more than
+       planned); one byte less is refused before any allocation, outputs untouched */
+    {
+        size_t need = 0, peak = 0;
+        r = supermat_uv_bake_memory(&bd, &need, &err);
+        CHECK(r == SUPERMAT_SUCCESS && need > 0, err.message);
+        memset(&c, 0, sizeof c); c.fail_at = -1;
+        bd.allocator.alloc = tu_count_alloc; bd.allocator.free = tu_count_free; bd.allocator.user = &c;
+        bd.max_memory = need - 1;
+        memset(alb, 0xCD, sizeof alb); memset(mr, 0xCD, sizeof mr);
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        snprintf(msg, sizeof msg, "%s: max_memory one byte under the plan (%lu): %s, %ld allocations, '%s'", what, (unsigned long)need,
+                 supermat_result_string(r), c.calls, err.message);
+        CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && c.calls == 0 && strstr(err.message, "max_memory") && untouched(alb, sizeof alb) &&
+              untouched(mr, sizeof mr), msg);
+        bd.max_memory = need;
+        peak_watch = &c; peak_seen = 0;
+        bd.allocator.alloc = peak_alloc;
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        peak = peak_seen; peak_watch = NULL;
+        snprintf(msg, sizeof msg, "%s: max_memory = the plan (%lu): %s, peak held %lu, %ld blocks live", what, (unsigned long)need,
+                 supermat_result_string(r), (unsigned long)peak, c.live);
+        CHECK(r == SUPERMAT_SUCCESS && peak <= need && c.live == 0 && !memcmp(alb, ref_a, sizeof alb) && !memcmp(mr, ref_m, sizeof mr), msg);
+        printf("%s: plan %lu bytes, peak held %lu; a cap 1 byte under it refused with 0 allocations\n", what, (unsigned long)need, (unsigned long)peak);
+        bd.max_memory = 0;
+        memset(&bd.allocator, 0, sizeof bd.allocator);
+    }
     /* the N-th allocation fails, for every N */
     for (n = 0;; n++) {
         memset(&c, 0, sizeof c); c.fail_at = n;
@@ -207,6 +244,30 @@ int main(int argc, char **argv) {
         r = supermat_uv_bake(&bb, &out, &st, &err);
         CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "too large"), "2 x (2^32 - 1) indices");
         printf("counts past 2^31 / 2^32: refused (%s)\n", err.message);
+    }
+    /* sizes past the limits: a 65536^2 texture (2^32 texels) is refused from the desc; 256 outputs of
+       16384^2 (each within the limits, 2^36 texels in all, some 1.4 TB of maps) under a 1 GiB cap are
+       refused from the plan; neither allocates anything (and both answer at once) */
+    {
+        supermat_uv_bake_desc bb = bd;
+        tu_counting cc;
+        static supermat_uv_output many[256];
+        char m2[700];
+        clock_t t0 = clock();
+        memset(&cc, 0, sizeof cc); cc.fail_at = -1;
+        bb.allocator.alloc = tu_count_alloc; bb.allocator.free = tu_count_free; bb.allocator.user = &cc;
+        bb.texture_width = bb.texture_height = 65536;
+        r = supermat_uv_bake(&bb, &out, &st, &err);
+        snprintf(m2, sizeof m2, "a 65536^2 texture: %s", err.message);
+        CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && cc.calls == 0, m2);
+        for (i = 0; i < 256; i++) many[i] = out;
+        bb.texture_width = bb.texture_height = 16384; bb.output_count = 256;
+        bb.max_memory = (size_t)1 << 30;
+        r = supermat_uv_bake(&bb, many, &st, &err);
+        snprintf(m2, sizeof m2, "256 x 16384^2 under 1 GiB: %s", err.message);
+        CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && cc.calls == 0 && strstr(err.message, "max_memory"), m2);
+        printf("256 outputs of 16384^2 under a 1 GiB cap: refused in %.3f s, 0 allocations (%s)\n",
+               (double)(clock() - t0) / CLOCKS_PER_SEC, err.message);
     }
     /* the sweeps, on the same quad, textures 32x32, views 16x16 (8x8 when passthrough) */
     part.positions = xyz;

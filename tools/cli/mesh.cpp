@@ -472,7 +472,8 @@ int usage() {
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
-                 "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n");
+                 "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
+                 "  --max-memory SIZE  refuse models + bake needing more than SIZE (512M, 4G), before allocating\n");
     return 2;
 }
 
@@ -486,6 +487,45 @@ struct LoadedModel {
 };
 std::map<std::string, LoadedModel> g_models;
 bool g_keep_models = false;
+size_t g_max_memory = 0; /* --max-memory: 0 = no cap */
+
+/* bytes the loaded models hold (their share of --max-memory) */
+size_t models_held() {
+    size_t n = 0;
+    for (auto &e : g_models) {
+        supermat_model_info mi;
+        std::memset(&mi, 0, sizeof mi);
+        supermat_model_get_info(e.second.m, &mi);
+        n += mi.model_bytes;
+    }
+    return n;
+}
+/* what is left of --max-memory once the models hold theirs (1 when nothing is: refuse everything) */
+size_t budget_left() {
+    if (!g_max_memory) return 0;
+    size_t held = models_held();
+    return g_max_memory > held ? g_max_memory - held : 1;
+}
+
+/* "4G", "512M", "1.5GiB", "100000": bytes (powers of 1024); false for anything else */
+bool parse_size(const std::string &s, size_t *out) {
+    char *end = nullptr;
+    errno = 0;
+    double v = std::strtod(s.c_str(), &end);
+    if (end == s.c_str() || errno || !(v >= 1)) return false;
+    std::string unit(end);
+    for (char &ch : unit) ch = (char)std::toupper((unsigned char)ch);
+    static const char *const units[] = {"", "B", "K", "KB", "KIB", "M", "MB", "MIB", "G", "GB", "GIB", "T", "TB", "TIB"};
+    static const double muls[] = {1, 1, 1024.0, 1024.0, 1024.0, 1048576.0, 1048576.0, 1048576.0, 1073741824.0, 1073741824.0,
+                                  1073741824.0, 1099511627776.0, 1099511627776.0, 1099511627776.0};
+    for (size_t k = 0; k < sizeof units / sizeof units[0]; k++)
+        if (unit == units[k]) {
+            if (v * muls[k] > 1.8e19) return false;
+            *out = (size_t)(v * muls[k]);
+            return true;
+        }
+    return false;
+}
 
 void release_models() {
     for (auto &e : g_models) {
@@ -513,6 +553,7 @@ bool load_model(const char *path, supermat_model **m) {
     supermat_model_desc md;
     std::memset(&md, 0, sizeof md);
     md.data = lm.map; md.size = lm.size;
+    md.max_memory = budget_left();
     char v[16];
     if (supermat_safetensors_metadata(lm.map, lm.size, "supermat.packed.conv", v, sizeof v) == 0 && std::atoi(v) > 0 && std::atoi(v) < SUPERMAT_CONV_COUNT)
         md.conv = (supermat_conv)std::atoi(v); /* a pre-packed file runs with the options it was packed for */
@@ -572,6 +613,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int passthrough = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
+    g_max_memory = 0;
     for (int i = 1; i < argc; i++) {
         std::string a = argv[i];
         bool more = i + 1 < argc;
@@ -585,6 +627,12 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else if (a == "--gutter" && more) gutter = std::atoi(argv[++i]);
         else if (a == "--edge-reject" && more) edge_reject = std::atoi(argv[++i]);
         else if (a == "--supersample" && more) supersample = std::atoi(argv[++i]);
+        else if (a == "--max-memory" && more) {
+            if (!parse_size(argv[++i], &g_max_memory)) {
+                std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", argv[i]);
+                return 2;
+            }
+        }
         else if (a == "--weight" && more) {
             std::string w = argv[++i];
             if (w == "cos") weight = SUPERMAT_UV_WEIGHT_COS_POWER;
@@ -832,6 +880,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     bd.gutter = gutter;
     bd.edge_reject = edge_reject;
     bd.threads = threads;
+    bd.max_memory = budget_left();
     int last = -5;
     if (isatty(2)) { bd.progress = progress_cb; bd.progress_user = &last; }
     Debug dd;
@@ -847,6 +896,9 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     if (!g_keep_models) release_models();
     if (r != SUPERMAT_SUCCESS) {
         std::fprintf(stderr, "supermat mesh: %s (%s)\n", serr.message, supermat_result_string(r));
+        if (g_max_memory && r == SUPERMAT_ERROR_OUT_OF_MEMORY)
+            std::fprintf(stderr, "  (--max-memory %.1f MiB: the models hold %.1f MiB, which leaves the bake the rest)\n",
+                         g_max_memory / 1048576.0, (g_max_memory - bd.max_memory) / 1048576.0);
         return 1;
     }
     if (dd.failed) std::fprintf(stderr, "supermat mesh: could not write every debug image to %s\n", dbg);
