@@ -4590,6 +4590,8 @@ static supermat_result supermat__check_image(const supermat_image *im, const cha
     if (iw != w || ih != h) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s is %dx%d, the session processes %dx%d", what, im->width, im->height, w, h);
     if (im->channels < min_ch || im->channels > 4) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s has %d channels (%d to 4)", what, im->channels, min_ch);
     if (im->stride && im->stride < (size_t)w * im->channels * es) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: stride %llu is smaller than a row", what, (unsigned long long)im->stride);
+    if (h > 0 && (im->stride ? im->stride : (size_t)w * im->channels * es) > (size_t)PTRDIFF_MAX / (size_t)h) /* rows x stride past 2^63 (2^31 on 32-bit) */
+        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "%s: stride %llu x %d rows is larger than the address space", what, (unsigned long long)im->stride, h);
     if (input && im->format == SUPERMAT_FORMAT_F32) { /* NaN / Inf are rejected, never propagated */
         int x, y, c;
         for (y = 0; y < h; y++)

@@ -282,6 +282,8 @@ SUPERMAT_API supermat_result supermat_uv_bake(const supermat_uv_bake_desc *desc,
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -957,6 +959,11 @@ static supermat_result supermat_uv__check_image(supermat_error *err, const super
         if (im->channels < 3 || im->channels > 4)
             return supermat_uv__fail(err, SUPERMAT_ERROR_BAD_IMAGE, "%s %d has %d channels (3 or 4)", what, part, im->channels);
     }
+    if (input) h = im->height;
+    if ((size_t)w > (size_t)PTRDIFF_MAX / 16 || /* rows x stride past 2^63 (2^31 where size_t has 32 bits) */
+        (im->stride ? im->stride : (size_t)w * im->channels * es) > (size_t)PTRDIFF_MAX / (size_t)(h > 0 ? h : 1))
+        return supermat_uv__fail(err, SUPERMAT_ERROR_BAD_IMAGE, "%s %d: %dx%d (stride %llu) is larger than the address space", what, part,
+                                 w, h, (unsigned long long)im->stride);
     if (im->stride && im->stride < (size_t)w * im->channels * es)
         return supermat_uv__fail(err, SUPERMAT_ERROR_BAD_IMAGE, "%s %d: stride %llu is smaller than a row", what, part, (unsigned long long)im->stride);
     return SUPERMAT_SUCCESS;

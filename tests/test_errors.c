@@ -553,6 +553,69 @@ static void test_size_overflow(void) {
     printf("size overflow: %d shapes / offsets past 2^31 .. 2^64 refused\n", (int)(sizeof cases / sizeof cases[0]));
 }
 
+/* the arena planner and the image checks at the integer boundaries. Plans of 2048^2 .. 16384^2 (and 16384 x 8,
+   8 x 16384): the largest passes 2^31 and 2^32 bytes, and each plan follows the area (the f64 ratio of the
+   sizes) within 10 %: a plan computed in 32-bit products would wrap and not. Strides whose rows x stride
+   pass 2^63 or 2^64 are refused (BAD_IMAGE) before a pixel is read. */
+static void test_plan_boundaries(void) {
+    static const int sizes[][2] = {{2048, 2048}, {4096, 4096}, {8192, 8192}, {16384, 16384}, {16384, 8}, {8, 16384}};
+    supermat_model *m = NULL;
+    supermat_error err;
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_result r;
+    size_t b[6], fixed;
+    unsigned char px[64 * 64 * 4], out[64 * 64 * 3];
+    int i;
+    if (create(model_data, model_size, &m, &err)) { TU_CHECK(0, "model: %s", err.message); return; }
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.threads = 1;
+    sd.width = sd.height = 8;
+    TU_CHECK(supermat_session_memory(&sd, &fixed, &err) == SUPERMAT_SUCCESS, "plan 8x8: %s", err.message);
+    for (i = 0; i < 6; i++) {
+        sd.width = sizes[i][0]; sd.height = sizes[i][1];
+        r = supermat_session_memory(&sd, &b[i], &err);
+        TU_CHECK(r == SUPERMAT_SUCCESS, "plan %dx%d: %s", sd.width, sd.height, err.message);
+        if (r) b[i] = 0;
+    }
+    TU_CHECK((double)b[3] > 4294967296.0, "the 16384^2 plan (%.3f GiB) passes 2^32 bytes", (double)b[3] / 1073741824.0);
+    for (i = 1; i < 4; i++) {
+        double ratio = (double)(b[i] - fixed) / (double)(b[i - 1] - fixed);
+        TU_CHECK(ratio > 3.6 && ratio < 4.4, "plan %d^2 / plan %d^2 = %.3f (the area: 4)", sizes[i][0], sizes[i - 1][0], ratio);
+    }
+    TU_CHECK(b[4] > fixed && b[4] < b[3] / 512 && b[5] > fixed && b[5] < b[3] / 512, "16384 x 8 and 8 x 16384: %llu and %llu bytes",
+             (unsigned long long)b[4], (unsigned long long)b[5]);
+    printf("plans: 8^2 %.1f MiB, 2048^2 %.1f MiB, 16384^2 %.2f GiB, 16384 x 8 %.1f MiB\n", (double)fixed / 1048576.0, (double)b[0] / 1048576.0,
+           (double)b[3] / 1073741824.0, (double)b[4] / 1048576.0);
+    /* strides past the address space: refused before a pixel is read (the buffer is 64 x 64) */
+    sd.width = sd.height = 64;
+    if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "session 64x64: %s", err.message); supermat_model_destroy(m); return; }
+    memset(px, 100, sizeof px);
+    for (i = 0; i < 3; i++) {
+        static const size_t strides[3] = {(size_t)PTRDIFF_MAX / 64 + 1, (size_t)-1 / 64 + 1, (size_t)-1};
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = px; rd.input.width = 64; rd.input.height = 64; rd.input.channels = 4;
+        rd.albedo.pixels = out; rd.albedo.channels = 3;
+        rd.input.stride = strides[i];
+        memset(out, 0xCD, sizeof out);
+        r = supermat_run(s, &rd, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && strstr(err.message, "address space") && out[0] == 0xCD && out[sizeof out - 1] == 0xCD,
+                 "input stride %llu x 64 rows: %s (%s)", (unsigned long long)strides[i], supermat_result_string(r), err.message);
+        rd.input.stride = 0; rd.albedo.stride = strides[i];
+        r = supermat_run(s, &rd, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && strstr(err.message, "address space") && out[0] == 0xCD,
+                 "output stride %llu x 64 rows: %s (%s)", (unsigned long long)strides[i], supermat_result_string(r), err.message);
+    }
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = px; rd.input.width = 64; rd.input.height = 64; rd.input.channels = 4;
+    rd.albedo.pixels = out; rd.albedo.channels = 3;
+    TU_CHECK(supermat_run(s, &rd, &err) == SUPERMAT_SUCCESS, "the session runs after the refusals: %s", err.message);
+    printf("strides whose 64 rows pass 2^63 / 2^64 bytes: refused, nothing read or written\n");
+    supermat_session_destroy(s);
+    supermat_model_destroy(m);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) { fprintf(stderr, "usage: %s MODEL [MV_MODEL UV_MODEL]\n", argv[0]); return 2; }
     model_data = tu_load(argv[1], &model_size);
@@ -564,6 +627,7 @@ int main(int argc, char **argv) {
     test_allocator();
     test_memory_cap();
     test_size_overflow();
+    test_plan_boundaries();
     test_run();
     if (argc > 3) test_mv_uv(argv[2], argv[3]);
     free(model_data);

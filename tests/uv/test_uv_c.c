@@ -268,6 +268,26 @@ int main(int argc, char **argv) {
         CHECK(r == SUPERMAT_ERROR_OUT_OF_MEMORY && cc.calls == 0 && strstr(err.message, "max_memory"), m2);
         printf("256 outputs of 16384^2 under a 1 GiB cap: refused in %.3f s, 0 allocations (%s)\n",
                (double)(clock() - t0) / CLOCKS_PER_SEC, err.message);
+        /* a base colour texture claiming more than the address space (2^31 - 1 squared texels of 4 floats:
+           2^66 bytes; 64 rows of a 2^58-byte stride: 2^64) is refused before a texel is read */
+        {
+            supermat_uv_part pp = part;
+            static const size_t strides[2] = {0, (size_t)1 << 58};
+            int k;
+            bb = bd; bb.parts = &pp; bb.part_count = 1;
+            for (k = 0; k < 2; k++) {
+                pp.base_color.width = k ? 16 : 2147483647; pp.base_color.height = k ? 64 : 2147483647;
+                pp.base_color.format = k ? SUPERMAT_FORMAT_U8 : SUPERMAT_FORMAT_F32;
+                pp.base_color.stride = strides[k];
+                memset(&cc, 0, sizeof cc); cc.fail_at = -1;
+                bb.allocator.alloc = tu_count_alloc; bb.allocator.free = tu_count_free; bb.allocator.user = &cc;
+                r = supermat_uv_bake(&bb, &out, &st, &err);
+                snprintf(m2, sizeof m2, "texture %dx%d stride %llu: %s (%s)", pp.base_color.width, pp.base_color.height,
+                         (unsigned long long)strides[k], supermat_result_string(r), err.message);
+                CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && strstr(err.message, "address space") && cc.calls == 0, m2);
+            }
+            printf("textures past the address space: refused (%s)\n", err.message);
+        }
     }
     /* the sweeps, on the same quad, textures 32x32, views 16x16 (8x8 when passthrough) */
     part.positions = xyz;
