@@ -113,7 +113,8 @@
  *   All arithmetic is float32 with float64 statistics in the normalisations. The AVX2 and scalar kernels
  *   differ by rounding only (FMA); each is deterministic. The AVX-512 kernel (picked by SUPERMAT_KERNEL_AUTO
  *   where the CPU has AVX-512F) gives the AVX2 kernel's bits: every output element sums the same products
- *   in the same order with FMA, 16 columns per register instead of 8. Denormals are not flushed.
+ *   in the same order with FMA, 16 columns per register instead of 8. On aarch64 the NEON kernel (AUTO
+ *   there) runs the GEMMs with fmla (fused, like AVX2) and the rest in scalar C. Denormals are not flushed.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
@@ -286,6 +287,8 @@ typedef enum supermat_kernel {
     SUPERMAT_KERNEL_AVX2,     /* x86-64 AVX2 + FMA + F16C (fails with UNSUPPORTED if the CPU lacks it) */
     SUPERMAT_KERNEL_AVX512,   /* AVX-512F GEMM micro-kernel (12 x 16 tile in 32 registers) over the AVX2 rest;
                                  the same bits as AVX2 (every output element sums in the same order) */
+    SUPERMAT_KERNEL_NEON,     /* aarch64 Advanced SIMD GEMM micro-kernel (6 x 16 tile, fmla) over the scalar
+                                 rest; picked by AUTO on aarch64 builds, UNSUPPORTED elsewhere */
     SUPERMAT_KERNEL_COUNT
 } supermat_kernel;
 
@@ -508,6 +511,7 @@ SUPERMAT_API int supermat_default_threads(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
+SUPERMAT_API int supermat_cpu_has_neon(void);        /* an aarch64 build (Advanced SIMD is part of the base ISA) */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
@@ -565,6 +569,12 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #define SUPERMAT__AVX512BF16 __attribute__((target("avx512f,avx512bf16,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX512 0
+#endif
+#if !defined(SUPERMAT_NO_NEON) && defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
+#define SUPERMAT__HAS_NEON 1
+#include <arm_neon.h>
+#else
+#define SUPERMAT__HAS_NEON 0
 #endif
 
 #if defined(__linux__) && !defined(SUPERMAT_NO_MADVISE)
@@ -1160,6 +1170,8 @@ SUPERMAT__DEF int supermat_cpu_has_avx512_bf16(void) {
 #endif
 }
 
+SUPERMAT__DEF int supermat_cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
+
 /* >>convert : f16 / bf16 to f32 (scalar, exact) */
 static float supermat__f16_to_f32(uint16_t h) {
     uint32_t s = (uint32_t)(h >> 15) << 31, e = (h >> 10) & 31, m = h & 1023, bits;
@@ -1247,10 +1259,10 @@ typedef void (*supermat__widen_fn)(const void *src, int fmt, const float *scale,
 typedef void (*supermat__ukr_fn)(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
                                  const float *bias, const float *r, size_t ldr, int accumulate);
 
-static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
-                                 const float *bias, const float *r, size_t ldr, int accumulate) {
-    float acc[SUPERMAT__MR][SUPERMAT__NR];
-    int i, j, k;
+/* the tile a 6 x 16 micro-kernel starts from: the running C (accumulate), or bias (+ R); zero past mr x nr */
+static void supermat__ukr_start(float *tile, const float *c, size_t ldc, int mr, int nr, const float *bias, const float *r,
+                                size_t ldr, int accumulate) {
+    int i, j;
     for (i = 0; i < SUPERMAT__MR; i++)
         for (j = 0; j < SUPERMAT__NR; j++) {
             float v = 0.0f;
@@ -1261,18 +1273,57 @@ static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, 
                     if (r) v += r[(size_t)i * ldr + j];
                 }
             }
-            acc[i][j] = v;
+            tile[i * SUPERMAT__NR + j] = v;
         }
+}
+
+static void supermat__ukr_scalar(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
+                                 const float *bias, const float *r, size_t ldr, int accumulate) {
+    float acc[SUPERMAT__MR * SUPERMAT__NR];
+    int i, j, k;
+    supermat__ukr_start(acc, c, ldc, mr, nr, bias, r, ldr, accumulate);
     for (k = 0; k < kc; k++) {
         const float *bk = b + (size_t)k * SUPERMAT__NR;
         for (i = 0; i < SUPERMAT__MR; i++) {
             float av = a[i][k];
-            for (j = 0; j < SUPERMAT__NR; j++) acc[i][j] += av * bk[j];
+            for (j = 0; j < SUPERMAT__NR; j++) acc[i * SUPERMAT__NR + j] += av * bk[j];
         }
     }
     for (i = 0; i < mr; i++)
-        for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = acc[i][j];
+        for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = acc[i * SUPERMAT__NR + j];
 }
+
+#if SUPERMAT__HAS_NEON
+/* aarch64: 6 rows x 16 columns = 24 accumulators of 4 lanes, 4 for the B row, 1 for A: 29 of the 32
+   vector registers; one fmla by a scalar lane per accumulator and k */
+static void supermat__ukr_neon(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr, int nr,
+                               const float *bias, const float *r, size_t ldr, int accumulate) {
+    float tile[SUPERMAT__MR * SUPERMAT__NR];
+    const float *a0 = a[0], *a1 = a[1], *a2 = a[2], *a3 = a[3], *a4 = a[4], *a5 = a[5];
+    int i, j, k;
+    supermat__ukr_start(tile, c, ldc, mr, nr, bias, r, ldr, accumulate);
+    {
+#define SUPERMAT__NLD(i) float32x4_t c##i##0 = vld1q_f32(tile + (i) * 16), c##i##1 = vld1q_f32(tile + (i) * 16 + 4), \
+                                     c##i##2 = vld1q_f32(tile + (i) * 16 + 8), c##i##3 = vld1q_f32(tile + (i) * 16 + 12);
+        SUPERMAT__NLD(0) SUPERMAT__NLD(1) SUPERMAT__NLD(2) SUPERMAT__NLD(3) SUPERMAT__NLD(4) SUPERMAT__NLD(5)
+#undef SUPERMAT__NLD
+        for (k = 0; k < kc; k++) {
+            float32x4_t b0 = vld1q_f32(b), b1 = vld1q_f32(b + 4), b2 = vld1q_f32(b + 8), b3 = vld1q_f32(b + 12);
+            b += SUPERMAT__NR;
+#define SUPERMAT__NFMA(i) { float av_ = a##i[k]; c##i##0 = vfmaq_n_f32(c##i##0, b0, av_); c##i##1 = vfmaq_n_f32(c##i##1, b1, av_); \
+                            c##i##2 = vfmaq_n_f32(c##i##2, b2, av_); c##i##3 = vfmaq_n_f32(c##i##3, b3, av_); }
+            SUPERMAT__NFMA(0) SUPERMAT__NFMA(1) SUPERMAT__NFMA(2) SUPERMAT__NFMA(3) SUPERMAT__NFMA(4) SUPERMAT__NFMA(5)
+#undef SUPERMAT__NFMA
+        }
+#define SUPERMAT__NST(i) vst1q_f32(tile + (i) * 16, c##i##0); vst1q_f32(tile + (i) * 16 + 4, c##i##1); \
+                         vst1q_f32(tile + (i) * 16 + 8, c##i##2); vst1q_f32(tile + (i) * 16 + 12, c##i##3);
+        SUPERMAT__NST(0) SUPERMAT__NST(1) SUPERMAT__NST(2) SUPERMAT__NST(3) SUPERMAT__NST(4) SUPERMAT__NST(5)
+#undef SUPERMAT__NST
+    }
+    for (i = 0; i < mr; i++)
+        for (j = 0; j < nr; j++) c[(size_t)i * ldc + j] = tile[i * SUPERMAT__NR + j];
+}
+#endif
 
 
 static void supermat__widen_scalar(const void *src, int fmt, const float *scale, int kc, float *dst) {
@@ -1707,6 +1758,7 @@ typedef struct supermat__ctx {
     supermat__widen_fn widen;   /* f16, bf16, int8 panels to f32 */
     int avx2;                   /* AVX2 kernels (also under AVX-512, whose ukr is the only AVX-512 part) */
     int avx512;
+    int neon;                   /* the aarch64 GEMM micro-kernel (over the scalar rest) */
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
     size_t scratch_floats;
@@ -3351,6 +3403,8 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     }
     if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
+    if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat_cpu_has_neon())
+        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "NEON kernels requested but this is not an aarch64 build");
     a = supermat__resolve_allocator(&desc->allocator);
     r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
     if (r) return r;
@@ -3516,7 +3570,8 @@ done:
     if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
     if (L.r) { supermat__model_free(m); return L.r; }
     if (L.bf16c) m->info.weights = SUPERMAT_WEIGHTS_BF16;
-    m->info.kernel = !L.avx2 ? SUPERMAT_KERNEL_SCALAR
+    m->info.kernel = !L.avx2 ? (desc->kernel == SUPERMAT_KERNEL_NEON || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_neon())
+                                    ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR)
                    : desc->kernel == SUPERMAT_KERNEL_AVX512 || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512())
                          ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
     m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
@@ -4577,6 +4632,13 @@ static void supermat__select_kernels(supermat__ctx *X) {
         return;
     }
 #endif
+#if SUPERMAT__HAS_NEON
+    if (X->neon) {
+        X->ukr = supermat__ukr_neon;
+        X->widen = supermat__widen_scalar;
+        return;
+    }
+#endif
     X->ukr = supermat__ukr_scalar;
     X->widen = supermat__widen_scalar;
 }
@@ -4684,6 +4746,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     X.err = err; X.base = S->arena; X.cap = S->arena_size;
     X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 || S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
     X.avx512 = S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
+    X.neon = S->m->info.kernel == SUPERMAT_KERNEL_NEON;
     supermat__select_kernels(&X);
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;
     X.gn_stats = S->gn_stats; X.gn_cap = S->gn_cap;

@@ -214,7 +214,7 @@ int main(int argc, char **argv) {
     supermat_error err;
     int threads, i;
     const char *kern;
-    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2|avx512[:WEIGHTS] THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
+    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2|avx512|neon[:WEIGHTS] THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
     kern = argv[2];
     threads = atoi(argv[3]);
     file = tu_load(argv[1], &size);
@@ -240,6 +240,10 @@ int main(int argc, char **argv) {
     if (!strncmp(kern, "avx512", 6)) {
         if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX512;
+    }
+    if (!strncmp(kern, "neon", 4)) {
+        if (!supermat_cpu_has_neon()) { printf("SKIP: not an aarch64 build: no NEON kernel\n"); free(file); return 77; }
+        md.kernel = SUPERMAT_KERNEL_NEON;
     }
     TU_CHECK(supermat_model_create(&md, &model, &err) == SUPERMAT_SUCCESS, "model_create: %s", err.message);
     if (model) {

@@ -15,15 +15,20 @@ static int irand(int lo, int hi) { return lo + (int)((rnd() * 0.5 + 0.5) * (hi -
 static float *rvec(size_t n, double scale) { float *p = (float *)malloc(n * sizeof(float) + 4); size_t i; for (i = 0; i < n; i++) p[i] = (float)(rnd() * scale); return p; }
 
 typedef struct kctx { supermat__ctx X; supermat_pool *pool; float *mem; } kctx;
-static const char *KN(int mode) { return mode == 2 ? "avx512" : mode ? "avx2" : "scalar"; }
-static int mode_ok(int mode) { return mode == 0 || (mode == 1 ? supermat_cpu_has_avx2() : supermat_cpu_has_avx512()); }
+/* kernel modes: 0 scalar, 1 AVX2, 2 AVX-512 (over AVX2), 3 NEON (over scalar) */
+#define NMODES 4
+static const char *KN(int mode) { return mode == 3 ? "neon" : mode == 2 ? "avx512" : mode ? "avx2" : "scalar"; }
+static int mode_ok(int mode) {
+    return mode == 0 || (mode == 1 ? supermat_cpu_has_avx2() : mode == 2 ? supermat_cpu_has_avx512() : supermat_cpu_has_neon());
+}
 static void kctx_init(kctx *k, int avx2, int threads) {
     int i, nt;
     memset(k, 0, sizeof *k);
     if (threads > 1) supermat_pool_create(threads, NULL, &k->pool, &k->X.thr);
     nt = k->X.thr.parallel_for ? k->X.thr.max_threads : 1;
-    k->X.avx2 = avx2 >= 1; /* mode: 0 scalar, 1 AVX2, 2 AVX-512 (over AVX2) */
+    k->X.avx2 = avx2 == 1 || avx2 == 2;
     k->X.avx512 = avx2 == 2;
+    k->X.neon = avx2 == 3;
     supermat__select_kernels(&k->X);
     k->X.scratch_floats = 64 * 1024;
     k->mem = (float *)malloc(sizeof(float) * k->X.scratch_floats * nt);
@@ -328,7 +333,7 @@ static void make_wino(supermat__wino *wg, const supermat__pw *pw, int cin, int c
 }
 static void free_wino(supermat__wino *wg) { int xi; for (xi = 0; xi < wg->a * wg->a; xi++) free(wg->u[xi].p); }
 
-static kctx WK[3][2]; /* [scalar, avx2, avx512][threads 1, 3] */
+static kctx WK[NMODES][2]; /* [mode][threads 1, 3] */
 static double worst[2];
 
 static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b, int use_r) {
@@ -347,7 +352,7 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
     for (mi = 0; mi < 2; mi++) {
         supermat__wino wg;
         make_wino(&wg, &pw, cin, cout, mi ? 4 : 2);
-        for (av = 0; av < 3; av++) {
+        for (av = 0; av < NMODES; av++) {
             if (!mode_ok(av)) continue;
             for (th = 0; th < 2; th++) {
                 supermat__ctx *X = &WK[av][th].X;
@@ -410,7 +415,7 @@ static void test_winograd(void) {
     static const int chans[4] = {3, 16, 37, 64};
     static const int sizes[4][2] = {{8, 8}, {7, 9}, {1, 1}, {2, 3}};
     int i, j, s, av, th;
-    for (av = 0; av < 3; av++) for (th = 0; th < 2; th++) kctx_init(&WK[av][th], mode_ok(av) ? av : 0, th ? 3 : 1);
+    for (av = 0; av < NMODES; av++) for (th = 0; th < 2; th++) kctx_init(&WK[av][th], mode_ok(av) ? av : 0, th ? 3 : 1);
     printf("accuracy (max |err| / max |ref|):\n");
     for (i = 0; i < 4; i++)
         for (j = 0; j < 4; j++)
@@ -424,7 +429,7 @@ static void test_winograd(void) {
     wino_case(1, 16, 16, 64, 64, 0, 1, 1);
     wino_case(2, 13, 11, 128, 40, 0, 1, 1);
     printf("worst: F2 %.3g, F4 %.3g\n", worst[0], worst[1]);
-    for (av = 0; av < 3; av++) for (th = 0; th < 2; th++) kctx_free(&WK[av][th]);
+    for (av = 0; av < NMODES; av++) for (th = 0; th < 2; th++) kctx_free(&WK[av][th]);
     wino_plan(2, 2, 9, 7, 16, 37);
     wino_plan(4, 2, 9, 7, 16, 37);
     wino_plan(4, 1, 128, 128, 128, 128); /* several chunks */
@@ -602,8 +607,11 @@ int main(void) {
     test_winograd();
     test_same_bits();
     test_bf16_compute();
-    for (avx2 = 0; avx2 <= 2; avx2++) {
-        if (!mode_ok(avx2)) { printf("SKIP: this CPU (or build) has no %s: that kernel was not tested\n", avx2 == 2 ? "AVX-512F" : "AVX2"); continue; }
+    for (avx2 = 0; avx2 < NMODES; avx2++) {
+        if (!mode_ok(avx2)) {
+            printf("SKIP: this CPU (or build) has no %s: that kernel was not tested\n", avx2 == 3 ? "NEON (not aarch64)" : avx2 == 2 ? "AVX-512F" : "AVX2");
+            continue;
+        }
         test_gemm_conv(avx2, 1);
         test_gemm_conv(avx2, 3);
         test_attention(avx2, 1);
@@ -611,6 +619,7 @@ int main(void) {
         test_quantized(avx2, 2);
         test_norms(avx2, 1);
         test_norms(avx2, 2);
+        printf("kernel %s: GEMMs, convolutions, attention, quantized panels and norms against float64\n", KN(avx2));
     }
     return tu_finish("kernels");
 }

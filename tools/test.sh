@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 need=()
-for p in cmake make gcc g++ clang libstb-dev libembree-dev libopenimageio-dev libtinygltf-dev nlohmann-json3-dev pkg-config libwebp-dev parallel procps slurmctld slurmd slurm-client munge afl++; do
+for p in cmake make gcc g++ clang libstb-dev libembree-dev libopenimageio-dev libtinygltf-dev nlohmann-json3-dev pkg-config libwebp-dev parallel procps slurmctld slurmd slurm-client munge afl++ gcc-aarch64-linux-gnu qemu-user-static file; do
   dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -27,7 +27,7 @@ jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== gcc, Release, -Werror"
 # UV tests on explicitly: `bash tools/demo.sh` configures the same build/ folder with them off
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON >/dev/null
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON >/dev/null
 cmake --build build -j"$jobs"
 (cd build && ctest --output-on-failure -j"$jobs")
 

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The aarch64 NEON path, cross-compiled with Debian's gcc-aarch64-linux-gnu (static) and run under
+# qemu-user-static: the kernel tests against float64 (scalar and NEON modes) and the golden tests of
+# the tiny single-view, multi-view and UV-refine models and of the trained default model on the NEON
+# kernel, with the bounds of the x86 runs. Correctness only: qemu says nothing about speed.
+# usage: test_neon.sh WORKDIR SRC DATA TINY TINY_MV TINY_UV DEFAULT_MODEL   (exit 77 = skipped)
+set -euo pipefail
+work=$1 src=$2 data=$3 tiny=$4 tiny_mv=$5 tiny_uv=$6 default_model=$7
+cc=$(command -v aarch64-linux-gnu-gcc || true)
+qemu=$(command -v qemu-aarch64-static || command -v qemu-aarch64 || true)
+if [ -z "$cc" ] || [ -z "$qemu" ]; then
+  echo "SKIP: needs aarch64-linux-gnu-gcc and qemu-aarch64(-static) (Debian: gcc-aarch64-linux-gnu qemu-user-static)"
+  exit 77
+fi
+mkdir -p "$work"
+for t in test_kernels test_golden; do
+  "$cc" -std=c99 -O2 -Wall -Wextra -pedantic -Werror -static -I"$src/tests" -o "$work/$t" "$src/tests/$t.c" -lm -lpthread
+done
+file "$work/test_golden" 2>/dev/null | grep -q aarch64 || { echo "FAIL: $work/test_golden is not an aarch64 binary"; exit 1; }
+run() { echo "== qemu-aarch64: $*"; "$qemu" "$@"; }
+out=$(run "$work/test_kernels" 2>&1) || { echo "$out"; exit 1; }
+echo "$out" | tail -n 4
+# the NEON modes must have run (no SKIP for them), or this test proves nothing
+if echo "$out" | grep -q "no NEON"; then echo "FAIL: the NEON kernel was skipped on aarch64"; exit 1; fi
+echo "$out" | grep -q "kernel neon:" || { echo "FAIL: no NEON kernel line"; exit 1; }
+run "$work/test_golden" "$tiny" neon 2 "$data/golden/single_sphere_64" "$data/golden/single_box_40" "$data/golden/single_ring_48x72" | tail -n 1
+run "$work/test_golden" "$tiny" neon:wf4 2 "$data/golden/single_box_40" | tail -n 1
+run "$work/test_golden" "$tiny_mv" neon 2 "$data/golden/mv6_64" | tail -n 1
+run "$work/test_golden" "$tiny_uv" neon 2 "$data/golden/uv_128" | tail -n 1
+run "$work/test_golden" "$default_model" neon 2 "$data/golden/default_obj00_128" | tail -n 1
+run "$work/test_golden" "$default_model" auto 2 "$data/golden/default_obj00_128" | tail -n 1
+echo "neon: kernels and goldens pass on aarch64 (qemu)"
