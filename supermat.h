@@ -289,6 +289,8 @@ typedef enum supermat_kernel {
                                  the same bits as AVX2 (every output element sums in the same order) */
     SUPERMAT_KERNEL_NEON,     /* aarch64 Advanced SIMD GEMM micro-kernel (6 x 16 tile, fmla) over the scalar
                                  rest; picked by AUTO on aarch64 builds, UNSUPPORTED elsewhere */
+    SUPERMAT_KERNEL_AMX,      /* bf16 compute only: the GEMMs on Intel AMX tiles (tdpbf16ps) over the AVX-512
+                                 rest; AUTO picks it for SUPERMAT_COMPUTE_BF16 where the CPU and OS allow AMX */
     SUPERMAT_KERNEL_COUNT
 } supermat_kernel;
 
@@ -512,6 +514,7 @@ SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
 SUPERMAT_API int supermat_cpu_has_neon(void);        /* an aarch64 build (Advanced SIMD is part of the base ISA) */
+SUPERMAT_API int supermat_cpu_has_amx_bf16(void);    /* AMX-TILE + AMX-BF16, enabled by the OS for this process */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
@@ -569,6 +572,14 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #define SUPERMAT__AVX512BF16 __attribute__((target("avx512f,avx512bf16,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX512 0
+#endif
+/* AMX needs gcc >= 11 / clang >= 12 for the intrinsics, and Linux to grant the tile state */
+#if SUPERMAT__HAS_AVX512 && !defined(SUPERMAT_NO_AMX) && defined(__linux__) && defined(__x86_64__) && \
+    ((defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && defined(__GNUC__) && __GNUC__ >= 11))
+#define SUPERMAT__HAS_AMX 1
+#define SUPERMAT__AMX __attribute__((target("amx-tile,amx-bf16,avx512f,avx512bf16,avx2,fma,f16c")))
+#else
+#define SUPERMAT__HAS_AMX 0
 #endif
 #if !defined(SUPERMAT_NO_NEON) && defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
 #define SUPERMAT__HAS_NEON 1
@@ -1172,6 +1183,31 @@ SUPERMAT__DEF int supermat_cpu_has_avx512_bf16(void) {
 
 SUPERMAT__DEF int supermat_cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
 
+#if SUPERMAT__HAS_AMX
+long syscall(long number, ...); /* <unistd.h> declares it only outside strict C99 */
+#endif
+SUPERMAT__DEF int supermat_cpu_has_amx_bf16(void) {
+#if SUPERMAT__HAS_AMX
+    static int cached = -1;
+    unsigned a, b, c, d;
+    int ok = 0;
+    if (cached >= 0) return cached;
+    if (supermat_cpu_has_avx512_bf16() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 24) & 1) && ((d >> 22) & 1)) {
+        unsigned lo, hi;
+        /* Linux hands out the 8 KB tile state on request (arch_prctl ARCH_REQ_XCOMP_PERM = 0x1023,
+           XFEATURE_XTILEDATA = 18; syscall 158 on x86-64); XCR0 bits 17-18 say the OS manages it */
+        if (syscall(158, 0x1023L, 18L) == 0) {
+            __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+            ok = (lo & 0x60000u) == 0x60000u;
+        }
+    }
+    cached = ok;
+    return ok;
+#else
+    return 0;
+#endif
+}
+
 /* >>convert : f16 / bf16 to f32 (scalar, exact) */
 static float supermat__f16_to_f32(uint16_t h) {
     uint32_t s = (uint32_t)(h >> 15) << 31, e = (h >> 10) & 31, m = h & 1023, bits;
@@ -1557,7 +1593,83 @@ typedef struct supermat__gemm_args {
     const float *R; size_t ldr;
     int mblocks, nchunks, panels_per_chunk;
     float **scratch;       /* per thread: MC x KC floats */
+    int amx;               /* bf16 compute on AMX tiles */
 } supermat__gemm_args;
+
+#if SUPERMAT__HAS_AMX
+/* bf16 compute on AMX: one K block (kc2 pairs) of rows [m0, m0 + rows_n) of A, already bf16 pairs in ab
+   (row stride kc2), times panels [p0, p1) (bf16 pairs [K/2][16][2]: a 64-byte tile row per pair of K).
+   Tiles: 0-1 C (16 x 16 f32: two row blocks), 2-3 A (16 rows x 16 pairs), 4 B (16 pairs x 16 columns).
+   Rows past rows_n read stale scratch (within its MC rows) into C rows that are never stored; a K tail
+   short of 16 pairs goes through zero-padded copies. */
+typedef struct supermat__tilecfg { unsigned char palette, start_row, reserved[14]; unsigned short colsb[16]; unsigned char rows[16]; } supermat__tilecfg;
+SUPERMAT__AMX static void supermat__amx_block(const supermat__gemm_args *g, const uint32_t *ab, int kc2, int rows_n, int k0, int p0, int p1, int m0) {
+    supermat__tilecfg cfg;
+    float ct[2][16 * 16];
+    uint32_t at[2][16 * 16], bt[16 * 16];
+    int K2 = (g->K + 1) / 2, p, mb, t, i, j, kk;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.palette = 1;
+    for (t = 0; t < 5; t++) { cfg.rows[t] = 16; cfg.colsb[t] = 64; }
+    _tile_loadconfig(&cfg);
+    for (p = p0; p < p1; p++) {
+        const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
+        int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+        const float *bias = g->bias ? g->bias + n0 : NULL;
+        for (mb = 0; mb < rows_n; mb += 32) {
+            int nb = rows_n - mb > 16 ? 2 : 1; /* row blocks of 16 in this pass */
+            for (t = 0; t < nb; t++) {
+                int m = m0 + mb + 16 * t, mr = SUPERMAT__MIN(16, m0 + rows_n - m);
+                float *c = g->C + (size_t)m * g->ldc + n0;
+                const float *r = (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL;
+                for (i = 0; i < 16; i++)
+                    for (j = 0; j < 16; j++) {
+                        float v = 0.0f;
+                        if (i < mr && j < nr) {
+                            if (k0 > 0) v = c[(size_t)i * g->ldc + j];
+                            else {
+                                if (bias) v = bias[j];
+                                if (r) v += r[(size_t)i * g->ldr + j];
+                            }
+                        }
+                        ct[t][i * 16 + j] = v;
+                    }
+            }
+            _tile_loadd(0, ct[0], 64);
+            if (nb > 1) _tile_loadd(1, ct[1], 64);
+            for (kk = 0; kk < kc2; kk += 16) {
+                int nk = SUPERMAT__MIN(16, kc2 - kk);
+                const uint32_t *a0 = ab + (size_t)mb * kc2 + kk;
+                if (nk == 16) {
+                    _tile_loadd(4, bq + (size_t)kk * 32, 64);
+                    _tile_loadd(2, a0, (long)kc2 * 4);
+                    if (nb > 1) _tile_loadd(3, a0 + (size_t)16 * kc2, (long)kc2 * 4);
+                } else { /* the K tail: zero pairs past it in A and B */
+                    memset(bt, 0, sizeof bt);
+                    memcpy(bt, bq + (size_t)kk * 32, (size_t)nk * 64);
+                    for (t = 0; t < nb; t++) {
+                        memset(at[t], 0, sizeof at[t]);
+                        for (i = 0; i < 16; i++) memcpy(at[t] + i * 16, a0 + (size_t)(16 * t + i) * kc2, (size_t)nk * 4);
+                    }
+                    _tile_loadd(4, bt, 64);
+                    _tile_loadd(2, at[0], 64);
+                    if (nb > 1) _tile_loadd(3, at[1], 64);
+                }
+                _tile_dpbf16ps(0, 2, 4);
+                if (nb > 1) _tile_dpbf16ps(1, 3, 4);
+            }
+            _tile_stored(0, ct[0], 64);
+            if (nb > 1) _tile_stored(1, ct[1], 64);
+            for (t = 0; t < nb; t++) {
+                int m = m0 + mb + 16 * t, mr = SUPERMAT__MIN(16, m0 + rows_n - m);
+                float *c = g->C + (size_t)m * g->ldc + n0;
+                for (i = 0; i < mr; i++) memcpy(c + (size_t)i * g->ldc, ct[t] + i * 16, sizeof(float) * (size_t)nr);
+            }
+        }
+    }
+    _tile_release();
+}
+#endif
 
 static void supermat__gemm_task(void *user, int index, int thread) {
     const supermat__gemm_args *g = (const supermat__gemm_args *)user;
@@ -1583,6 +1695,9 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             int kc2 = (kc + 1) / 2, K2 = (g->K + 1) / 2, rows_n = m1 - m0, r;
             uint32_t *ab = (uint32_t *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
             for (r = 0; r < rows_n; r++) supermat__to_bf16_pairs(abase + (size_t)r * lda, kc, ab + (size_t)r * kc2);
+#if SUPERMAT__HAS_AMX
+            if (g->amx) { supermat__amx_block(g, ab, kc2, rows_n, k0, p0, p1, m0); continue; }
+#endif
             for (p = p0; p < p1; p++) {
                 const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
@@ -1759,6 +1874,7 @@ typedef struct supermat__ctx {
     int avx2;                   /* AVX2 kernels (also under AVX-512, whose ukr is the only AVX-512 part) */
     int avx512;
     int neon;                   /* the aarch64 GEMM micro-kernel (over the scalar rest) */
+    int amx;                    /* bf16-compute GEMMs on AMX tiles (over the AVX-512 rest) */
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
     size_t scratch_floats;
@@ -1841,6 +1957,7 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     g.ukr = X->ukr; g.mr = X->mr > 0 ? X->mr : SUPERMAT__MR; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
+    g.amx = X->amx;
     if (W->fmt && W->fmt != 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
 #if SUPERMAT__HAS_AVX512
     if (W->fmt == 4 && (!X->avx512 || X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
@@ -3405,6 +3522,10 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
     if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat_cpu_has_neon())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "NEON kernels requested but this is not an aarch64 build");
+    if (desc->kernel == SUPERMAT_KERNEL_AMX && desc->compute != SUPERMAT_COMPUTE_BF16)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the AMX kernel multiplies bf16: it needs bf16 compute (compute = SUPERMAT_COMPUTE_BF16)");
+    if (desc->kernel == SUPERMAT_KERNEL_AMX && !supermat_cpu_has_amx_bf16())
+        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AMX kernels requested but this CPU, OS (or build) lacks AMX-TILE + AMX-BF16");
     a = supermat__resolve_allocator(&desc->allocator);
     r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
     if (r) return r;
@@ -3572,6 +3693,8 @@ done:
     if (L.bf16c) m->info.weights = SUPERMAT_WEIGHTS_BF16;
     m->info.kernel = !L.avx2 ? (desc->kernel == SUPERMAT_KERNEL_NEON || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_neon())
                                     ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR)
+                   : L.bf16c && (desc->kernel == SUPERMAT_KERNEL_AMX || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_amx_bf16()))
+                         ? SUPERMAT_KERNEL_AMX
                    : desc->kernel == SUPERMAT_KERNEL_AVX512 || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512())
                          ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
     m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
@@ -4744,8 +4867,9 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
         }
     memset(&X, 0, sizeof X);
     X.err = err; X.base = S->arena; X.cap = S->arena_size;
-    X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 || S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
-    X.avx512 = S->m->info.kernel == SUPERMAT_KERNEL_AVX512;
+    X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 || S->m->info.kernel == SUPERMAT_KERNEL_AVX512 || S->m->info.kernel == SUPERMAT_KERNEL_AMX;
+    X.avx512 = S->m->info.kernel == SUPERMAT_KERNEL_AVX512 || S->m->info.kernel == SUPERMAT_KERNEL_AMX;
+    X.amx = S->m->info.kernel == SUPERMAT_KERNEL_AMX;
     X.neon = S->m->info.kernel == SUPERMAT_KERNEL_NEON;
     supermat__select_kernels(&X);
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;

@@ -214,7 +214,7 @@ int main(int argc, char **argv) {
     supermat_error err;
     int threads, i;
     const char *kern;
-    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2|avx512|neon[:WEIGHTS] THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
+    if (argc < 4) { fprintf(stderr, "usage: %s MODEL auto|scalar|avx2|avx512|neon|amx[:WEIGHTS] THREADS GOLDEN_DIR...\n", argv[0]); return 2; }
     kern = argv[2];
     threads = atoi(argv[3]);
     file = tu_load(argv[1], &size);
@@ -240,6 +240,11 @@ int main(int argc, char **argv) {
     if (!strncmp(kern, "avx512", 6)) {
         if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX512;
+    }
+    if (!strncmp(kern, "amx", 3)) { /* bf16 compute on AMX tiles */
+        if (!supermat_cpu_has_amx_bf16()) { printf("SKIP: no AMX-BF16 on this CPU (or OS, or build)\n"); free(file); return 77; }
+        md.kernel = SUPERMAT_KERNEL_AMX;
+        md.compute = SUPERMAT_COMPUTE_BF16;
     }
     if (!strncmp(kern, "neon", 4)) {
         if (!supermat_cpu_has_neon()) { printf("SKIP: not an aarch64 build: no NEON kernel\n"); free(file); return 77; }

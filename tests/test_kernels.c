@@ -506,21 +506,34 @@ static void test_same_bits(void) {
 #if SUPERMAT__HAS_AVX512
 static float bf16_round(float x) { uint16_t h = supermat__f32_to_bf16(x); return supermat__bf16_to_f32(h); }
 #endif
+/* bf16 compute: vdpbf16ps (variant 0) and, where the CPU and OS allow it, AMX tiles (variant 1), against
+   float64 sums of the bf16-rounded operands (and of the f32 ones, loosely), 1 and 3 threads the same bits */
 static void test_bf16_compute(void) {
 #if SUPERMAT__HAS_AVX512
-    kctx k[2];
-    int t, th;
-    double worst_r = 0, worst_x = 0;
+    kctx k[2][2];
+    int t, th, v, nv = supermat_cpu_has_amx_bf16() ? 2 : 1;
+    double worst_r[2] = {0, 0}, worst_x[2] = {0, 0};
     if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16: bf16 compute not tested\n"); return; }
-    kctx_init(&k[0], 2, 1);
-    kctx_init(&k[1], 2, 3);
-    for (t = 0; t < 30; t++) {
+    if (nv < 2) printf("SKIP: no AMX-BF16 (CPU, OS or build): the AMX kernel was not tested\n");
+    for (v = 0; v < nv; v++) {
+        kctx_init(&k[v][0], 2, 1);
+        kctx_init(&k[v][1], 2, 3);
+        k[v][0].X.amx = k[v][1].X.amx = v;
+    }
+    for (t = 0; t < 40; t++) {
         int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np = (N + 15) / 16, K2 = (K + 1) / 2;
         float *a = rvec((size_t)M * K, 1.0), *w = rvec((size_t)N * K, 1.0), *b = rvec((size_t)N, 1.0), *R = rvec((size_t)M * N, 1.0), *c[2];
         double *ref_r = (double *)malloc(sizeof(double) * (size_t)M * N), *ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
         supermat__pw pw;
         uint16_t *q = (uint16_t *)calloc((size_t)np * K2 * 32, sizeof(uint16_t));
         int use_b = t % 2, use_r = t % 3 == 0;
+        if (t == 0) { M = 96; N = 32; K = 512; } /* whole tiles and K blocks, no tails */
+        if (t == 1) { M = 140; N = 70; K = 700; }
+        np = (N + 15) / 16; K2 = (K + 1) / 2;
+        free(a); free(w); free(b); free(R); free(ref_r); free(ref_x); free(q);
+        a = rvec((size_t)M * K, 1.0); w = rvec((size_t)N * K, 1.0); b = rvec((size_t)N, 1.0); R = rvec((size_t)M * N, 1.0);
+        ref_r = (double *)malloc(sizeof(double) * (size_t)M * N); ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
+        q = (uint16_t *)calloc((size_t)np * K2 * 32, sizeof(uint16_t));
         pack_w(&pw, w, use_b ? b : NULL, N, K, 1);
         for (n = 0; n < np * 16; n++) /* [K/2][16][2] pairs */
             for (kk = 0; kk < K; kk++) q[(((size_t)(n / 16) * K2 + kk / 2) * 16 + n % 16) * 2 + (kk & 1)] = supermat__f32_to_bf16(pw.p[((size_t)(n / 16) * K + kk) * 16 + n % 16]);
@@ -535,23 +548,29 @@ static void test_bf16_compute(void) {
                 }
                 ref_r[(size_t)m * N + n] = sr; ref_x[(size_t)m * N + n] = sx;
             }
-        for (th = 0; th < 2; th++) {
-            double er, ex;
-            c[th] = (float *)malloc(sizeof(float) * (size_t)M * N);
-            k[th].X.status = SUPERMAT_SUCCESS;
-            supermat__linear(&k[th].X, a, (size_t)K, M, &pw, c[th], (size_t)N, use_r ? R : NULL, (size_t)N);
-            er = maxerr(c[th], ref_r, (size_t)M * N); ex = maxerr(c[th], ref_x, (size_t)M * N);
-            TU_CHECK(k[th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 1e-2, "bf16 compute t%d M%d N%d K%d: err %.3g vs bf16 operands, %.3g vs f32",
-                     th ? 3 : 1, M, N, K, er, ex);
-            if (er > worst_r) worst_r = er;
-            if (ex > worst_x) worst_x = ex;
+        for (v = 0; v < nv; v++) {
+            for (th = 0; th < 2; th++) {
+                double er, ex;
+                c[th] = (float *)malloc(sizeof(float) * (size_t)M * N);
+                k[v][th].X.status = SUPERMAT_SUCCESS;
+                supermat__linear(&k[v][th].X, a, (size_t)K, M, &pw, c[th], (size_t)N, use_r ? R : NULL, (size_t)N);
+                er = maxerr(c[th], ref_r, (size_t)M * N); ex = maxerr(c[th], ref_x, (size_t)M * N);
+                TU_CHECK(k[v][th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 1e-2, "bf16 compute %s t%d M%d N%d K%d: err %.3g vs bf16 operands, %.3g vs f32",
+                         v ? "amx" : "avx512", th ? 3 : 1, M, N, K, er, ex);
+                if (er > worst_r[v]) worst_r[v] = er;
+                if (ex > worst_x[v]) worst_x[v] = ex;
+            }
+            TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "bf16 compute %s M%d N%d K%d: 1 and 3 threads differ", v ? "amx" : "avx512", M, N, K);
+            free(c[0]); free(c[1]);
         }
-        TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "bf16 compute M%d N%d K%d: 1 and 3 threads differ", M, N, K);
-        free(a); free(w); free(b); free(R); free(c[0]); free(c[1]); free(ref_r); free(ref_x); free(q); free(pw.bias);
+        free(a); free(w); free(b); free(R); free(ref_r); free(ref_x); free(q); free(pw.bias);
     }
-    kctx_free(&k[0]);
-    kctx_free(&k[1]);
-    printf("bf16 compute: worst %.3g vs bf16-rounded operands, %.3g vs f32 operands (30 GEMMs)\n", worst_r, worst_x);
+    for (v = 0; v < nv; v++) {
+        kctx_free(&k[v][0]);
+        kctx_free(&k[v][1]);
+        printf("bf16 compute (%s): worst %.3g vs bf16-rounded operands, %.3g vs f32 operands (40 GEMMs)\n", v ? "AMX tiles" : "vdpbf16ps",
+               worst_r[v], worst_x[v]);
+    }
 #endif
 }
 

@@ -77,7 +77,7 @@ static const char cli_usage_pack[] =
     "  --conv C          direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\n"
     "                    Winograd weights are stored transformed, in f32: 16/9 or 4x their size)\n"
     "  --compute X       f32 | bf16: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to load)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon (the panels are the same for every kernel)\n";
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (the panels are the same for every kernel)\n";
 
 static const char cli_usage_image[] =
     "usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
@@ -110,7 +110,7 @@ static const char cli_usage_image[] =
     "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto: the best this CPU has)\n"
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
@@ -151,7 +151,7 @@ static const char cli_usage_views[] =
     "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
     "                    <stem>_metallic.pfm (Pf, gray)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto: the best this CPU has)\n"
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
@@ -183,7 +183,7 @@ static const char cli_usage_refine[] =
     "  --float           also write the map before 8-bit quantisation as <stem>_refined.pfm (PF, RGB,\n"
     "                    float32, little endian)\n"
     "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon (default auto: the best this CPU has)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto: the best this CPU has)\n"
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
@@ -202,7 +202,7 @@ static const char cli_usage_info[] =
     "\n"
     "options:\n"
     "  --threads N       thread count the session memory is planned for (default 0 = all cores)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon (default auto)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto)\n"
     "  --max-memory SIZE refuse a model that needs more than SIZE (512M, 4G) while it is created\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n";
@@ -230,7 +230,7 @@ static const char cli_usage_bench[] =
     "  --pipeline-only   skip (a) and (c): no FMA peak (no % of peak), no GEMM comparison\n"
     "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three; uv-refine\n"
     "                    makes its one refined map)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon: the pipeline's kernels (default auto)\n"
+    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --json FILE       also write the numbers as JSON\n";
@@ -392,7 +392,8 @@ static int cli_parse_kernel(const char *cmd, const char *s, supermat_kernel *out
     else if (!strcmp(s, "avx2")) *out = SUPERMAT_KERNEL_AVX2;
     else if (!strcmp(s, "avx512")) *out = SUPERMAT_KERNEL_AVX512;
     else if (!strcmp(s, "neon")) *out = SUPERMAT_KERNEL_NEON;
-    else { cli_usage_error(cmd, "--kernel: '%s' is not auto, scalar, avx2, avx512 or neon", s); return -1; }
+    else if (!strcmp(s, "amx")) *out = SUPERMAT_KERNEL_AMX;
+    else { cli_usage_error(cmd, "--kernel: '%s' is not auto, scalar, avx2, avx512, neon or amx", s); return -1; }
     return 0;
 }
 

@@ -114,6 +114,7 @@ static const char *cli_kernel_name(supermat_kernel k) {
     case SUPERMAT_KERNEL_AVX2: return "avx2";
     case SUPERMAT_KERNEL_AVX512: return "avx512";
     case SUPERMAT_KERNEL_NEON: return "neon";
+    case SUPERMAT_KERNEL_AMX: return "amx";
     default: return "auto";
     }
 }
