@@ -1603,11 +1603,49 @@ typedef struct supermat__gemm_args {
    Rows past rows_n read stale scratch (within its MC rows) into C rows that are never stored; a K tail
    short of 16 pairs goes through zero-padded copies. */
 typedef struct supermat__tilecfg { unsigned char palette, start_row, reserved[14]; unsigned short colsb[16]; unsigned char rows[16]; } supermat__tilecfg;
+/* the start of C tile T for rows m.. (mr of them): straight from memory where the tile is whole, else
+   through ct[T] (bias + R, or the running C, zero past mr x nr) */
+#define SUPERMAT__AMX_CSTART(T)                                                                                    \
+    do {                                                                                                           \
+        int m_ = m0 + mb + 16 * (T), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), i_, j_;                           \
+        float *c_ = g->C + (size_t)m_ * g->ldc + n0;                                                               \
+        const float *r_ = (g->R && k0 == 0) ? g->R + (size_t)m_ * g->ldr + n0 : NULL;                             \
+        int whole_ = mr_ == 16 && nr == 16;                                                                        \
+        if (k0 > 0 && whole_) _tile_loadd(T, c_, (long)(g->ldc * sizeof(float)));                                 \
+        else if (k0 == 0 && !r_ && bias) _tile_loadd(T, bias, 0); /* stride 0: the bias in every row */           \
+        else if (k0 == 0 && !r_) _tile_zero(T);                                                                    \
+        else if (k0 == 0 && !bias && whole_) _tile_loadd(T, r_, (long)(g->ldr * sizeof(float)));                  \
+        else {                                                                                                     \
+            for (i_ = 0; i_ < 16; i_++)                                                                            \
+                for (j_ = 0; j_ < 16; j_++) {                                                                      \
+                    float v_ = 0.0f;                                                                               \
+                    if (i_ < mr_ && j_ < nr) {                                                                     \
+                        if (k0 > 0) v_ = c_[(size_t)i_ * g->ldc + j_];                                             \
+                        else {                                                                                     \
+                            if (bias) v_ = bias[j_];                                                               \
+                            if (r_) v_ += r_[(size_t)i_ * g->ldr + j_];                                            \
+                        }                                                                                          \
+                    }                                                                                              \
+                    ct[T][i_ * 16 + j_] = v_;                                                                      \
+                }                                                                                                  \
+            _tile_loadd(T, ct[T], 64);                                                                             \
+        }                                                                                                          \
+    } while (0)
+#define SUPERMAT__AMX_CSTORE(T)                                                                                    \
+    do {                                                                                                           \
+        int m_ = m0 + mb + 16 * (T), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), i_;                               \
+        float *c_ = g->C + (size_t)m_ * g->ldc + n0;                                                               \
+        if (mr_ == 16 && nr == 16) _tile_stored(T, c_, (long)(g->ldc * sizeof(float)));                           \
+        else {                                                                                                     \
+            _tile_stored(T, ct[T], 64);                                                                            \
+            for (i_ = 0; i_ < mr_; i_++) memcpy(c_ + (size_t)i_ * g->ldc, ct[T] + i_ * 16, sizeof(float) * (size_t)nr); \
+        }                                                                                                          \
+    } while (0)
 SUPERMAT__AMX static void supermat__amx_block(const supermat__gemm_args *g, const uint32_t *ab, int kc2, int rows_n, int k0, int p0, int p1, int m0) {
     supermat__tilecfg cfg;
     float ct[2][16 * 16];
     uint32_t at[2][16 * 16], bt[16 * 16];
-    int K2 = (g->K + 1) / 2, p, mb, t, i, j, kk;
+    int K2 = (g->K + 1) / 2, p, mb, t, i, kk;
     memset(&cfg, 0, sizeof cfg);
     cfg.palette = 1;
     for (t = 0; t < 5; t++) { cfg.rows[t] = 16; cfg.colsb[t] = 64; }
@@ -1618,25 +1656,8 @@ SUPERMAT__AMX static void supermat__amx_block(const supermat__gemm_args *g, cons
         const float *bias = g->bias ? g->bias + n0 : NULL;
         for (mb = 0; mb < rows_n; mb += 32) {
             int nb = rows_n - mb > 16 ? 2 : 1; /* row blocks of 16 in this pass */
-            for (t = 0; t < nb; t++) {
-                int m = m0 + mb + 16 * t, mr = SUPERMAT__MIN(16, m0 + rows_n - m);
-                float *c = g->C + (size_t)m * g->ldc + n0;
-                const float *r = (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL;
-                for (i = 0; i < 16; i++)
-                    for (j = 0; j < 16; j++) {
-                        float v = 0.0f;
-                        if (i < mr && j < nr) {
-                            if (k0 > 0) v = c[(size_t)i * g->ldc + j];
-                            else {
-                                if (bias) v = bias[j];
-                                if (r) v += r[(size_t)i * g->ldr + j];
-                            }
-                        }
-                        ct[t][i * 16 + j] = v;
-                    }
-            }
-            _tile_loadd(0, ct[0], 64);
-            if (nb > 1) _tile_loadd(1, ct[1], 64);
+            SUPERMAT__AMX_CSTART(0);
+            if (nb > 1) SUPERMAT__AMX_CSTART(1);
             for (kk = 0; kk < kc2; kk += 16) {
                 int nk = SUPERMAT__MIN(16, kc2 - kk);
                 const uint32_t *a0 = ab + (size_t)mb * kc2 + kk;
@@ -1658,17 +1679,14 @@ SUPERMAT__AMX static void supermat__amx_block(const supermat__gemm_args *g, cons
                 _tile_dpbf16ps(0, 2, 4);
                 if (nb > 1) _tile_dpbf16ps(1, 3, 4);
             }
-            _tile_stored(0, ct[0], 64);
-            if (nb > 1) _tile_stored(1, ct[1], 64);
-            for (t = 0; t < nb; t++) {
-                int m = m0 + mb + 16 * t, mr = SUPERMAT__MIN(16, m0 + rows_n - m);
-                float *c = g->C + (size_t)m * g->ldc + n0;
-                for (i = 0; i < mr; i++) memcpy(c + (size_t)i * g->ldc, ct[t] + i * 16, sizeof(float) * (size_t)nr);
-            }
+            SUPERMAT__AMX_CSTORE(0);
+            if (nb > 1) SUPERMAT__AMX_CSTORE(1);
         }
     }
     _tile_release();
 }
+#undef SUPERMAT__AMX_CSTART
+#undef SUPERMAT__AMX_CSTORE
 #endif
 
 static void supermat__gemm_task(void *user, int index, int thread) {
