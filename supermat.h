@@ -1599,30 +1599,31 @@ typedef struct supermat__gemm_args {
 #if SUPERMAT__HAS_AMX
 /* bf16 compute on AMX: one K block (kc2 pairs) of rows [m0, m0 + rows_n) of A, already bf16 pairs in ab
    (row stride kc2), times panels [p0, p1) (bf16 pairs [K/2][16][2]: a 64-byte tile row per pair of K).
-   Tiles: 0-1 C (16 x 16 f32: two row blocks), 2-3 A (16 rows x 16 pairs), 4 B (16 pairs x 16 columns).
-   Rows past rows_n read stale scratch (within its MC rows) into C rows that are never stored; a K tail
-   short of 16 pairs goes through zero-padded copies. */
+   Tiles: 0-3 C (16 x 16 f32: 2 row blocks x 2 panels), 4-5 A (16 rows x 16 pairs), 6-7 B (16 pairs x 16
+   columns): 4 tile loads per 4 tdpbf16ps. Rows past rows_n read stale scratch (within its MC rows) into C
+   rows that are never stored; a K tail short of 16 pairs goes through zero-padded copies. */
 typedef struct supermat__tilecfg { unsigned char palette, start_row, reserved[14]; unsigned short colsb[16]; unsigned char rows[16]; } supermat__tilecfg;
-/* the start of C tile T for rows m.. (mr of them): straight from memory where the tile is whole, else
-   through ct[T] (bias + R, or the running C, zero past mr x nr) */
-#define SUPERMAT__AMX_CSTART(T)                                                                                    \
+/* the start of C tile T (row block RB, panel PB of the pass): straight from memory where the tile is whole,
+   else through ct[T] (bias + R, or the running C, zero past the edges) */
+#define SUPERMAT__AMX_CSTART(T, RB, PB)                                                                            \
     do {                                                                                                           \
-        int m_ = m0 + mb + 16 * (T), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), i_, j_;                           \
-        float *c_ = g->C + (size_t)m_ * g->ldc + n0;                                                               \
-        const float *r_ = (g->R && k0 == 0) ? g->R + (size_t)m_ * g->ldr + n0 : NULL;                             \
-        int whole_ = mr_ == 16 && nr == 16;                                                                        \
+        int m_ = m0 + mb + 16 * (RB), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), n0_ = (p + (PB)) * SUPERMAT__NR;  \
+        int nr_ = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0_), i_, j_, whole_ = mr_ == 16 && nr_ == 16;               \
+        float *c_ = g->C + (size_t)m_ * g->ldc + n0_;                                                              \
+        const float *r_ = (g->R && k0 == 0) ? g->R + (size_t)m_ * g->ldr + n0_ : NULL;                            \
+        const float *b_ = g->bias ? g->bias + n0_ : NULL;                                                          \
         if (k0 > 0 && whole_) _tile_loadd(T, c_, (long)(g->ldc * sizeof(float)));                                 \
-        else if (k0 == 0 && !r_ && bias) _tile_loadd(T, bias, 0); /* stride 0: the bias in every row */           \
+        else if (k0 == 0 && !r_ && b_) _tile_loadd(T, b_, 0); /* stride 0: the bias in every row */               \
         else if (k0 == 0 && !r_) _tile_zero(T);                                                                    \
-        else if (k0 == 0 && !bias && whole_) _tile_loadd(T, r_, (long)(g->ldr * sizeof(float)));                  \
+        else if (k0 == 0 && !b_ && whole_) _tile_loadd(T, r_, (long)(g->ldr * sizeof(float)));                    \
         else {                                                                                                     \
             for (i_ = 0; i_ < 16; i_++)                                                                            \
                 for (j_ = 0; j_ < 16; j_++) {                                                                      \
                     float v_ = 0.0f;                                                                               \
-                    if (i_ < mr_ && j_ < nr) {                                                                     \
+                    if (i_ < mr_ && j_ < nr_) {                                                                    \
                         if (k0 > 0) v_ = c_[(size_t)i_ * g->ldc + j_];                                             \
                         else {                                                                                     \
-                            if (bias) v_ = bias[j_];                                                               \
+                            if (b_) v_ = b_[j_];                                                                   \
                             if (r_) v_ += r_[(size_t)i_ * g->ldr + j_];                                            \
                         }                                                                                          \
                     }                                                                                              \
@@ -1631,56 +1632,65 @@ typedef struct supermat__tilecfg { unsigned char palette, start_row, reserved[14
             _tile_loadd(T, ct[T], 64);                                                                             \
         }                                                                                                          \
     } while (0)
-#define SUPERMAT__AMX_CSTORE(T)                                                                                    \
+#define SUPERMAT__AMX_CSTORE(T, RB, PB)                                                                            \
     do {                                                                                                           \
-        int m_ = m0 + mb + 16 * (T), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), i_;                               \
-        float *c_ = g->C + (size_t)m_ * g->ldc + n0;                                                               \
-        if (mr_ == 16 && nr == 16) _tile_stored(T, c_, (long)(g->ldc * sizeof(float)));                           \
+        int m_ = m0 + mb + 16 * (RB), mr_ = SUPERMAT__MIN(16, m0 + rows_n - m_), n0_ = (p + (PB)) * SUPERMAT__NR;  \
+        int nr_ = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0_), i_;                                                     \
+        float *c_ = g->C + (size_t)m_ * g->ldc + n0_;                                                              \
+        if (mr_ == 16 && nr_ == 16) _tile_stored(T, c_, (long)(g->ldc * sizeof(float)));                          \
         else {                                                                                                     \
             _tile_stored(T, ct[T], 64);                                                                            \
-            for (i_ = 0; i_ < mr_; i_++) memcpy(c_ + (size_t)i_ * g->ldc, ct[T] + i_ * 16, sizeof(float) * (size_t)nr); \
+            for (i_ = 0; i_ < mr_; i_++) memcpy(c_ + (size_t)i_ * g->ldc, ct[T] + i_ * 16, sizeof(float) * (size_t)nr_); \
         }                                                                                                          \
     } while (0)
 SUPERMAT__AMX static void supermat__amx_block(const supermat__gemm_args *g, const uint32_t *ab, int kc2, int rows_n, int k0, int p0, int p1, int m0) {
     supermat__tilecfg cfg;
-    float ct[2][16 * 16];
-    uint32_t at[2][16 * 16], bt[16 * 16];
+    float ct[4][16 * 16];
+    uint32_t at[2][16 * 16], bt[2][16 * 16];
     int K2 = (g->K + 1) / 2, p, mb, t, i, kk;
     memset(&cfg, 0, sizeof cfg);
     cfg.palette = 1;
-    for (t = 0; t < 5; t++) { cfg.rows[t] = 16; cfg.colsb[t] = 64; }
+    for (t = 0; t < 8; t++) { cfg.rows[t] = 16; cfg.colsb[t] = 64; }
     _tile_loadconfig(&cfg);
-    for (p = p0; p < p1; p++) {
-        const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
-        int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
-        const float *bias = g->bias ? g->bias + n0 : NULL;
+    for (p = p0; p < p1; p += 2) {
+        int two = p + 1 < p1; /* panels in this pass */
+        const uint16_t *bq0 = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32, *bq1 = bq0 + (size_t)K2 * 32;
         for (mb = 0; mb < rows_n; mb += 32) {
             int nb = rows_n - mb > 16 ? 2 : 1; /* row blocks of 16 in this pass */
-            SUPERMAT__AMX_CSTART(0);
-            if (nb > 1) SUPERMAT__AMX_CSTART(1);
+            SUPERMAT__AMX_CSTART(0, 0, 0);
+            if (two) SUPERMAT__AMX_CSTART(1, 0, 1);
+            if (nb > 1) SUPERMAT__AMX_CSTART(2, 1, 0);
+            if (nb > 1 && two) SUPERMAT__AMX_CSTART(3, 1, 1);
             for (kk = 0; kk < kc2; kk += 16) {
                 int nk = SUPERMAT__MIN(16, kc2 - kk);
                 const uint32_t *a0 = ab + (size_t)mb * kc2 + kk;
                 if (nk == 16) {
-                    _tile_loadd(4, bq + (size_t)kk * 32, 64);
-                    _tile_loadd(2, a0, (long)kc2 * 4);
-                    if (nb > 1) _tile_loadd(3, a0 + (size_t)16 * kc2, (long)kc2 * 4);
+                    _tile_loadd(6, bq0 + (size_t)kk * 32, 64);
+                    if (two) _tile_loadd(7, bq1 + (size_t)kk * 32, 64);
+                    _tile_loadd(4, a0, (long)kc2 * 4);
+                    if (nb > 1) _tile_loadd(5, a0 + (size_t)16 * kc2, (long)kc2 * 4);
                 } else { /* the K tail: zero pairs past it in A and B */
                     memset(bt, 0, sizeof bt);
-                    memcpy(bt, bq + (size_t)kk * 32, (size_t)nk * 64);
+                    memcpy(bt[0], bq0 + (size_t)kk * 32, (size_t)nk * 64);
+                    if (two) memcpy(bt[1], bq1 + (size_t)kk * 32, (size_t)nk * 64);
                     for (t = 0; t < nb; t++) {
                         memset(at[t], 0, sizeof at[t]);
                         for (i = 0; i < 16; i++) memcpy(at[t] + i * 16, a0 + (size_t)(16 * t + i) * kc2, (size_t)nk * 4);
                     }
-                    _tile_loadd(4, bt, 64);
-                    _tile_loadd(2, at[0], 64);
-                    if (nb > 1) _tile_loadd(3, at[1], 64);
+                    _tile_loadd(6, bt[0], 64);
+                    if (two) _tile_loadd(7, bt[1], 64);
+                    _tile_loadd(4, at[0], 64);
+                    if (nb > 1) _tile_loadd(5, at[1], 64);
                 }
-                _tile_dpbf16ps(0, 2, 4);
-                if (nb > 1) _tile_dpbf16ps(1, 3, 4);
+                _tile_dpbf16ps(0, 4, 6);
+                if (two) _tile_dpbf16ps(1, 4, 7);
+                if (nb > 1) _tile_dpbf16ps(2, 5, 6);
+                if (nb > 1 && two) _tile_dpbf16ps(3, 5, 7);
             }
-            SUPERMAT__AMX_CSTORE(0);
-            if (nb > 1) SUPERMAT__AMX_CSTORE(1);
+            SUPERMAT__AMX_CSTORE(0, 0, 0);
+            if (two) SUPERMAT__AMX_CSTORE(1, 0, 1);
+            if (nb > 1) SUPERMAT__AMX_CSTORE(2, 1, 0);
+            if (nb > 1 && two) SUPERMAT__AMX_CSTORE(3, 1, 1);
         }
     }
     _tile_release();
