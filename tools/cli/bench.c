@@ -261,7 +261,7 @@ enum {
     CLI_MODE_F32, CLI_MODE_F16, CLI_MODE_BF16, CLI_MODE_INT8, CLI_MODE_WINOGRAD_F2, CLI_MODE_WINOGRAD_F4,
     CLI_MODE_TILED_VAE, CLI_MODE_FOREGROUND, CLI_MODE_BRANCH_ALBEDO, CLI_MODE_BRANCH_RM, CLI_MODE_RES256,
     CLI_MODE_RES384, CLI_MODE_RES512, CLI_MODE_RES768, CLI_MODE_MV_WINDOW_OWN, CLI_MODE_MV_WINDOW_STRIDE4,
-    CLI_MODE_BF16_COMPUTE, CLI_MODE_KERNEL_AVX2,
+    CLI_MODE_BF16_COMPUTE, CLI_MODE_KERNEL_AVX2, CLI_MODE_BF16_AMX, CLI_MODE_BF16_AMX_WF4,
     CLI_MODE_COUNT
 };
 /* the model kinds a mode applies to */
@@ -278,6 +278,7 @@ static const struct { const char *name; unsigned kinds; } cli_modes[CLI_MODE_COU
     {"res512", CLI_KUV},                         {"res768", CLI_KUV},
     {"mv_window_own", CLI_KMV},                  {"mv_window_stride4", CLI_KMV},
     {"bf16_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"kernel_avx2", CLI_KS | CLI_KMV | CLI_KUV},
+    {"bf16_amx", CLI_KS | CLI_KMV | CLI_KUV},     {"bf16_amx_wf4", CLI_KS | CLI_KMV | CLI_KUV},
 };
 /* set by cli_mode_setup: the mode's compute and kernel (-1: the run's own kernel) */
 static supermat_compute cli_mode_compute;
@@ -330,9 +331,18 @@ static int cli_mode_setup(int mode, int w, int h, supermat_weights *weights, sup
     cli_mode_compute = SUPERMAT_COMPUTE_F32;
     cli_mode_kernel = -1;
     switch (mode) {
-    case CLI_MODE_BF16_COMPUTE:
+    case CLI_MODE_BF16_COMPUTE: /* vdpbf16ps on the AVX-512 kernel */
         if (!supermat_cpu_has_avx512_bf16()) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_BF16"); return 1; }
         cli_mode_compute = SUPERMAT_COMPUTE_BF16;
+        cli_mode_kernel = SUPERMAT_KERNEL_AVX512;
+        break;
+    case CLI_MODE_BF16_AMX_WF4: /* AMX for the GEMMs of bf16 weights, Winograd F4 (f32) for the 3x3 convolutions */
+        *conv = SUPERMAT_CONV_WINOGRAD_F4;
+        /* fall through */
+    case CLI_MODE_BF16_AMX:
+        if (!supermat_cpu_has_amx_bf16()) { snprintf(why, why_cap, "this CPU (OS or build) has no AMX-BF16"); return 1; }
+        cli_mode_compute = SUPERMAT_COMPUTE_BF16;
+        cli_mode_kernel = SUPERMAT_KERNEL_AMX;
         break;
     case CLI_MODE_KERNEL_AVX2: /* beside the f32 row's AVX-512 kernel: the same bits, the time of the narrower one */
         if (!supermat_cpu_has_avx512()) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
