@@ -114,7 +114,10 @@
  *   differ by rounding only (FMA); each is deterministic. The AVX-512 kernel (picked by SUPERMAT_KERNEL_AUTO
  *   where the CPU has AVX-512F) gives the AVX2 kernel's bits: every output element sums the same products
  *   in the same order with FMA, 16 columns per register instead of 8. On aarch64 the NEON kernel (AUTO
- *   there) runs the GEMMs with fmla (fused, like AVX2) and the rest in scalar C. Denormals are not flushed.
+ *   there) runs the GEMMs with fmla (fused, like AVX2) and the rest in scalar C. bf16 compute rounds each
+ *   GEMM's inputs to bf16 and sums in f32: with vdpbf16ps (`kernel` AVX512) or on AMX tiles (AUTO where
+ *   the CPU and Linux grant them), which sum in another order; both stay within 1e-5 (relative) of the
+ *   float64 sums of the rounded operands. Denormals are not flushed.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,

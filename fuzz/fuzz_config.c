@@ -1,7 +1,7 @@
 /* libFuzzer harness: the converter's diffusers config and tokenizer readers (`supermat convert --base`):
    the input's first byte picks one of the base folder's JSON files (unet/config.json, vae/config.json,
    scheduler/scheduler_config.json, text_encoder/config.json, tokenizer/vocab.json,
-X
+   tokenizer/special_tokens_map.json, tokenizer/tokenizer_config.json) and the rest of the
    input replaces it in a copy of the committed tiny base folder (in /dev/shm), and sm_convert converts the
    tiny checkpoint with it (a valid config gives a whole conversion, so this harness runs at a few
    executions per second: most of its value is in the invalid configs it reaches). SUPERMAT_FUZZ_TINY (compiled in by
