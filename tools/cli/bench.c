@@ -898,7 +898,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
                hook.max_threads == 1 ? "" : "s", o->repeats, o->repeats == 1 ? "" : "s");
         {
             long fma_iters = 0;
-            cli_fma_zmm = mi.kernel == SUPERMAT_KERNEL_AVX512;
+            cli_fma_zmm = mi.kernel == SUPERMAT_KERNEL_AVX512 || mi.kernel == SUPERMAT_KERNEL_AMX; /* AMX: % of the AVX-512 FMA peak */
             cli_bi_peak = mi.kernel == SUPERMAT_KERNEL_AVX2 || mi.kernel == SUPERMAT_KERNEL_AVX512 ? cli_fma_peak(&hook, 3, &fma_iters) : 0.0;
             if (cli_bi_peak > 0) printf("FMA peak %.1f GFLOP/s on %d thread%s (measured now; %%peak = GFLOP/s / this)\n", cli_bi_peak, hook.max_threads, hook.max_threads == 1 ? "" : "s");
         }
@@ -1141,7 +1141,7 @@ static int cli_bench(int argc, char **argv) {
 
     /* (a) here and again at the end (the best counts: a busy neighbour only lowers it); with 512-bit FMAs
        when the pipeline runs the AVX-512 kernel */
-    cli_fma_zmm = kernel == SUPERMAT_KERNEL_AVX512 || (kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512());
+    cli_fma_zmm = kernel == SUPERMAT_KERNEL_AVX512 || kernel == SUPERMAT_KERNEL_AMX || (kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512());
     if (!pipeline_only) {
         peak1 = cli_fma_peak(NULL, 3, &fma_iters);
         peak = cli_fma_peak(&hook, 3, &fma_iters);
