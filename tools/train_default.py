@@ -358,7 +358,7 @@ def phase_vae(args, data, name="vae", steps=None, crop=0):
     while ph.step < ph.total:
         for g in opt.param_groups:
             g["lr"] = lr_at(ph.step, ph.total, args.vae_lr)
-        idx = ph.rng.choice(data.train, args.vae_batch, replace=False)
+        idx = ph.rng.choice(vae_train(args, data), args.vae_batch, replace=False)
         b = data.batch(idx, ph.rng)
         if crop:
             y0, x0 = (int(v) * 8 for v in ph.rng.integers(0, (b["inp"].shape[-1] - crop) // 8 + 1, 2))
@@ -385,12 +385,18 @@ def phase_vae_crops(args, data):
     phase_vae(args, data, "vae_crops", args.vae_crop_steps, 64)
 
 
+def vae_train(args, data):
+    """The renders the VAE trains on: the first --vae-samples of the training split (all with 0)."""
+    return data.train[:args.vae_samples] if args.vae_samples > 0 else data.train
+
+
 def write_scaling(args, data, vae):
     vae.eval()
     zs = []
+    tr = vae_train(args, data)
     with torch.no_grad():
-        for i in range(0, min(len(data.train), 512), 32):
-            b = data.batch(data.train[i:i + 32])
+        for i in range(0, min(len(tr), 512), 32):
+            b = data.batch(tr[i:i + 32])
             for k in ("inp", "alb", "orm"):
                 zs.append(vae.encode(b[k] * 2 - 1).latent_dist.mode())
     sf = float(1.0 / torch.cat(zs).std())
@@ -629,9 +635,12 @@ def main():
     ap.add_argument("--vae-batch", type=int, default=8)
     ap.add_argument("--vae-lr", type=float, default=4e-4)
     ap.add_argument("--vae-kl", type=float, default=1e-4)
-    ap.add_argument("--latent-steps", type=int, default=600)
+    ap.add_argument("--vae-samples", type=int, default=3936,
+                    help="the VAE trains on the first N training renders (0 = all); 3936: the default model's VAE "
+                         "was trained on the first 4000-render data set (its 64 last ones held out)")
+    ap.add_argument("--latent-steps", type=int, default=2400)
     ap.add_argument("--latent-batch", type=int, default=16)
-    ap.add_argument("--latent-flips", type=int, default=1, help="also encode mirrored pictures (1; 0 halves the encoding time on large data)")
+    ap.add_argument("--latent-flips", type=int, default=0, help="also encode mirrored pictures (1 doubles the encoding time and the cache)")
     ap.add_argument("--unet-lr", type=float, default=4e-4)
     ap.add_argument("--e2e-steps", type=int, default=100)
     ap.add_argument("--e2e-batch", type=int, default=8)

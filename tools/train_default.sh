@@ -10,7 +10,7 @@
 #   WORK          where data, checkpoints and logs go (outside the repository); run the same command again
 #                 to resume: finished data shards and training phases are kept, the others restart from
 #                 their last checkpoint
-#   COUNT         training samples (default 4000), SEED (default 0), THREADS (default: all cores)
+#   COUNT         training samples (default 20000), SEED (default 0), THREADS (default: all cores)
 #   TRAIN_ARGS    extra arguments for tools/train_default.py (step counts, batch sizes, learning rates)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -18,7 +18,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 : "${HARNESS_DEPS:?set HARNESS_DEPS to the reference harness dependency folder}"
 : "${WORK:?set WORK to a scratch folder outside the repository}"
 export HARNESS_DEPS
-COUNT="${COUNT:-4000}"
+COUNT="${COUNT:-20000}"
 SEED="${SEED:-0}"
 THREADS="${THREADS:-$(nproc 2>/dev/null || echo 2)}"
 PY=/usr/bin/python3
