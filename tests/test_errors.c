@@ -428,6 +428,8 @@ static void test_compute(void) {
         {SUPERMAT_KERNEL_AVX2, 0, SUPERMAT_COMPUTE_BF16, SUPERMAT_ERROR_INVALID_ARGUMENT, "bf16 compute on the AVX2 kernel"},
         {SUPERMAT_KERNEL_AUTO, SUPERMAT_WEIGHTS_I8, SUPERMAT_COMPUTE_BF16, SUPERMAT_ERROR_INVALID_ARGUMENT, "bf16 compute with int8 weights"},
         {SUPERMAT_KERNEL_AUTO, 0, SUPERMAT_COMPUTE_COUNT, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown compute mode"},
+        {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "the AMX kernel with f32 compute"},
+        {SUPERMAT_KERNEL_COUNT, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown kernel"},
     };
     int i, has = supermat_cpu_has_avx512_bf16();
     for (i = 0; i < (int)(sizeof cases / sizeof cases[0]); i++) {
@@ -455,11 +457,31 @@ static void test_compute(void) {
         if (!has) TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED, "bf16 compute without AVX512_BF16: got %s", supermat_result_string(r));
         else {
             TU_CHECK(r == SUPERMAT_SUCCESS, "bf16 compute: %s", err.message);
-            if (m) {
+            if (m) { /* AUTO: AMX tiles where the CPU and OS allow them, else vdpbf16ps on the AVX-512 kernel */
+                supermat_kernel want_k = supermat_cpu_has_amx_bf16() ? SUPERMAT_KERNEL_AMX : SUPERMAT_KERNEL_AVX512;
                 supermat_model_get_info(m, &info);
-                TU_CHECK(info.compute == SUPERMAT_COMPUTE_BF16 && info.kernel == SUPERMAT_KERNEL_AVX512 && info.weights == SUPERMAT_WEIGHTS_BF16,
-                         "bf16 compute model info: compute %d kernel %d weights %d", (int)info.compute, (int)info.kernel, (int)info.weights);
+                TU_CHECK(info.compute == SUPERMAT_COMPUTE_BF16 && info.kernel == want_k && info.weights == SUPERMAT_WEIGHTS_BF16,
+                         "bf16 compute model info: compute %d kernel %d (want %d) weights %d", (int)info.compute, (int)info.kernel, (int)want_k, (int)info.weights);
             }
+            supermat_model_destroy(m);
+            m = NULL;
+            md.kernel = SUPERMAT_KERNEL_AVX512; /* vdpbf16ps asked for by name */
+            r = supermat_model_create(&md, &m, &err);
+            if (m) supermat_model_get_info(m, &info);
+            TU_CHECK(r == SUPERMAT_SUCCESS && m && info.kernel == SUPERMAT_KERNEL_AVX512, "bf16 compute on the AVX-512 kernel: %s", err.message);
+            supermat_model_destroy(m);
+            m = NULL;
+            md.kernel = SUPERMAT_KERNEL_AMX; /* AMX by name: a model, or UNSUPPORTED without it */
+            r = supermat_model_create(&md, &m, &err);
+            if (supermat_cpu_has_amx_bf16()) TU_CHECK(r == SUPERMAT_SUCCESS && m, "bf16 compute on AMX: %s", err.message);
+            else TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "AMX without AMX: got %s", supermat_result_string(r));
+        }
+        if (!supermat_cpu_has_neon()) { /* the NEON kernel by name on a build without it */
+            supermat_model_destroy(m);
+            m = NULL;
+            md.compute = SUPERMAT_COMPUTE_F32; md.kernel = SUPERMAT_KERNEL_NEON;
+            r = supermat_model_create(&md, &m, &err);
+            TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "NEON on a non-aarch64 build: got %s", supermat_result_string(r));
         }
         supermat_model_destroy(m);
         printf("  compute modes: refusals checked%s\n", has ? ", bf16 compute model created" : " (no AVX512_BF16: UNSUPPORTED)");
