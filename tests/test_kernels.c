@@ -521,16 +521,15 @@ static void test_bf16_compute(void) {
         k[v][0].X.amx = k[v][1].X.amx = v;
     }
     for (t = 0; t < 40; t++) {
-        int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np = (N + 15) / 16, K2 = (K + 1) / 2;
-        float *a = rvec((size_t)M * K, 1.0), *w = rvec((size_t)N * K, 1.0), *b = rvec((size_t)N, 1.0), *R = rvec((size_t)M * N, 1.0), *c[2];
-        double *ref_r = (double *)malloc(sizeof(double) * (size_t)M * N), *ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
+        int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np, K2;
+        float *a, *w, *b, *R, *c[2];
+        double *ref_r, *ref_x;
         supermat__pw pw;
-        uint16_t *q = (uint16_t *)calloc((size_t)np * K2 * 32, sizeof(uint16_t));
+        uint16_t *q;
         int use_b = t % 2, use_r = t % 3 == 0;
         if (t == 0) { M = 96; N = 32; K = 512; } /* whole tiles and K blocks, no tails */
         if (t == 1) { M = 140; N = 70; K = 700; }
         np = (N + 15) / 16; K2 = (K + 1) / 2;
-        free(a); free(w); free(b); free(R); free(ref_r); free(ref_x); free(q);
         a = rvec((size_t)M * K, 1.0); w = rvec((size_t)N * K, 1.0); b = rvec((size_t)N, 1.0); R = rvec((size_t)M * N, 1.0);
         ref_r = (double *)malloc(sizeof(double) * (size_t)M * N); ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
         q = (uint16_t *)calloc((size_t)np * K2 * 32, sizeof(uint16_t));
