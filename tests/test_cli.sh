@@ -645,6 +645,25 @@ check "views: 36 files (18 PNG, 18 PFM)" [ "$(find "$OV" -type f | wc -l)" -eq 3
 golden "views albedo vs golden mv6_64/albedo.npy" "$DATA/golden/mv6_64/albedo.npy" "$OV"/color_000{0,1,2,3,4,5}_albedo.pfm
 golden "views roughness vs golden mv6_64/orm.npy G" --channel 1 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_roughness.pfm
 golden "views metallic vs golden mv6_64/orm.npy B" --channel 2 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_metallic.pfm
+# --conv: the Winograd lever from the command line, against the same official goldens
+OVW=$T/views6_wf4
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OVW" --float --conv winograd-f4 "${VIEWS[@]}"
+check "views --conv winograd-f4 exits 0" [ $RC -eq 0 ]
+golden "views --conv winograd-f4 albedo vs golden mv6_64/albedo.npy" "$DATA/golden/mv6_64/albedo.npy" "$OVW"/color_000{0,1,2,3,4,5}_albedo.pfm
+golden "views --conv winograd-f4 metallic vs golden mv6_64/orm.npy B" --channel 2 "$DATA/golden/mv6_64/orm.npy" "$OVW"/color_000{0,1,2,3,4,5}_metallic.pfm
+run info --conv f4 "$MV"
+check "info --conv f4 reports Winograd F4" grep -Eq '^convolutions +winograd-f4' "$T/out"
+run info "$MV"
+check "info: direct convolutions by default" grep -Eq '^convolutions +direct' "$T/out"
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_badconv" --conv winograd-f9 "${VIEWS[@]}"
+check "--conv winograd-f9 exits 2" [ $RC -eq 2 ]
+check "--conv winograd-f9: the message" grep -q "is not direct, winograd-f2 or winograd-f4" "$T/err"
+absent "$T/views_badconv"
+run bench --model "$MV" --size 64 --views 2 --pipeline-only --conv winograd-f2
+check "bench --conv winograd-f2 exits 0" [ $RC -eq 0 ]
+check "bench --conv winograd-f2: the header says so" grep -q "winograd-f2 convolutions" "$T/out"
+run bench --model "$MV" --image "${VIEWS[0]}" --conv winograd-f2
+check "bench --image --conv: exit 2 (the modes choose)" [ $RC -eq 2 ]
 
 OV3=$T/views3
 run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OV3" --outputs albedo,metallic --threads 1 \

@@ -707,7 +707,7 @@ static int cli_batch(int argc, char **argv) {
                 }
             if (hit) continue;
             if (!strcmp(a, "--model") || !strcmp(a, "--outputs") || !strcmp(a, "--float") || !strcmp(a, "--native") ||
-                !strcmp(a, "--work-size") || !strcmp(a, "--kernel") || !strcmp(a, "--weights") || !strcmp(a, "--compute")) {
+                !strcmp(a, "--work-size") || !strcmp(a, "--kernel") || !strcmp(a, "--weights") || !strcmp(a, "--compute") || !strcmp(a, "--conv")) {
                 free(inputs); free(fwd);
                 return cli_usage_error(cmd, "'%s' is an option of `batch image`, not of `batch mesh`", a);
             }

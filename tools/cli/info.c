@@ -83,7 +83,7 @@ static int cli_info(int argc, char **argv) {
 
     /* the loaded model */
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
     md.max_memory = cli_max_memory;
     cli_packed_options(&md);
     create_s = cli_now();
@@ -107,6 +107,8 @@ static int cli_info(int argc, char **argv) {
         static const char *wn[] = {"default", "f32", "f16", "bf16", "int8"};
         printf("weights       %s (GEMM weight storage; %.1f MiB held by the model)\n", (unsigned)mi.weights < 5 ? wn[mi.weights] : "?", (double)mi.model_bytes / 1048576.0);
     }
+    printf("convolutions  %s (3x3; --conv)\n", cli_conv_name(mi.conv));
+    printf("compute       %s (what the GEMMs multiply; --compute)\n", mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32");
     printf("unet          in %d, out %d channels; %d levels: channels ", mi.unet_in_channels, mi.unet_out_channels, mi.unet_levels);
     cli_print_list(mi.block_channels, mi.unet_levels);
     printf(", heads ");

@@ -340,7 +340,8 @@ static int cli_write_png(const char *path, const float *px, int w, int h, int ch
    unless the command line asked for another compute (then the library says why it cannot). */
 static void cli_packed_options(supermat_model_desc *md) {
     char v[16];
-    if (supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 && atoi(v) < SUPERMAT_CONV_COUNT)
+    if (!cli_conv_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 &&
+        atoi(v) < SUPERMAT_CONV_COUNT)
         md->conv = (supermat_conv)atoi(v);
     if (!cli_compute_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.compute", v, sizeof v) == 0 && atoi(v) >= 0 &&
         atoi(v) < SUPERMAT_COMPUTE_COUNT)
@@ -358,7 +359,7 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     *model = NULL;
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
-    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.compute = cli_compute;
+    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
     md.max_memory = cli_max_memory;
     cli_packed_options(&md);
     t0 = cli_now();

@@ -144,7 +144,7 @@ static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt
 }
 
 /* The options of the commands that run a model (image, views, refine; info takes the last three):
-   --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights.
+   --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights, --compute, --conv, --max-memory.
    1 when argv[*i] was one of them, -1 on a usage error (said), 0 when it is none of them. */
 static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want_float, int *work_opt, int *threads,
                        supermat_kernel *kernel) {
@@ -157,6 +157,7 @@ static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want
     if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--conv", &v)) != 0) return m < 0 || cli_parse_conv(cmd, v) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &cli_max_memory) ? -1 : 1;
     return 0;
 }

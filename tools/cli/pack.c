@@ -11,7 +11,6 @@ static int cli_pack_write(void *user, const void *data, size_t size) {
 static int cli_pack(int argc, char **argv) {
     const char *cmd = "pack", *v, *model = NULL, *outp = NULL;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
-    supermat_conv conv = SUPERMAT_CONV_DIRECT;
     supermat_model_desc md;
     supermat_error err;
     supermat_result r;
@@ -30,13 +29,8 @@ static int cli_pack(int argc, char **argv) {
         else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) { if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE; }
         else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) { if (m < 0 || cli_parse_compute(cmd, v)) return CLI_USAGE; }
         else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) { if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            if (!strcmp(v, "direct")) conv = SUPERMAT_CONV_DIRECT;
-            else if (!strcmp(v, "winograd-f2") || !strcmp(v, "f2")) conv = SUPERMAT_CONV_WINOGRAD_F2;
-            else if (!strcmp(v, "winograd-f4") || !strcmp(v, "f4")) conv = SUPERMAT_CONV_WINOGRAD_F4;
-            else return cli_usage_error(cmd, "--conv: '%s' is not direct, winograd-f2 or winograd-f4", v);
-        } else if (a[0] == '-') return cli_usage_error(cmd, "unknown option '%s'", a);
+        else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) { if (m < 0 || cli_parse_conv(cmd, v)) return CLI_USAGE; }
+        else if (a[0] == '-') return cli_usage_error(cmd, "unknown option '%s'", a);
         else return cli_usage_error(cmd, "unexpected argument '%s'", a);
     }
     if (!outp) return cli_usage_error(cmd, "--out FILE is required");
@@ -46,7 +40,7 @@ static int cli_pack(int argc, char **argv) {
     if (o.skip) return cli_out_close(&o, 1);
     if (cli_read_file(mref.path, &file, &size)) { cli_out_close(&o, 0); return CLI_FAIL; }
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = conv; md.compute = cli_compute;
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
     t0 = cli_now();
     r = supermat_model_write_packed(&md, cli_pack_write, &o, &bytes, &err);
     if (r != SUPERMAT_SUCCESS) {
