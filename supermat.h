@@ -1509,6 +1509,38 @@ SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a,
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
 
+/* 12 x 32: two neighbouring panels at once, two ZMM accumulators per row (24 of the 32 registers). Each
+   broadcast A element feeds two FMAs: a k step is 12 broadcasts + 2 B loads for 24 FMAs, where the 12 x 16
+   kernel's 12 + 1 loads for 12 FMAs keep the load ports, not the FMA units, busy. nr: columns of the
+   pair (17..32; the first panel is whole). Per output element the same fma chain as every other kernel. */
+#define SUPERMAT__UKR2_ROW(i)                                          \
+    do {                                                               \
+        __m512 a_ = _mm512_set1_ps(ap[i][k]);                          \
+        acc0[i] = _mm512_fmadd_ps(a_, bv0, acc0[i]);                   \
+        acc1[i] = _mm512_fmadd_ps(a_, bv1, acc1[i]);                   \
+    } while (0)
+SUPERMAT__AVX512 static void supermat__ukr2_avx512(int kc, const float *const *a, const float *b0, const float *b1, float *c, size_t ldc,
+                                                   int mr, int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc0[SUPERMAT__MR512], acc1[SUPERMAT__MR512];
+    const float *ap[SUPERMAT__MR512];
+    __mmask16 mask1 = (__mmask16)(nr >= 32 ? 0xFFFF : (1u << (nr - 16)) - 1u);
+    int i, k;
+    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+    supermat__acc512_init(acc0, mr, (__mmask16)0xFFFF, c, ldc, bias, r, ldr, accumulate);
+    supermat__acc512_init(acc1, mr, mask1, c + 16, ldc, bias ? bias + 16 : NULL, r ? r + 16 : NULL, ldr, accumulate);
+    for (k = 0; k < kc; k++) {
+        __m512 bv0 = _mm512_loadu_ps(b0 + (size_t)k * SUPERMAT__NR), bv1 = _mm512_loadu_ps(b1 + (size_t)k * SUPERMAT__NR);
+        SUPERMAT__UKR2_ROW(0); SUPERMAT__UKR2_ROW(1); SUPERMAT__UKR2_ROW(2); SUPERMAT__UKR2_ROW(3);
+        SUPERMAT__UKR2_ROW(4); SUPERMAT__UKR2_ROW(5); SUPERMAT__UKR2_ROW(6); SUPERMAT__UKR2_ROW(7);
+        SUPERMAT__UKR2_ROW(8); SUPERMAT__UKR2_ROW(9); SUPERMAT__UKR2_ROW(10); SUPERMAT__UKR2_ROW(11);
+    }
+    for (i = 0; i < mr; i++) {
+        _mm512_storeu_ps(c + (size_t)i * ldc, acc0[i]);
+        _mm512_mask_storeu_ps(c + (size_t)i * ldc + 16, mask1, acc1[i]);
+    }
+}
+#undef SUPERMAT__UKR2_ROW
+
 /* bf16 compute: B panels as bf16 pairs [K/2][16][2] (one ZMM per pair of rows), A rows as bf16 pairs
    (uint32); acc += a[2j] b[2j] + a[2j+1] b[2j+1] per lane with vdpbf16ps */
 SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *const *a, const uint16_t *b, float *c, size_t ldc, int mr,
@@ -1597,6 +1629,7 @@ typedef struct supermat__gemm_args {
     int mblocks, nchunks, panels_per_chunk;
     float **scratch;       /* per thread: MC x KC floats */
     int amx;               /* bf16 compute on AMX tiles */
+    int wide;              /* f32 panels two at a time (the AVX-512 12 x 32 kernel) */
 } supermat__gemm_args;
 
 #if SUPERMAT__HAS_AMX
@@ -1763,6 +1796,21 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                 g->widen((const char *)g->Bq + boff * 2, g->fmt, NULL, kc, wb);
                 bp = wb;
             }
+#if SUPERMAT__HAS_AVX512
+            if (g->wide && !g->fmt && p + 1 < p1) { /* f32 panels p and p + 1 together */
+                const float *bp1 = g->B + boff + (size_t)g->K * SUPERMAT__NR;
+                int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
+                for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                    const float *rows[SUPERMAT__MR512];
+                    int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                    for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
+                    supermat__ukr2_avx512(kc, rows, bp, bp1, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
+                                          (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                }
+                p++;
+                continue;
+            }
+#endif
             for (m = m0; m < m1; m += g->mr) {
                 const float *rows[SUPERMAT__MRMAX];
                 int mr = SUPERMAT__MIN(g->mr, m1 - m), i;
@@ -1989,6 +2037,9 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
     g.amx = X->amx;
+#if SUPERMAT__HAS_AVX512
+    g.wide = X->ukr == supermat__ukr_avx512;
+#endif
     if (W->fmt && W->fmt != 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
 #if SUPERMAT__HAS_AVX512
     if (W->fmt == 4 && (!X->avx512 || X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {

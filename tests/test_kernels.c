@@ -65,6 +65,9 @@ static double maxerr(const float *a, const double *ref, size_t n) {
     for (i = 0; i < n; i++) { double d = fabs(a[i] - ref[i]); if (!(d <= m)) m = d; if (fabs(ref[i]) > r) r = fabs(ref[i]); } /* NaN wins */
     return m / r;
 }
+/* the f32 GEMMs' bound against float64 (relative to the largest |result|): 2e-6 up to K = 600, then growing
+   like sqrt(K), as the rounding error of an f32 sum of K random-sign products does */
+static double gemm_tol(int K) { return K <= 600 ? 2e-6 : 2e-6 * sqrt(K / 600.0); }
 static int nan_free(const float *a, size_t n) { size_t i; for (i = 0; i < n; i++) if (a[i] != a[i]) return 0; return 1; }
 
 /* conv2d_ref: NHWC input virtually resized (nearest, PyTorch rule) to uh x uw, padding, stride; in float64 */
@@ -139,7 +142,7 @@ static void test_gemm_conv(int avx2, int threads) {
         for (i = 0; i < M; i++) for (j = 0; j < N; j++) { double s = 0; for (kq = 0; kq < K; kq++) s += (double)a[(size_t)i * K + kq] * wt[(size_t)j * K + kq]; ref[(size_t)i * N + j] = s; }
         k.X.status = SUPERMAT_SUCCESS;
         supermat__linear(&k.X, a, (size_t)K, M, &pw, c, (size_t)N, NULL, 0);
-        TU_CHECK(maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm %s M%d N%d K%d err %.3g", KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
+        TU_CHECK(maxerr(c, ref, (size_t)M * N) < gemm_tol(K), "gemm %s M%d N%d K%d err %.3g", KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
         free(a); free(wt); free(c); free(ref); free(pw.p);
     }
     kctx_free(&k);
@@ -197,7 +200,7 @@ static void test_quantized(int avx2, int threads) {
             }
             k.X.status = SUPERMAT_SUCCESS;
             supermat__linear(&k.X, a, (size_t)K, M, &pq, c, (size_t)N, NULL, 0);
-            TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < 2e-6, "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
+            TU_CHECK(k.X.status == SUPERMAT_SUCCESS && maxerr(c, ref, (size_t)M * N) < gemm_tol(K), "gemm fmt %d %s M%d N%d K%d err %.3g", fmt, KN(avx2), M, N, K, maxerr(c, ref, (size_t)M * N));
             supermat__linear(&k.X, a, (size_t)K, M, &pw, cf, (size_t)N, NULL, 0);
             for (i = 0; i < M * N; i++) { qerr += (double)(c[i] - cf[i]) * (c[i] - cf[i]); qmax += (double)cf[i] * cf[i]; }
             qerr = sqrt(qerr / (qmax + 1e-30));
@@ -465,7 +468,7 @@ static void test_same_bits(void) {
     kctx_init(&k[0], 1, 1);
     kctx_init(&k[1], 2, 3);
     for (t = 0; t < 24; t++) {
-        int M = irand(1, 130), N = irand(1, 70), K = irand(1, 600);
+        int M = irand(1, 130), N = irand(1, 100), K = irand(1, 600);
         float *a = rvec((size_t)M * K, 1.0), *w = rvec((size_t)N * K, 1.0), *b = rvec((size_t)N, 1.0), *R = rvec((size_t)M * N, 1.0), *c[2];
         supermat__pw pw;
         pack_w(&pw, w, t % 2 ? b : NULL, N, K, 1);
@@ -477,7 +480,7 @@ static void test_same_bits(void) {
         free(a); free(w); free(b); free(R); free(c[0]); free(c[1]); free(pw.p); free(pw.bias);
     }
     for (t = 0; t < 6; t++) {
-        int n = 1, h = irand(3, 17), wd = irand(3, 17), cin = irand(1, 40), cout = irand(1, 40), oh = h, ow = wd;
+        int n = 1, h = irand(3, 17), wd = irand(3, 17), cin = irand(1, 40), cout = irand(1, 72), oh = h, ow = wd;
         size_t no = (size_t)n * oh * ow * cout;
         float *x = rvec((size_t)n * h * wd * cin, 1.0), *wt = rvec((size_t)cout * cin * 9, 0.3), *b = rvec((size_t)cout, 1.0), *o[2];
         supermat__conv cv;
