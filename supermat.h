@@ -2587,6 +2587,11 @@ static void supermat__attn_task(void *user, int index, int thread) {
     const float *qrows[SUPERMAT__QB];
     supermat__ukr_fn ukr = a->X->ukr;
     const int MR = a->X->mr > 0 ? a->X->mr : SUPERMAT__MR;
+#if SUPERMAT__HAS_AVX512
+    const int wide = ukr == supermat__ukr_avx512;
+#else
+    const int wide = 0;
+#endif
     for (r = 0; r < nq; r++) qrows[r] = a->q + ((size_t)g * a->mq + q0 + r) * a->ldq + (size_t)h * d;
     for (r = 0; r < nq; r++) { mrow[r] = -INFINITY; lrow[r] = 0.0f; }
     memset(O, 0, sizeof(float) * (size_t)nq * dpad);
@@ -2594,12 +2599,17 @@ static void supermat__attn_task(void *user, int index, int thread) {
         int nk = SUPERMAT__MIN(SUPERMAT__KB, a->mk - kb), npk = (nk + 15) / 16;
         for (j = 0; j < npk; j++) {
             const float *bp = kp + (size_t)(kb / 16 + j) * 16 * d;
+            int two = wide && j + 1 < npk; /* key panels j and j + 1 together (AVX-512 12 x 32) */
             for (r = 0; r < nq; r += MR) {
                 const float *rows[SUPERMAT__MRMAX];
                 int mr = SUPERMAT__MIN(MR, nq - r), i;
                 for (i = 0; i < MR; i++) rows[i] = qrows[r + (i < mr ? i : 0)];
+#if SUPERMAT__HAS_AVX512
+                if (two) { supermat__ukr2_avx512(d, rows, bp, bp + (size_t)16 * d, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 32, NULL, NULL, 0, 0); continue; }
+#endif
                 ukr(d, rows, bp, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 16, NULL, NULL, 0, 0);
             }
+            j += two;
         }
         /* online softmax over this block */
         for (r = 0; r < nq; r++) {
@@ -2622,12 +2632,17 @@ static void supermat__attn_task(void *user, int index, int thread) {
         }
         for (jd = 0; jd < npv; jd++) {
             const float *bp = vp + ((size_t)jd * a->mk + kb) * 16;
+            int two = wide && jd + 1 < npv; /* value panels jd and jd + 1 together */
             for (r = 0; r < nq; r += MR) {
                 const float *rows[SUPERMAT__MRMAX];
                 int mr = SUPERMAT__MIN(MR, nq - r), i;
                 for (i = 0; i < MR; i++) rows[i] = S + (size_t)(r + (i < mr ? i : 0)) * SUPERMAT__KB;
+#if SUPERMAT__HAS_AVX512
+                if (two) { supermat__ukr2_avx512(nk, rows, bp, bp + (size_t)a->mk * 16, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 32, NULL, NULL, 0, 1); continue; }
+#endif
                 ukr(nk, rows, bp, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 16, NULL, NULL, 0, 1);
             }
+            jd += two;
         }
     }
     for (r = 0; r < nq; r++) {

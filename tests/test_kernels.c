@@ -459,8 +459,8 @@ static void test_exp(void) {
 #endif
 }
 
-/* AVX-512 and AVX2 micro-kernels sum every output element in the same order: the same bits, for GEMMs
-   with bias, residual and several K blocks, convolutions and attention */
+/* AVX-512 (12 x 16 and 12 x 32) and AVX2 micro-kernels sum every output element in the same order: the
+   same bits, for GEMMs with bias, residual and several K blocks, convolutions and attention */
 static void test_same_bits(void) {
     kctx k[2];
     int t, mode;
@@ -498,9 +498,22 @@ static void test_same_bits(void) {
                  "conv %dx%d %d->%d: AVX-512 and AVX2 bits differ", h, wd, cin, cout);
         free(x); free(wt); free(b); free(o[0]); free(o[1]); free(cv.w.p); free(cv.w.bias);
     }
+    for (t = 0; t < 8; t++) { /* attention: the 12 x 32 kernel over key and value panel pairs */
+        int heads = irand(1, 3), d = t % 2 ? irand(1, 70) : 16 * irand(1, 5), C = heads * d, mq = irand(1, 130), mk = irand(1, 300);
+        float *q = rvec((size_t)mq * C, 1.0), *kk = rvec((size_t)mk * C, 1.0), *v = rvec((size_t)mk * C, 1.0), *o[2];
+        float *kp = (float *)malloc(sizeof(float) * heads * supermat__attn_kp_floats(mk, d));
+        float *vp = (float *)malloc(sizeof(float) * heads * supermat__attn_vp_floats(mk, d));
+        for (mode = 0; mode < 2; mode++) {
+            o[mode] = (float *)malloc(sizeof(float) * (size_t)mq * C);
+            supermat__attn_pack(&k[mode].X, kk, (size_t)C, v, (size_t)C, mk, 1, heads, d, kp, vp);
+            supermat__attention(&k[mode].X, q, (size_t)C, mq, 1, kp, vp, mk, 1, heads, d, (float)(1.0 / sqrt((double)d)), o[mode], (size_t)C);
+        }
+        TU_CHECK(!memcmp(o[0], o[1], sizeof(float) * (size_t)mq * C), "attention heads %d d %d mq %d mk %d: AVX-512 and AVX2 bits differ", heads, d, mq, mk);
+        free(q); free(kk); free(v); free(kp); free(vp); free(o[0]); free(o[1]);
+    }
     kctx_free(&k[0]);
     kctx_free(&k[1]);
-    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions\n");
+    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions, 8 attentions\n");
 }
 
 /* bf16 compute (AVX512_BF16): the pair kernel against float64 sums of the bf16-rounded operands (the
