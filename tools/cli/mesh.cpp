@@ -259,6 +259,25 @@ std::vector<unsigned char> read_whole(const std::string &path) {
     return b;
 }
 
+/* A GLB's container, checked before tinygltf reads it: Debian's tinygltf 2.7 bounds the BIN chunk's length
+   without the chunk's own 8-byte header, so a BIN chunk claiming up to 8 bytes past the end was copied from
+   past the end of the file (found by fuzz_gltf: corpus/gltf/regress_glb_bin_chunk_past_end.glb).
+   Returns "" when the chunks fit, else what is wrong. */
+std::string glb_check(const std::vector<unsigned char> &b) {
+    auto u32 = [&b](size_t o) { return (uint64_t)b[o] | (uint64_t)b[o + 1] << 8 | (uint64_t)b[o + 2] << 16 | (uint64_t)b[o + 3] << 24; };
+    if (b.size() < 20) return "shorter than a GLB header and its JSON chunk header (20 bytes)";
+    if (std::memcmp(b.data(), "glTF", 4)) return "not a GLB file (no 'glTF' magic)";
+    if (u32(4) != 2) return "GLB version " + std::to_string(u32(4)) + " (version 2 is read)";
+    uint64_t length = u32(8), end = 20 + u32(12);
+    if (length > b.size()) return "the header claims " + std::to_string(length) + " bytes, the file has " + std::to_string(b.size());
+    if (u32(16) != 0x4E4F534Au) return "the first chunk is not the JSON chunk";
+    if (end > length) return "the JSON chunk (" + std::to_string(u32(12)) + " bytes) runs past the GLB's " + std::to_string(length) + " bytes";
+    if (end + 8 <= length && end + 8 + u32((size_t)end) > length)
+        return "the second chunk (" + std::to_string(u32((size_t)end)) + " bytes at byte " + std::to_string(end + 8) + ") runs past the GLB's " +
+               std::to_string(length) + " bytes";
+    return "";
+}
+
 std::string dir_of(const std::string &p) {
     size_t s = p.find_last_of('/');
     return s == std::string::npos ? std::string(".") : p.substr(0, s);
@@ -669,7 +688,21 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     loader.SetImageLoader(raw_image_loader, &raw);
     std::string err, warn, inpath = in, outpath = out;
     bool glb_in = inpath.size() > 4 && inpath.compare(inpath.size() - 4, 4, ".glb") == 0;
-    bool ok = glb_in ? loader.LoadBinaryFromFile(&model, &err, &warn, inpath) : loader.LoadASCIIFromFile(&model, &err, &warn, inpath);
+    std::vector<unsigned char> glb; /* a GLB is read here, checked, then parsed from memory (kept until the end) */
+    if (glb_in) {
+        struct stat st;
+        if (::stat(in, &st) == 0 && (uint64_t)st.st_size > 0xFFFFFFFFu) {
+            std::fprintf(stderr, "supermat mesh: cannot read %s: %llu bytes (a GLB holds at most 4 GiB)\n", in, (unsigned long long)st.st_size);
+            return 1;
+        }
+        errno = 0;
+        glb = read_whole(inpath);
+        if (glb.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, errno ? std::strerror(errno) : "empty file"); return 1; }
+        std::string why = glb_check(glb);
+        if (!why.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, why.c_str()); return 1; }
+    }
+    bool ok = glb_in ? loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(), (unsigned int)glb.size(), dir_of(inpath))
+                     : loader.LoadASCIIFromFile(&model, &err, &warn, inpath);
     if (!warn.empty()) std::fprintf(stderr, "supermat mesh: %s\n", warn.c_str());
     if (!ok) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, err.c_str()); return 1; }
     raw.bytes.resize(model.images.size());
