@@ -595,14 +595,17 @@ bool load_model(const char *path, supermat_model **m) {
 }
 
 
-/* the first instance of each mesh, depth first from the roots: its world matrix */
+/* the first instance of each mesh, depth first from the roots: its world matrix. Each node is walked once:
+   glTF's nodes form a forest, and a file whose nodes share children (a DAG of depth 64 has 2^64 paths) must
+   not make the walk exponential (found by fuzz_gltf: corpus/gltf/regress_shared_children.gltf) */
 void collect_meshes(const tinygltf::Model &m, int node, const Mat4 &parent, int depth, std::vector<int> &found,
-                    std::vector<Mat4> &world) {
-    if (node < 0 || node >= (int)m.nodes.size() || depth > 64) return;
+                    std::vector<Mat4> &world, std::vector<char> &seen) {
+    if (node < 0 || node >= (int)m.nodes.size() || depth > 64 || seen[node]) return;
+    seen[node] = 1;
     Mat4 w = parent * node_local(m.nodes[node]);
     int me = m.nodes[node].mesh;
     if (me >= 0 && me < (int)m.meshes.size() && !found[me]) { found[me] = 1; world[me] = w; }
-    for (int c : m.nodes[node].children) collect_meshes(m, c, w, depth + 1, found, world);
+    for (int c : m.nodes[node].children) collect_meshes(m, c, w, depth + 1, found, world, seen);
 }
 
 /* normals: the inverse transpose of the 3x3 part (cofactor matrix, up to a positive scale); false when
@@ -721,7 +724,8 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 for (int c : n.children) if (c >= 0 && c < (int)child.size()) child[c] = 1;
             for (size_t n = 0; n < child.size(); n++) if (!child[n]) roots.push_back((int)n);
         }
-        for (int r : roots) collect_meshes(model, r, Mat4(), 0, found, world);
+        std::vector<char> seen(model.nodes.size(), 0);
+        for (int r : roots) collect_meshes(model, r, Mat4(), 0, found, world, seen);
     }
     /* a primitive is baked when its mesh is in the scene and it is a triangle list; a material that is
        also used by a primitive that is not baked gets a copy, so that those keep the original */
