@@ -30,13 +30,14 @@ tiles can pass 100 %.
 
 Needs: Debian's python3-torch (with libopenblas0-pthread installed: without it torch runs its Linear layers
 on the reference BLAS, many times slower; the script says which BLAS is in use), python3-onnx is not
-needed (torch writes the ONNX files), python3-pil, the reference harness's diffusers and SuperMat sources
+imported (torch writes the ONNX files itself), python3-pil, the reference harness's diffusers and SuperMat sources
 (HARNESS_DEPS, see ../shared/reference/README.md), Node.js and `npm install --ignore-scripts
 onnxruntime-node` in --ort-dir (default: --work/ort; done by this script when missing; --ignore-scripts skips
 the package's download of CUDA binaries, the CPU library is in the package).
 
 Writes --work/race.json and prints a markdown table (also to --markdown FILE).
-Full size (885M parameters), 512x512, 2 threads: about 15 minutes and 14 GB of memory (ONNX export included).
+Full size (885M parameters), 512x512, 2 threads, 2 runs: about 9 minutes on a 2-core Sapphire Rapids, plus the ONNX
+export the first time (reused while the model file and size stay the same: --work/onnx/source.json).
 """
 import argparse
 import json
