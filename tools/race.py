@@ -401,14 +401,14 @@ def main():
     peak = None
     sm = {}
     if "supermat" in engines:
-        for i, m in enumerate(modes):
+        for m in modes:
             log(f"supermat {m}:")
-            r, why = run_supermat_bench(args, m, SUPERMAT_MODES[m][0], peak=(i == 0))
+            r, why = run_supermat_bench(args, m, SUPERMAT_MODES[m][0], peak=peak is None)
             if r is None:
                 log(f"  skipped: {why}")
                 report["notes"].append(f"supermat {m} skipped: {why}")
                 continue
-            if i == 0:
+            if peak is None:  # the first mode that ran measured the FMA peak
                 peak = r["json"].get("fma_peak_gflops") or None
                 report["fma_peak_gflops"] = peak
                 report["kernel"] = r["json"].get("kernel")
