@@ -116,7 +116,7 @@ static const char cli_usage_image[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
     "Each file is written as FILE.tmp and renamed when complete. Progress (and the default model's\n"
     "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
@@ -159,7 +159,7 @@ static const char cli_usage_views[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -193,7 +193,7 @@ static const char cli_usage_refine[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -213,9 +213,7 @@ static const char cli_usage_info[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n"
-    "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n";
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n";
 
 static const char cli_usage_bench[] =
     "usage: supermat bench [--model FILE] [options]\n"
@@ -244,7 +242,7 @@ static const char cli_usage_bench[] =
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd F4: 1.4-1.6x faster at 512, maps within ~1e-4 of direct)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
 /* (the rest of `bench --help`: one string literal would be longer than C99 promises) */
@@ -381,6 +379,7 @@ static int cli_parse_conv(const char *cmd, const char *s) {
     else { cli_usage_error(cmd, "--conv: '%s' is not direct, winograd-f2 or winograd-f4", s); return -1; }
     return 0;
 }
+static const char *cli_compute_name(supermat_compute c) { return c == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32"; }
 static const char *cli_conv_name(supermat_conv c) {
     return c == SUPERMAT_CONV_WINOGRAD_F2 ? "winograd-f2" : c == SUPERMAT_CONV_WINOGRAD_F4 ? "winograd-f4" : "direct";
 }

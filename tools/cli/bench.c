@@ -1044,7 +1044,7 @@ static int cli_bench(int argc, char **argv) {
     cli_events ev;
     char outs_s[64];
     cli_bench_opts bo;
-    int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0, conv_given = 0;
+    int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0;
     cli_model_ref mref;
 
     memset(&bo, 0, sizeof bo);
@@ -1079,7 +1079,6 @@ static int cli_bench(int argc, char **argv) {
             if (m < 0 || cli_parse_compute(cmd, v)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) {
             if (m < 0 || cli_parse_conv(cmd, v)) return CLI_USAGE;
-            conv_given = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             json_path = v;
@@ -1116,7 +1115,7 @@ static int cli_bench(int argc, char **argv) {
         if (size_given) return cli_usage_error(cmd, "--size does not apply with --image (the image's own size is used)");
         if (outputs_given) return cli_usage_error(cmd, "--outputs does not apply with --image (the modes choose the outputs)");
         if (weights_given) return cli_usage_error(cmd, "--weights does not apply with --image (use --modes f16,bf16,int8)");
-        if (conv_given) return cli_usage_error(cmd, "--conv does not apply with --image (use --modes winograd_f2,winograd_f4)");
+        if (cli_conv_given) return cli_usage_error(cmd, "--conv does not apply with --image (use --modes winograd_f2,winograd_f4)");
         if (pipeline_only) return cli_usage_error(cmd, "--pipeline-only does not apply with --image");
         if ((rc = cli_model_path(cmd, model_arg, 1, &mref)) != CLI_OK) return rc;
         model_path = mref.path;
@@ -1307,7 +1306,7 @@ static int cli_bench(int argc, char **argv) {
         vs[0] = 0;
         if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) snprintf(vs, sizeof vs, " x %d view%s", nviews, nviews == 1 ? "" : "s");
         printf("supermat bench: %s (%s, kernel %s, %s compute, %s convolutions), %dx%d%s, outputs %s, %d thread%s\n", model_path,
-               cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32",
+               cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), cli_compute_name(mi.compute),
                cli_conv_name(mi.conv), w, h, vs, outs_s, hook.max_threads, hook.max_threads == 1 ? "" : "s");
         if (pipeline_only) printf("FMA peak      skipped (--pipeline-only)\n");
         else if (peak > 0) printf("FMA peak      %.1f GFLOP/s on %d thread%s, %.1f GFLOP/s on one (%s, %d independent %s chains; best of 6)\n",
@@ -1357,7 +1356,7 @@ static int cli_bench(int argc, char **argv) {
                     SUPERMAT_VERSION & 255);
             cli_json_string(jf, model_path);
             fprintf(jf, ",\n  \"kind\": \"%s\",\n  \"kernel\": \"%s\",\n  \"compute\": \"%s\",\n  \"conv\": \"%s\",\n  \"width\": %d,\n  \"height\": %d,\n  \"views\": %d,\n  \"outputs\": \"%s\",\n",
-                    cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32", cli_conv_name(mi.conv),
+                    cli_kind_name(mi.kind), cli_kernel_name(mi.kernel), cli_compute_name(mi.compute), cli_conv_name(mi.conv),
                     w, h, nviews, outs_s);
             fprintf(jf, "  \"threads\": %d,\n  \"repeats\": %d,\n  \"fma_peak_gflops\": %.6g,\n  \"fma_peak_one_thread_gflops\": %.6g,\n  \"model_create_seconds\": %.6g,\n",
                     hook.max_threads, repeats, peak, peak1, create_s);

@@ -108,7 +108,7 @@ static int cli_info(int argc, char **argv) {
         printf("weights       %s (GEMM weight storage; %.1f MiB held by the model)\n", (unsigned)mi.weights < 5 ? wn[mi.weights] : "?", (double)mi.model_bytes / 1048576.0);
     }
     printf("convolutions  %s (3x3; --conv)\n", cli_conv_name(mi.conv));
-    printf("compute       %s (what the GEMMs multiply; --compute)\n", mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32");
+    printf("compute       %s (what the GEMMs multiply; --compute)\n", cli_compute_name(mi.compute));
     printf("unet          in %d, out %d channels; %d levels: channels ", mi.unet_in_channels, mi.unet_out_channels, mi.unet_levels);
     cli_print_list(mi.block_channels, mi.unet_levels);
     printf(", heads ");
@@ -140,9 +140,8 @@ static int cli_info(int argc, char **argv) {
     printf("model memory  %llu bytes (%.1f MiB) held by the model, created in %.3f s; it also borrows the file buffer\n",
            (unsigned long long)mi.model_bytes, cli_mib((double)mi.model_bytes), create_s);
     if (mi.prepacked) {
-        static const char *cn[] = {"direct", "winograd-f2", "winograd-f4"};
         printf("pre-packed    yes: %.1f MiB of panels used in place from the mapped file (conv %s, compute %s; `supermat pack`)\n",
-               cli_mib((double)mi.prepacked_bytes), (unsigned)mi.conv < 3 ? cn[mi.conv] : "?", mi.compute == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32");
+               cli_mib((double)mi.prepacked_bytes), cli_conv_name(mi.conv), cli_compute_name(mi.compute));
     }
     {
         supermat_session_desc sd;
