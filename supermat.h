@@ -2119,7 +2119,7 @@ typedef struct supermat__wino_job {
     float *y; const float *bias, *R; int oc; /* output n x uh x uw x oc */
     int m, tx, ty, t0, tb, TB, per;          /* tiles per image tx x ty; chunk [t0, t0 + tb); tiles per task */
     float *V, *Mo;                           /* [a*a][TB][c], [a*a][TB][oc] */
-    int avx2;
+    int avx2, avx512;
 } supermat__wino_job;
 
 #if defined(__GNUC__) || defined(__clang__)
@@ -2236,8 +2236,97 @@ SUPERMAT__AVX2 static void supermat__wino_tiles_avx2(const supermat__wino_job *J
     }
 }
 #endif
+#if SUPERMAT__HAS_AVX512
+/* F(4x4, 3x3) tiles with AVX-512: 16 channels a vector, the partial block by masks. The same operations in
+   the same order as the bodies above (separate multiplies and adds), so the same bits as the AVX2 path. */
+#define SUPERMAT__W4BT(o0, o1, o2, o3, o4, o5, d0, d1, d2, d3, d4, d5) do {                                        \
+        __m512 t1_ = _mm512_sub_ps(d4, _mm512_mul_ps(four, d2)), t2_ = _mm512_sub_ps(d3, _mm512_mul_ps(four, d1)); \
+        __m512 t3_ = _mm512_sub_ps(d4, d2), t4_ = _mm512_mul_ps(two, _mm512_sub_ps(d3, d1));                       \
+        o0 = _mm512_add_ps(_mm512_sub_ps(_mm512_mul_ps(four, d0), _mm512_mul_ps(five, d2)), d4);                   \
+        o5 = _mm512_add_ps(_mm512_sub_ps(_mm512_mul_ps(four, d1), _mm512_mul_ps(five, d3)), d5);                   \
+        o1 = _mm512_add_ps(t1_, t2_); o2 = _mm512_sub_ps(t1_, t2_);                                                \
+        o3 = _mm512_add_ps(t3_, t4_); o4 = _mm512_sub_ps(t3_, t4_);                                                \
+    } while (0)
+#define SUPERMAT__W4AT(o0, o1, o2, o3, s0, s1, s2, s3, s4, s5) do {                                                \
+        __m512 s12_ = _mm512_add_ps(s1, s2), d12_ = _mm512_sub_ps(s1, s2);                                         \
+        __m512 s34_ = _mm512_add_ps(s3, s4), d34_ = _mm512_sub_ps(s3, s4);                                         \
+        o0 = _mm512_add_ps(_mm512_add_ps(s0, s12_), s34_);                                                         \
+        o1 = _mm512_add_ps(d12_, _mm512_mul_ps(two, d34_));                                                        \
+        o2 = _mm512_add_ps(s12_, _mm512_mul_ps(four, s34_));                                                       \
+        o3 = _mm512_add_ps(_mm512_add_ps(d12_, _mm512_mul_ps(eight, d34_)), s5);                                   \
+    } while (0)
+SUPERMAT__AVX512 static void supermat__wino4_in_avx512(const supermat__wino_job *J, int t) {
+    const __m512 two = _mm512_set1_ps(2.0f), four = _mm512_set1_ps(4.0f), five = _mm512_set1_ps(5.0f);
+    int T = J->t0 + t, img = T / (J->tx * J->ty), by = T / J->tx % J->ty, bx = T % J->tx, i, j, c0;
+    const float *src[36];
+    __m512 e[36];
+    for (i = 0; i < 6; i++) {
+        int vy = by * 4 - 1 + i, sy = vy >= 0 && vy < J->uh ? supermat__nearest(vy, J->h, J->uh) : -1;
+        for (j = 0; j < 6; j++) {
+            int vx = bx * 4 - 1 + j;
+            src[i * 6 + j] = sy >= 0 && vx >= 0 && vx < J->uw
+                                 ? J->x + (((size_t)img * J->h + sy) * J->w + supermat__nearest(vx, J->w, J->uw)) * J->c : NULL;
+        }
+    }
+    for (c0 = 0; c0 < J->c; c0 += 16) {
+        __mmask16 k = J->c - c0 >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (J->c - c0)) - 1);
+        float *q = J->V + (size_t)t * J->c + c0;
+        size_t xs = (size_t)J->TB * J->c; /* from one xi to the next in V */
+        for (i = 0; i < 6; i++) { /* columns: e[k*6 + i] from the input column i */
+            __m512 d[6];
+            for (j = 0; j < 6; j++) d[j] = src[j * 6 + i] ? _mm512_maskz_loadu_ps(k, src[j * 6 + i] + c0) : _mm512_setzero_ps();
+            SUPERMAT__W4BT(e[i], e[6 + i], e[12 + i], e[18 + i], e[24 + i], e[30 + i], d[0], d[1], d[2], d[3], d[4], d[5]);
+        }
+        for (i = 0; i < 6; i++) { /* rows */
+            __m512 o[6];
+            SUPERMAT__W4BT(o[0], o[1], o[2], o[3], o[4], o[5], e[i * 6], e[i * 6 + 1], e[i * 6 + 2], e[i * 6 + 3], e[i * 6 + 4], e[i * 6 + 5]);
+            for (j = 0; j < 6; j++) _mm512_mask_storeu_ps(q + (size_t)(i * 6 + j) * xs, k, o[j]);
+        }
+    }
+}
+SUPERMAT__AVX512 static void supermat__wino4_out_avx512(const supermat__wino_job *J, int t) {
+    const __m512 two = _mm512_set1_ps(2.0f), four = _mm512_set1_ps(4.0f), eight = _mm512_set1_ps(8.0f);
+    int T = J->t0 + t, img = T / (J->tx * J->ty), by = T / J->tx % J->ty, bx = T % J->tx, i, j, c0, oc = J->oc;
+    size_t xs = (size_t)J->TB * oc;
+    for (c0 = 0; c0 < oc; c0 += 16) {
+        __mmask16 k = oc - c0 >= 16 ? (__mmask16)0xFFFF : (__mmask16)((1u << (oc - c0)) - 1);
+        const float *p = J->Mo + (size_t)t * oc + c0;
+        __m512 e[24], bias = J->bias ? _mm512_maskz_loadu_ps(k, J->bias + c0) : _mm512_setzero_ps();
+        for (i = 0; i < 6; i++) { /* columns: e[y*6 + i], y < 4 */
+            __m512 s[6];
+            for (j = 0; j < 6; j++) s[j] = _mm512_maskz_loadu_ps(k, p + (size_t)(j * 6 + i) * xs);
+            SUPERMAT__W4AT(e[i], e[6 + i], e[12 + i], e[18 + i], s[0], s[1], s[2], s[3], s[4], s[5]);
+        }
+        for (i = 0; i < 4; i++) { /* rows: output row by*4 + i */
+            __m512 o[4];
+            int oy = by * 4 + i;
+            SUPERMAT__W4AT(o[0], o[1], o[2], o[3], e[i * 6], e[i * 6 + 1], e[i * 6 + 2], e[i * 6 + 3], e[i * 6 + 4], e[i * 6 + 5]);
+            if (oy >= J->uh) break;
+            for (j = 0; j < 4; j++) {
+                int ox = bx * 4 + j;
+                size_t off;
+                __m512 v = o[j];
+                if (ox >= J->uw) break;
+                off = (((size_t)img * J->uh + oy) * J->uw + ox) * oc + c0;
+                if (J->bias) v = _mm512_add_ps(v, bias);
+                if (J->R) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(k, J->R + off));
+                _mm512_mask_storeu_ps(J->y + off, k, v);
+            }
+        }
+    }
+}
+#undef SUPERMAT__W4BT
+#undef SUPERMAT__W4AT
+#endif
 static void supermat__wino_task(const supermat__wino_job *J, int index, int out) {
     int t0 = index * J->per, t1 = SUPERMAT__MIN(J->tb, t0 + J->per);
+#if SUPERMAT__HAS_AVX512
+    if (J->avx512 && J->m == 4) {
+        int t;
+        for (t = t0; t < t1; t++) { if (out) supermat__wino4_out_avx512(J, t); else supermat__wino4_in_avx512(J, t); }
+        return;
+    }
+#endif
 #if SUPERMAT__HAS_AVX2
     if (J->avx2) { supermat__wino_tiles_avx2(J, t0, t1, out); return; }
 #endif
@@ -2259,7 +2348,7 @@ static void supermat__conv3x3_wino(supermat__ctx *X, const supermat__t *in, int 
     }
     memset(&J, 0, sizeof J);
     J.x = in->d; J.h = in->h; J.w = in->w; J.c = cin; J.uh = uh; J.uw = uw;
-    J.y = out->d; J.bias = bias; J.R = R; J.oc = cout; J.m = m; J.avx2 = X->avx2;
+    J.y = out->d; J.bias = bias; J.R = R; J.oc = cout; J.m = m; J.avx2 = X->avx2; J.avx512 = X->avx512;
     J.tx = (uw + m - 1) / m; J.ty = (uh + m - 1) / m;
     T = in->n * J.tx * J.ty;
     if (T <= 0) return;
@@ -2409,20 +2498,107 @@ typedef struct supermat__gn_args {
     int rows_per_task;        /* pixel rows per apply task */
 } supermat__gn_args;
 
+/* Per-channel sums over the pixel rows [p0, p1) of x (C floats a row) into acc[C], in double: of x when mc is
+   NULL, else of (x - mc[c])^2. Each channel is summed in row order, its square and its sum rounded separately,
+   so the scalar, AVX2 and AVX-512 versions give the same bits (their vectors run across channels). */
+static void supermat__gn_sum_scalar(const float *x, size_t p0, size_t p1, int C, int c, const double *mc, double *acc) {
+    size_t p;
+    for (; c < C; c++) {
+        double s = 0.0;
+        if (!mc) for (p = p0; p < p1; p++) s += (double)x[p * C + c];
+        else for (p = p0; p < p1; p++) { double d = (double)x[p * C + c] - mc[c], q = d * d; s += q; }
+        acc[c] = s;
+    }
+}
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static void supermat__gn_sum_avx2(const float *x, size_t p0, size_t p1, int C, int c, const double *mc, double *acc) {
+    size_t p;
+    for (; c + 16 <= C; c += 16) {
+        __m256d s0 = _mm256_setzero_pd(), s1 = s0, s2 = s0, s3 = s0;
+        if (!mc) {
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                s0 = _mm256_add_pd(s0, _mm256_cvtps_pd(_mm_loadu_ps(r)));
+                s1 = _mm256_add_pd(s1, _mm256_cvtps_pd(_mm_loadu_ps(r + 4)));
+                s2 = _mm256_add_pd(s2, _mm256_cvtps_pd(_mm_loadu_ps(r + 8)));
+                s3 = _mm256_add_pd(s3, _mm256_cvtps_pd(_mm_loadu_ps(r + 12)));
+            }
+        } else {
+            __m256d m0 = _mm256_loadu_pd(mc + c), m1 = _mm256_loadu_pd(mc + c + 4), m2 = _mm256_loadu_pd(mc + c + 8),
+                    m3 = _mm256_loadu_pd(mc + c + 12), d0, d1, d2, d3;
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                d0 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r)), m0);
+                d1 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 4)), m1);
+                d2 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 8)), m2);
+                d3 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 12)), m3);
+                s0 = _mm256_add_pd(s0, _mm256_mul_pd(d0, d0));
+                s1 = _mm256_add_pd(s1, _mm256_mul_pd(d1, d1));
+                s2 = _mm256_add_pd(s2, _mm256_mul_pd(d2, d2));
+                s3 = _mm256_add_pd(s3, _mm256_mul_pd(d3, d3));
+            }
+        }
+        _mm256_storeu_pd(acc + c, s0); _mm256_storeu_pd(acc + c + 4, s1);
+        _mm256_storeu_pd(acc + c + 8, s2); _mm256_storeu_pd(acc + c + 12, s3);
+    }
+    supermat__gn_sum_scalar(x, p0, p1, C, c, mc, acc);
+}
+#endif
+#if SUPERMAT__HAS_AVX512
+/* (maskz: the plain cvtps_pd reads an undefined vector, which gcc 12 flags as maybe-uninitialized in C++) */
+SUPERMAT__AVX512 static void supermat__gn_sum_avx512(const float *x, size_t p0, size_t p1, int C, const double *mc, double *acc) {
+    size_t p;
+    int c = 0;
+    for (; c + 32 <= C; c += 32) {
+        __m512d s0 = _mm512_setzero_pd(), s1 = s0, s2 = s0, s3 = s0;
+        if (!mc) {
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                s0 = _mm512_add_pd(s0, _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r)));
+                s1 = _mm512_add_pd(s1, _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 8)));
+                s2 = _mm512_add_pd(s2, _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 16)));
+                s3 = _mm512_add_pd(s3, _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 24)));
+            }
+        } else {
+            __m512d m0 = _mm512_loadu_pd(mc + c), m1 = _mm512_loadu_pd(mc + c + 8), m2 = _mm512_loadu_pd(mc + c + 16),
+                    m3 = _mm512_loadu_pd(mc + c + 24), d0, d1, d2, d3;
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                d0 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r)), m0);
+                d1 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 8)), m1);
+                d2 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 16)), m2);
+                d3 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 24)), m3);
+                s0 = _mm512_add_pd(s0, _mm512_mul_pd(d0, d0));
+                s1 = _mm512_add_pd(s1, _mm512_mul_pd(d1, d1));
+                s2 = _mm512_add_pd(s2, _mm512_mul_pd(d2, d2));
+                s3 = _mm512_add_pd(s3, _mm512_mul_pd(d3, d3));
+            }
+        }
+        _mm512_storeu_pd(acc + c, s0); _mm512_storeu_pd(acc + c + 8, s1);
+        _mm512_storeu_pd(acc + c + 16, s2); _mm512_storeu_pd(acc + c + 24, s3);
+    }
+    supermat__gn_sum_avx2(x, p0, p1, C, c, mc, acc);
+}
+#endif
+
 static void supermat__gn_stats_task(void *user, int index, int thread) {
     const supermat__gn_args *a = (const supermat__gn_args *)user;
     int img = index / a->cpi, ch = index % a->cpi, C = a->in->c, cg = C / a->groups, c;
-    size_t hw = (size_t)a->in->h * a->in->w, p0 = (size_t)ch * SUPERMAT__GN_CHUNK, p1 = SUPERMAT__MIN(hw, p0 + SUPERMAT__GN_CHUNK), p;
+    size_t hw = (size_t)a->in->h * a->in->w, p0 = (size_t)ch * SUPERMAT__GN_CHUNK, p1 = SUPERMAT__MIN(hw, p0 + SUPERMAT__GN_CHUNK);
     const float *x = a->in->d + (size_t)img * hw * C;
-    double *acc = a->part + (size_t)index * C;
-    (void)thread;
-    for (c = 0; c < C; c++) acc[c] = 0.0;
-    if (a->pass == 0) {
-        for (p = p0; p < p1; p++) { const float *r = x + p * C; for (c = 0; c < C; c++) acc[c] += r[c]; }
-    } else {
+    double *acc = a->part + (size_t)index * C, *mc = NULL;
+    if (a->pass == 1) { /* the group means per channel, in this thread's scratch (2 C floats, checked) */
         const double *mean = a->mean + (size_t)img * a->groups;
-        for (p = p0; p < p1; p++) { const float *r = x + p * C; for (c = 0; c < C; c++) { double d = r[c] - mean[c / cg]; acc[c] += d * d; } }
+        mc = (double *)(void *)a->X->scratch[thread];
+        for (c = 0; c < C; c++) mc[c] = mean[c / cg];
     }
+#if SUPERMAT__HAS_AVX512
+    if (a->X->avx512) { supermat__gn_sum_avx512(x, p0, p1, C, mc, acc); return; }
+#endif
+#if SUPERMAT__HAS_AVX2
+    if (a->X->avx2) { supermat__gn_sum_avx2(x, p0, p1, C, 0, mc, acc); return; }
+#endif
+    supermat__gn_sum_scalar(x, p0, p1, C, 0, mc, acc);
 }
 
 static void supermat__gn_apply_task(void *user, int index, int thread) {

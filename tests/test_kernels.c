@@ -343,7 +343,7 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
     int uh = up ? 2 * h : h, uw = up ? 2 * w : w, mi, av, th;
     size_t no = (size_t)n * uh * uw * cout;
     float *x = rvec((size_t)n * h * w * cin, 1.0), *wt = rvec((size_t)cout * cin * 9, 0.3), *b = rvec((size_t)cout, 1.0);
-    float *R = use_r ? rvec(no, 1.0) : NULL, *res[2];
+    float *R = use_r ? rvec(no, 1.0) : NULL, *res[2], *avx2_out = NULL;
     double *ref = (double *)malloc(sizeof(double) * no), e[2] = {0, 0};
     supermat__pw pw;
     supermat__t in, out;
@@ -372,7 +372,12 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
                 if (err > e[mi]) e[mi] = err;
             }
             TU_CHECK(!memcmp(res[0], res[1], no * sizeof(float)), "F%d %s: 1 and 3 threads differ", mi ? 4 : 2, KN(av));
+            if (av == 1) { avx2_out = (float *)malloc(no * sizeof(float)); memcpy(avx2_out, res[0], no * sizeof(float)); }
+            /* the AVX-512 tile transforms (F4) do the AVX2 path's operations in its order: the same bits */
+            if (av == 2 && avx2_out) TU_CHECK(!memcmp(res[0], avx2_out, no * sizeof(float)), "F%d: AVX-512 and AVX2 bits differ", mi ? 4 : 2);
         }
+        free(avx2_out);
+        avx2_out = NULL;
         free_wino(&wg);
     }
     printf("  n%d %2dx%-2d%s cin %2d cout %2d bias %d R %d: F2 %.2e  F4 %.2e\n", n, h, w, up ? " up2" : "    ", cin, cout, use_b, use_r, e[0], e[1]);
@@ -511,9 +516,37 @@ static void test_same_bits(void) {
         TU_CHECK(!memcmp(o[0], o[1], sizeof(float) * (size_t)mq * C), "attention heads %d d %d mq %d mk %d: AVX-512 and AVX2 bits differ", heads, d, mq, mk);
         free(q); free(kk); free(v); free(kp); free(vp); free(o[0]); free(o[1]);
     }
+    for (t = 0; t < 6; t++) { /* group norm: the per-channel double sums, 32 / 16 channels a vector block and the tail */
+        kctx ks;
+        int C = t == 0 ? 512 : t == 1 ? 48 : 8 * irand(1, 40) + (t % 2) * irand(1, 7), groups = t < 2 ? 16 : 1;
+        int h = irand(1, 40), wd = t == 0 ? 300 : irand(1, 40); /* t 0: several 256-pixel chunks */
+        size_t total = (size_t)h * wd * C;
+        float *x = rvec(total, 3.0), *gm = rvec((size_t)C, 1.0), *bt = rvec((size_t)C, 1.0), *o[3];
+        double st[3][2 * 16];
+        supermat__norm nm;
+        supermat__t in, out;
+        size_t i;
+        for (i = 0; i < total; i++) x[i] += 5.0f; /* an offset: the variance pass is not the plain sum of squares */
+        kctx_init(&ks, 0, 1);
+        nm.g = gm; nm.b = bt; nm.c = C; nm.eps = 1e-5f;
+        in.d = x; in.n = 1; in.h = h; in.w = wd; in.c = C;
+        for (mode = 0; mode < 3; mode++) {
+            o[mode] = (float *)malloc(sizeof(float) * total);
+            out = in; out.d = o[mode];
+            supermat__groupnorm(mode == 2 ? &ks.X : &k[mode].X, &in, &out, &nm, groups, t % 2);
+            memcpy(st[mode], (mode == 2 ? &ks.X : &k[mode].X)->gn_stats, sizeof(double) * 2 * groups); /* mean, 1/std */
+        }
+        TU_CHECK(!memcmp(o[0], o[1], sizeof(float) * total), "groupnorm C %d %dx%d: AVX-512 and AVX2 bits differ", C, h, wd);
+        /* the scalar SiLU is another exp: the statistics are what all three share */
+        TU_CHECK(!memcmp(st[0], st[1], sizeof(double) * 2 * groups) && !memcmp(st[0], st[2], sizeof(double) * 2 * groups),
+                 "groupnorm C %d %dx%d: statistics differ between scalar, AVX2 and AVX-512", C, h, wd);
+        if (t % 2 == 0) TU_CHECK(!memcmp(o[0], o[2], sizeof(float) * total), "groupnorm C %d %dx%d: scalar and AVX2 bits differ", C, h, wd);
+        kctx_free(&ks);
+        free(x); free(gm); free(bt); free(o[0]); free(o[1]); free(o[2]);
+    }
     kctx_free(&k[0]);
     kctx_free(&k[1]);
-    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions, 8 attentions\n");
+    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions, 8 attentions, 6 group norms (their statistics = scalar too)\n");
 }
 
 /* bf16 compute (AVX512_BF16): the pair kernel against float64 sums of the bf16-rounded operands (the
