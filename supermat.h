@@ -2501,13 +2501,14 @@ typedef struct supermat__gn_args {
 /* Per-channel sums over the pixel rows [p0, p1) of x (C floats a row) into acc[C], in double: of x when mc is
    NULL, else of (x - mc[c])^2. Each channel is summed in row order, its square and its sum rounded separately,
    so the scalar, AVX2 and AVX-512 versions give the same bits (their vectors run across channels). */
-static void supermat__gn_sum_scalar(const float *x, size_t p0, size_t p1, int C, int c, const double *mc, double *acc) {
+static void supermat__gn_sum_scalar(const float *x, size_t p0, size_t p1, int C, int c0, const double *mc, double *acc) {
     size_t p;
-    for (; c < C; c++) {
-        double s = 0.0;
-        if (!mc) for (p = p0; p < p1; p++) s += (double)x[p * C + c];
-        else for (p = p0; p < p1; p++) { double d = (double)x[p * C + c] - mc[c], q = d * d; s += q; }
-        acc[c] = s;
+    int c;
+    for (c = c0; c < C; c++) acc[c] = 0.0;
+    for (p = p0; p < p1; p++) { /* rows outside, channels inside: the memory in order */
+        const float *r = x + p * C;
+        if (!mc) for (c = c0; c < C; c++) acc[c] += (double)r[c];
+        else for (c = c0; c < C; c++) { double d = (double)r[c] - mc[c], q = d * d; acc[c] += q; }
     }
 }
 #if SUPERMAT__HAS_AVX2
