@@ -2238,7 +2238,9 @@ SUPERMAT__AVX2 static void supermat__wino_tiles_avx2(const supermat__wino_job *J
 #endif
 #if SUPERMAT__HAS_AVX512
 /* F(4x4, 3x3) tiles with AVX-512: 16 channels a vector, the partial block by masks. The same operations in
-   the same order as the bodies above (separate multiplies and adds), so the same bits as the AVX2 path. */
+   the same order as the bodies above (separate multiplies and adds), so the same bits as the AVX2 path where
+   the compiler does not fuse multiply-adds (C99 with gcc / clang defaults); where it does (-ffp-contract=fast,
+   gcc's default for C++) the two may differ in the last bits. */
 #define SUPERMAT__W4BT(o0, o1, o2, o3, o4, o5, d0, d1, d2, d3, d4, d5) do {                                        \
         __m512 t1_ = _mm512_sub_ps(d4, _mm512_mul_ps(four, d2)), t2_ = _mm512_sub_ps(d3, _mm512_mul_ps(four, d1)); \
         __m512 t3_ = _mm512_sub_ps(d4, d2), t4_ = _mm512_mul_ps(two, _mm512_sub_ps(d3, d1));                       \
@@ -2499,8 +2501,9 @@ typedef struct supermat__gn_args {
 } supermat__gn_args;
 
 /* Per-channel sums over the pixel rows [p0, p1) of x (C floats a row) into acc[C], in double: of x when mc is
-   NULL, else of (x - mc[c])^2. Each channel is summed in row order, its square and its sum rounded separately,
-   so the scalar, AVX2 and AVX-512 versions give the same bits (their vectors run across channels). */
+   NULL, else of (x - mc[c])^2. Each channel is summed in row order; the vector versions (across channels) add
+   the squares with explicit FMAs, so AVX2 and AVX-512 give the same bits whatever the compiler's contraction
+   setting; the scalar one rounds square and sum apart (unless the compiler fuses them), a last-bit difference. */
 static void supermat__gn_sum_scalar(const float *x, size_t p0, size_t p1, int C, int c0, const double *mc, double *acc) {
     size_t p;
     int c;
@@ -2533,10 +2536,10 @@ SUPERMAT__AVX2 static void supermat__gn_sum_avx2(const float *x, size_t p0, size
                 d1 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 4)), m1);
                 d2 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 8)), m2);
                 d3 = _mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(r + 12)), m3);
-                s0 = _mm256_add_pd(s0, _mm256_mul_pd(d0, d0));
-                s1 = _mm256_add_pd(s1, _mm256_mul_pd(d1, d1));
-                s2 = _mm256_add_pd(s2, _mm256_mul_pd(d2, d2));
-                s3 = _mm256_add_pd(s3, _mm256_mul_pd(d3, d3));
+                s0 = _mm256_fmadd_pd(d0, d0, s0);
+                s1 = _mm256_fmadd_pd(d1, d1, s1);
+                s2 = _mm256_fmadd_pd(d2, d2, s2);
+                s3 = _mm256_fmadd_pd(d3, d3, s3);
             }
         }
         _mm256_storeu_pd(acc + c, s0); _mm256_storeu_pd(acc + c + 4, s1);
@@ -2569,10 +2572,10 @@ SUPERMAT__AVX512 static void supermat__gn_sum_avx512(const float *x, size_t p0, 
                 d1 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 8)), m1);
                 d2 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 16)), m2);
                 d3 = _mm512_sub_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(r + 24)), m3);
-                s0 = _mm512_add_pd(s0, _mm512_mul_pd(d0, d0));
-                s1 = _mm512_add_pd(s1, _mm512_mul_pd(d1, d1));
-                s2 = _mm512_add_pd(s2, _mm512_mul_pd(d2, d2));
-                s3 = _mm512_add_pd(s3, _mm512_mul_pd(d3, d3));
+                s0 = _mm512_fmadd_pd(d0, d0, s0);
+                s1 = _mm512_fmadd_pd(d1, d1, s1);
+                s2 = _mm512_fmadd_pd(d2, d2, s2);
+                s3 = _mm512_fmadd_pd(d3, d3, s3);
             }
         }
         _mm512_storeu_pd(acc + c, s0); _mm512_storeu_pd(acc + c + 8, s1);

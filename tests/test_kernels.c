@@ -336,6 +336,19 @@ static void make_wino(supermat__wino *wg, const supermat__pw *pw, int cin, int c
 }
 static void free_wino(supermat__wino *wg) { int xi; for (xi = 0; xi < wg->a * wg->a; xi++) free(wg->u[xi].p); }
 
+/* 1 where this build fuses a * b + c into an FMA in code compiled for AVX2 + FMA (gcc's C++ default), which
+   changes the last bits of the auto-vectorised AVX2 Winograd transforms, not of the AVX-512 intrinsics */
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static float contract_probe(volatile float *v) { float a = v[0], b = v[1]; return a * a + b; }
+static int fp_contracts(void) {
+    volatile float v[2];
+    v[0] = 1.0f + 1.0f / 4096; v[1] = -(1.0f + 2.0f / 4096); /* a * a = 1 + 2^-11 + 2^-24: 0 unless fused */
+    return supermat_cpu_has_avx2() && contract_probe(v) != 0.0f;
+}
+#else
+static int fp_contracts(void) { return 0; }
+#endif
+
 static kctx WK[NMODES][2]; /* [mode][threads 1, 3] */
 static double worst[2];
 
@@ -373,8 +386,9 @@ static void wino_case(int n, int h, int w, int cin, int cout, int up, int use_b,
             }
             TU_CHECK(!memcmp(res[0], res[1], no * sizeof(float)), "F%d %s: 1 and 3 threads differ", mi ? 4 : 2, KN(av));
             if (av == 1) { avx2_out = (float *)malloc(no * sizeof(float)); memcpy(avx2_out, res[0], no * sizeof(float)); }
-            /* the AVX-512 tile transforms (F4) do the AVX2 path's operations in its order: the same bits */
-            if (av == 2 && avx2_out) TU_CHECK(!memcmp(res[0], avx2_out, no * sizeof(float)), "F%d: AVX-512 and AVX2 bits differ", mi ? 4 : 2);
+            /* the AVX-512 tile transforms (F4) do the AVX2 path's operations in its order: the same bits,
+               unless the compiler fused multiply-adds in the AVX2 path (then float64 alone judges) */
+            if (av == 2 && avx2_out && !fp_contracts()) TU_CHECK(!memcmp(res[0], avx2_out, no * sizeof(float)), "F%d: AVX-512 and AVX2 bits differ", mi ? 4 : 2);
         }
         free(avx2_out);
         avx2_out = NULL;
@@ -537,16 +551,23 @@ static void test_same_bits(void) {
             memcpy(st[mode], (mode == 2 ? &ks.X : &k[mode].X)->gn_stats, sizeof(double) * 2 * groups); /* mean, 1/std */
         }
         TU_CHECK(!memcmp(o[0], o[1], sizeof(float) * total), "groupnorm C %d %dx%d: AVX-512 and AVX2 bits differ", C, h, wd);
-        /* the scalar SiLU is another exp: the statistics are what all three share */
-        TU_CHECK(!memcmp(st[0], st[1], sizeof(double) * 2 * groups) && !memcmp(st[0], st[2], sizeof(double) * 2 * groups),
-                 "groupnorm C %d %dx%d: statistics differ between scalar, AVX2 and AVX-512", C, h, wd);
-        if (t % 2 == 0) TU_CHECK(!memcmp(o[0], o[2], sizeof(float) * total), "groupnorm C %d %dx%d: scalar and AVX2 bits differ", C, h, wd);
+        /* statistics: AVX2 = AVX-512 bit for bit (explicit FMAs); the scalar sums round each square apart */
+        TU_CHECK(!memcmp(st[0], st[1], sizeof(double) * 2 * groups), "groupnorm C %d %dx%d: AVX2 and AVX-512 statistics differ", C, h, wd);
+        {
+            int g;
+            double worst_rel = 0;
+            for (g = 0; g < 2 * groups; g++) {
+                double rel = fabs(st[2][g] - st[0][g]) / fmax(fabs(st[0][g]), 1e-30);
+                if (rel > worst_rel) worst_rel = rel;
+            }
+            TU_CHECK(worst_rel < 1e-12, "groupnorm C %d %dx%d: scalar statistics %.3g from AVX2's (relative)", C, h, wd, worst_rel);
+        }
         kctx_free(&ks);
         free(x); free(gm); free(bt); free(o[0]); free(o[1]); free(o[2]);
     }
     kctx_free(&k[0]);
     kctx_free(&k[1]);
-    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions, 8 attentions, 6 group norms (their statistics = scalar too)\n");
+    printf("AVX-512 = AVX2 bits: 24 GEMMs, 6 convolutions, 8 attentions, 6 group norms\n");
 }
 
 /* bf16 compute (AVX512_BF16): the pair kernel against float64 sums of the bf16-rounded operands (the
