@@ -288,8 +288,9 @@ typedef enum supermat_kernel {
     SUPERMAT_KERNEL_AUTO = 0, /* best available on this CPU */
     SUPERMAT_KERNEL_SCALAR,   /* portable C, always available */
     SUPERMAT_KERNEL_AVX2,     /* x86-64 AVX2 + FMA + F16C (fails with UNSUPPORTED if the CPU lacks it) */
-    SUPERMAT_KERNEL_AVX512,   /* AVX-512F GEMM micro-kernels (12 x 32 and 12 x 16 tiles in 32 registers) over the AVX2 rest;
-                                 the same bits as AVX2 (every output element sums in the same order) */
+    SUPERMAT_KERNEL_AVX512,   /* AVX-512F GEMM micro-kernels (12 x 32 and 12 x 16 tiles in 32 registers), group-norm sums
+                                 and Winograd F4 transforms over the AVX2 rest; the same bits as AVX2 (every output element
+                                 sums in the same order; Winograd F4 only where the compiler does not fuse a * b + c) */
     SUPERMAT_KERNEL_NEON,     /* aarch64 Advanced SIMD GEMM micro-kernel (6 x 16 tile, fmla) over the scalar
                                  rest; picked by AUTO on aarch64 builds, UNSUPPORTED elsewhere */
     SUPERMAT_KERNEL_AMX,      /* bf16 compute only: the GEMMs on Intel AMX tiles (tdpbf16ps) over the AVX-512
