@@ -500,6 +500,23 @@ def map_losses(pa, po, b, squared=False):
     return la, lr, lm, lo
 
 
+def rerender_loss(envs, rng, b, pa, po):
+    """Predicted and true maps shaded under another environment map (random rotation about Y), both tone
+    mapped with the exposure auto-chosen for the truth (key 0.25 on the median luminance), masked L1."""
+    env = envs[int(rng.integers(len(envs)))]
+    rot = R.rotation_y(rng.uniform(0, 2 * np.pi))
+    m = b["mask"]
+    with torch.no_grad():
+        gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
+        lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722], device=DEV)[None, :, None, None]).sum(1, keepdim=True)
+        med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0, device=DEV)
+                           for i in range(lum.shape[0])])
+        expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
+        gt_img = tonemap_t(gt_lin, expo)
+    pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
+    return ((pr_img - gt_img).abs() * m).mean()
+
+
 def phase_e2e(args, data):
     vae = load_vae(args.out)
     for p in vae.parameters():
@@ -524,19 +541,7 @@ def phase_e2e(args, data):
         pa = (vae.decode(x0a / sf).sample / 2 + 0.5).clamp(0, 1)
         po = (vae.decode(x0o / sf).sample / 2 + 0.5).clamp(0, 1)
         la, lr, lm, lo = map_losses(pa, po, b)
-        # re-render under another environment map (random rotation), both tone mapped the same way
-        env = envs[int(ph.rng.integers(len(envs)))]
-        rot = R.rotation_y(ph.rng.uniform(0, 2 * np.pi))
-        m = b["mask"]
-        with torch.no_grad():
-            gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
-            lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722], device=DEV)[None, :, None, None]).sum(1, keepdim=True)
-            med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0, device=DEV)
-                               for i in range(lum.shape[0])])
-            expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
-            gt_img = tonemap_t(gt_lin, expo)
-        pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
-        lrr = ((pr_img - gt_img).abs() * m).mean()
+        lrr = rerender_loss(envs, ph.rng, b, pa, po)
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
         ph.update(loss, unet.parameters())
         ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
@@ -606,18 +611,7 @@ def phase_joint(args, data, name="joint"):
         yt = vae.decode(zt).sample / 2 + 0.5
         wt = 0.25 + 0.75 * b["mask"]
         lrec = ((yt - xt).abs() * wt).mean() + 0.5 * grad_l1(yt, xt, wt)
-        env = envs[int(ph.rng.integers(len(envs)))]
-        rot = R.rotation_y(ph.rng.uniform(0, 2 * np.pi))
-        m = b["mask"]
-        with torch.no_grad():
-            gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
-            lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722], device=DEV)[None, :, None, None]).sum(1, keepdim=True)
-            med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0, device=DEV)
-                               for i in range(lum.shape[0])])
-            expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
-            gt_img = tonemap_t(gt_lin, expo)
-        pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
-        lrr = ((pr_img - gt_img).abs() * m).mean()
+        lrr = rerender_loss(envs, ph.rng, b, pa, po)
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr + lrec
         ph.update(loss, params)
         ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f} "
