@@ -47,6 +47,7 @@
  * measures each against the f32 maps on your input)
  *   model_desc.weights      f32 | f16 | bf16 | int8 GEMM weights (memory /2, /2, /4)
  *   model_desc.conv         Winograd F(2x2,3x3) / F(4x4,3x3) for the 3x3 convolutions (<= 640 channels)
+ *   model_desc.compute      bf16 (AVX512_BF16, AMX) or int8 (AVX512_VNNI) products in the GEMMs
  *   session_desc.outputs    only the maps you need (a branch and its decode are skipped)
  *   session_desc.work_*     run the network smaller, resample in and out
  *   session_desc.vae_tile   VAE in blended tiles (bounded memory); skip_background: decode only the
@@ -117,7 +118,9 @@
  *   there) runs the GEMMs with fmla (fused, like AVX2) and the rest in scalar C. bf16 compute rounds each
  *   GEMM's inputs to bf16 and sums in f32: with vdpbf16ps (`kernel` AVX512) or on AMX tiles (AUTO where
  *   the CPU and Linux grant them), which sum in another order; both stay within 1e-5 (relative) of the
- *   float64 sums of the rounded operands. Denormals are not flushed.
+ *   float64 sums of the rounded operands. int8 compute sums exact int32 products of the quantized operands
+ *   per 64 rows of K and those chunks in float32 (1e-5 relative of the float64 sums of the same quantized
+ *   operands); its error against f32 is the quantization's. Denormals are not flushed.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
@@ -137,7 +140,8 @@
  *
  * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
  *   A model file in which the GEMM weights are already the runtime's packed panels (16 columns per
- *   panel; f32 / f16 / bf16 / int8, bf16 pairs for bf16 compute, Winograd-transformed 3x3 convolutions)
+ *   panel; f32 / f16 / bf16 / int8, bf16 pairs for bf16 compute, int8 quads with per-64-row scales for
+ *   int8 compute, Winograd-transformed 3x3 convolutions)
  *   and each cross-attention's keys and values of the context are precomputed, for one set of options
  *   (weights, conv, compute; the kernel does not matter). It is a safetensors file: the U8 tensors
  *   `supermat.packed.data` (the panels, 64-byte aligned in the file) and `supermat.packed.index`, the
@@ -307,10 +311,18 @@ typedef enum supermat_model_kind {
    rounds its activations to bf16 at its input, then multiplies pairs with AVX512_BF16 (vdpbf16ps: two
    products per lane, float32 accumulation); norms, softmax, attention scores, residuals and everything else
    stay float32. Needs a CPU with AVX512_BF16 (UNSUPPORTED otherwise) and float weights (not I8); the 3x3
-   convolutions that Winograd computes stay float32. Its error is measured by `supermat bench --image`. */
+   convolutions that Winograd computes stay float32. Its error is measured by `supermat bench --image`.
+   INT8: the weights are stored as int8 with one scale per output channel per 64 rows of K (the rows
+   k in [64 j, 64 j + 64), whatever the kernel taps), and each GEMM quantizes its activations on the fly
+   with one scale per row per 64 of K (max |a| / 127, round to nearest even); AVX512_VNNI (vpdpbusd: four
+   u8 x s8 products per lane, int32 sums) multiplies them, and each 64-row chunk's int32 sum is scaled to
+   float32 and added. Needs AVX512_VNNI (UNSUPPORTED otherwise); weights may come from F32/F16/BF16 or I8
+   tensors (requantized to the 64-row chunks). Like BF16 it leaves everything but the GEMMs float32 and the
+   Winograd convolutions float32. */
 typedef enum supermat_compute {
     SUPERMAT_COMPUTE_F32 = 0,   /* the reference */
     SUPERMAT_COMPUTE_BF16,      /* bf16 x bf16 products, f32 sums */
+    SUPERMAT_COMPUTE_INT8,      /* u8 x s8 products (dynamic activation scales), int32 sums per 64 of K */
     SUPERMAT_COMPUTE_COUNT
 } supermat_compute;
 
@@ -517,6 +529,7 @@ SUPERMAT_API int supermat_default_threads(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
+SUPERMAT_API int supermat_cpu_has_avx512_vnni(void); /* AVX-512F + BW + AVX512_VNNI (SUPERMAT_COMPUTE_INT8) */
 SUPERMAT_API int supermat_cpu_has_neon(void);        /* an aarch64 build (Advanced SIMD is part of the base ISA) */
 SUPERMAT_API int supermat_cpu_has_amx_bf16(void);    /* AMX-TILE + AMX-BF16, enabled by the OS for this process */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
@@ -574,6 +587,7 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #define SUPERMAT__HAS_AVX512 1
 #define SUPERMAT__AVX512 __attribute__((target("avx512f,avx2,fma,f16c")))
 #define SUPERMAT__AVX512BF16 __attribute__((target("avx512f,avx512bf16,avx2,fma,f16c")))
+#define SUPERMAT__AVX512VNNI __attribute__((target("avx512f,avx512bw,avx512vnni,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX512 0
 #endif
@@ -1185,6 +1199,15 @@ SUPERMAT__DEF int supermat_cpu_has_avx512_bf16(void) {
 #endif
 }
 
+SUPERMAT__DEF int supermat_cpu_has_avx512_vnni(void) {
+#if SUPERMAT__HAS_AVX512
+    unsigned a, b, c, d;
+    return supermat_cpu_has_avx512() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 30) & 1) && ((c >> 11) & 1);
+#else
+    return 0;
+#endif
+}
+
 SUPERMAT__DEF int supermat_cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
 
 #if SUPERMAT__HAS_AMX
@@ -1277,9 +1300,10 @@ static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size
 typedef struct supermat__pw { /* a packed weight: y = x W^T + b, W [N][K] */
     float *p;      /* ceil(N/16) panels of K x 16 (f32 weights) */
     void *q;       /* the same panels in f16 / bf16 / int8 when fmt != 0 (then p is NULL) */
-    float *qs;     /* int8: a scale per column per group of K rows: [groups][ceil(N/16)*16] */
+    float *qs;     /* int8: a scale per column per group of K rows: [groups][ceil(N/16)*16]; int8 compute
+                      (fmt 5): [ceil(K/64)][ceil(N/16)*16] scales, then as many int32: 128 x the column sums */
     float *bias;   /* padded to a multiple of 16, or NULL */
-    int K, N, fmt; /* fmt: 0 f32, 1 f16, 2 bf16, 3 int8 */
+    int K, N, fmt; /* fmt: 0 f32, 1 f16, 2 bf16, 3 int8, 4 bf16 pairs, 5 int8 quads (int8 compute) */
     int qcin;      /* int8: K rows come in taps of qcin rows (a conv's input channels; K for a linear) */
 } supermat__pw;
 
@@ -1568,6 +1592,63 @@ SUPERMAT__AVX512BF16 static void supermat__to_bf16_pairs(const float *x, int n, 
         out[i / 2] = lo | hi << 16;
     }
 }
+
+/* int8 compute: a row of kc activations -> u8 q + 128, q = rint(a / s), s = max |a| / 127 per 64 of K
+   (the scales in s[ceil(kc / 64)]), padded with 128 (a zero) to a multiple of 4 bytes */
+SUPERMAT__AVX512VNNI static void supermat__quant_row_u8(const float *x, int kc, unsigned char *out, float *s) {
+    int j, i, nch = (kc + 63) / 64;
+    for (j = 0; j < nch; j++) {
+        int k0 = j * 64, n = SUPERMAT__MIN(64, kc - k0);
+        __m512 mx = _mm512_setzero_ps(), inv;
+        float m;
+        for (i = 0; i < n; i += 16) {
+            __mmask16 mk = (__mmask16)(n - i >= 16 ? 0xFFFF : (1u << (n - i)) - 1u);
+            __m512 v = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(_mm512_maskz_loadu_ps(mk, x + k0 + i)), _mm512_set1_epi32(0x7fffffff)));
+            mx = _mm512_maskz_max_ps(0xFFFF, mx, v); /* (g++ warns of _mm512_max_ps's undefined pass-through) */
+        }
+        {   /* the largest lane (_mm512_reduce_max_ps trips g++'s uninitialized warning) */
+            float l[16];
+            _mm512_storeu_ps(l, mx);
+            m = l[0];
+            for (i = 1; i < 16; i++) m = l[i] > m ? l[i] : m;
+        }
+        s[j] = m / 127.0f;
+        inv = _mm512_set1_ps(m > 0.0f ? 127.0f / m : 0.0f);
+        for (i = 0; i < n; i += 16) {
+            __mmask16 mk = (__mmask16)(n - i >= 16 ? 0xFFFF : (1u << (n - i)) - 1u);
+            __m512i q = _mm512_maskz_cvtps_epi32(mk, _mm512_mul_ps(_mm512_maskz_loadu_ps(mk, x + k0 + i), inv)); /* nearest even */
+            _mm512_mask_cvtusepi32_storeu_epi8(out + k0 + i, mk, _mm512_add_epi32(q, _mm512_set1_epi32(128)));
+        }
+    }
+    for (i = kc; i % 4; i++) out[i] = 128;
+}
+static uint32_t supermat__ld32(const unsigned char *p) { uint32_t v; memcpy(&v, p, 4); return v; }
+/* int8 compute: B panels as s8 quads [K/4][16][4] (one ZMM per 4 rows of K), A rows as u8 quads; per
+   64-row chunk j of the block: int32 sums by vpdpbusd (exact: at most 64 x 255 x 127), minus the u8
+   offset (128 x the chunk's column sums, cor), converted to float32 (exact below 2^24) and added times
+   the row's scale x the column's */
+SUPERMAT__AVX512VNNI static void supermat__ukr_i8(int kc4, const unsigned char *const *a, const float *const *as, const signed char *b,
+                                                  const float *ws, const int32_t *cor, size_t cst, float *c, size_t ldc, int mr, int nr,
+                                                  const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc[SUPERMAT__MR512];
+    __m512i sum[SUPERMAT__MR512];
+    __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
+    int i, j, q;
+    supermat__acc512_init(acc, mr, mask, c, ldc, bias, r, ldr, accumulate);
+    for (j = 0; 16 * j < kc4; j++) {
+        int q1 = SUPERMAT__MIN(kc4, 16 * j + 16);
+        __m512 wv = _mm512_loadu_ps(ws + (size_t)j * cst);
+        __m512i cv = _mm512_loadu_si512((const void *)(cor + (size_t)j * cst));
+        for (i = 0; i < SUPERMAT__MR512; i++) sum[i] = _mm512_setzero_si512();
+        for (q = 16 * j; q < q1; q++) {
+            __m512i bv = _mm512_loadu_si512((const void *)(b + (size_t)q * 64));
+            for (i = 0; i < SUPERMAT__MR512; i++) sum[i] = _mm512_dpbusd_epi32(sum[i], _mm512_set1_epi32((int)supermat__ld32(a[i] + 4 * (size_t)q)), bv);
+        }
+        for (i = 0; i < SUPERMAT__MR512; i++)
+            acc[i] = _mm512_fmadd_ps(_mm512_maskz_cvtepi32_ps(0xFFFF, _mm512_sub_epi32(sum[i], cv)), _mm512_mul_ps(wv, _mm512_set1_ps(as[i][j])), acc[i]);
+    }
+    for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
+}
 #endif
 
 /* A operand of a GEMM */
@@ -1772,6 +1853,32 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                     for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = ab + (size_t)(i < mr ? m - m0 + i : m - m0) * kc2;
                     supermat__ukr_bf16(kc2, rows, bq, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
                                        g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                }
+            }
+            continue;
+        }
+        if (g->fmt == 5) { /* int8 compute: this block of A as u8 quads + row scales once, then every panel */
+            int kc4 = (kc + 3) / 4, K4 = (g->K + 3) / 4, rows_n = m1 - m0, r;
+            size_t cst = (size_t)g->np * SUPERMAT__NR, j0 = (size_t)k0 / 64;
+            unsigned char *a8 = (unsigned char *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
+            float *asc = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR + (size_t)SUPERMAT__MC * SUPERMAT__KC / 4;
+            const int32_t *cor = (const int32_t *)(g->qs + (size_t)((g->K + 63) / 64) * cst);
+            for (r = 0; r < rows_n; r++) supermat__quant_row_u8(abase + (size_t)r * lda, kc, a8 + (size_t)r * kc4 * 4, asc + (size_t)r * (SUPERMAT__KC / 64));
+            for (p = p0; p < p1; p++) {
+                const signed char *bq = (const signed char *)g->Bq + ((size_t)p * K4 + (size_t)k0 / 4) * 64;
+                int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+                for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                    const unsigned char *rows[SUPERMAT__MR512];
+                    const float *rs[SUPERMAT__MR512];
+                    int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                    for (i = 0; i < SUPERMAT__MR512; i++) {
+                        int rr = i < mr ? m - m0 + i : m - m0;
+                        rows[i] = a8 + (size_t)rr * kc4 * 4;
+                        rs[i] = asc + (size_t)rr * (SUPERMAT__KC / 64);
+                    }
+                    supermat__ukr_i8(kc4, rows, rs, bq, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
+                                     g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr, g->bias ? g->bias + n0 : NULL,
+                                     (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
                 }
             }
             continue;
@@ -2041,14 +2148,15 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
 #if SUPERMAT__HAS_AVX512
     g.wide = X->ukr == supermat__ukr_avx512;
 #endif
-    if (W->fmt && W->fmt != 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (W->fmt && W->fmt < 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
 #if SUPERMAT__HAS_AVX512
-    if (W->fmt == 4 && (!X->avx512 || X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
+    if (W->fmt >= 4 && (!X->avx512 || !W->q || (W->fmt == 5 && !W->qs) ||
+                        X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
         X->status = SUPERMAT_ERROR_INTERNAL;
         return;
     }
 #else
-    if (W->fmt == 4) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (W->fmt >= 4) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
 #endif
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
     npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
@@ -2916,6 +3024,7 @@ typedef struct supermat__loader {
     int conv;               /* requested supermat_conv */
     int keep_f32;           /* supermat__pack leaves the f32 panels (they are transformed next) */
     int bf16c;              /* SUPERMAT_COMPUTE_BF16: GEMM weights as bf16 pairs (fmt 4) */
+    int i8c;                /* SUPERMAT_COMPUTE_INT8: GEMM weights as int8 quads (fmt 5) */
     int *qsc;               /* per tensor: its scale tensor (I8) or -1 */
     /* pre-packed models (PRE-PACKED MODELS in the manual) */
     const unsigned char *pk;     /* the panels (tensor supermat.packed.data) when the file is pre-packed */
@@ -3198,6 +3307,48 @@ static void supermat__bf16_pairs(supermat__loader *L, supermat__pw *pw) {
     supermat__release(L, pw->p);
     pw->p = NULL;
 }
+/* one weight of f32 panels (fmt 0) or int8 panels with group scales (fmt 3), as float */
+static float supermat__pw_value(const supermat__pw *pw, int pnl, int k, int c) {
+    size_t o = ((size_t)pnl * pw->K + k) * SUPERMAT__NR + c;
+    int end, grp;
+    if (pw->fmt == 0) return pw->p[o];
+    grp = supermat__qgroup(k, pw->qcin, &end);
+    return (float)((const signed char *)pw->q)[o] * pw->qs[(size_t)grp * ((pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR) * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c];
+}
+/* f32 or int8 panels -> int8-compute panels (fmt 5): s8 quads [ceil(K/4)][16][4] per panel (zero past K),
+   a scale per column per 64 rows of K (max |w| / 127, q = rint(w / s)), then 128 x each chunk's column
+   sums (int32); the old panels are released */
+static void supermat__i8_quads(supermat__loader *L, supermat__pw *pw) {
+    int np = (pw->N + SUPERMAT__NR - 1) / SUPERMAT__NR, K4 = (pw->K + 3) / 4, nch = (pw->K + 63) / 64, pnl, c, j, k;
+    size_t cst = (size_t)np * SUPERMAT__NR;
+    signed char *q = (signed char *)supermat__mem(L, (size_t)np * K4 * 64);
+    float *qs = (float *)supermat__mem(L, sizeof(float) * 2 * (size_t)nch * cst);
+    int32_t *cor;
+    if (L->r) return;
+    cor = (int32_t *)(qs + (size_t)nch * cst);
+    memset(q, 0, (size_t)np * K4 * 64);
+    for (pnl = 0; pnl < np; pnl++)
+        for (c = 0; c < SUPERMAT__NR; c++)
+            for (j = 0; j < nch; j++) {
+                int k0 = 64 * j, k1 = SUPERMAT__MIN(pw->K, k0 + 64);
+                int32_t sum = 0;
+                float mx = 0.0f, inv;
+                for (k = k0; k < k1; k++) { float v = fabsf(supermat__pw_value(pw, pnl, k, c)); if (v > mx) mx = v; }
+                inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+                qs[(size_t)j * cst + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
+                for (k = k0; k < k1; k++) {
+                    float v = rintf(supermat__pw_value(pw, pnl, k, c) * inv);
+                    int iv = v > 127.0f ? 127 : v < -127.0f ? -127 : (int)v;
+                    q[(((size_t)pnl * K4 + k / 4) * SUPERMAT__NR + c) * 4 + (k & 3)] = (signed char)iv;
+                    sum += iv;
+                }
+                cor[(size_t)j * cst + (size_t)pnl * SUPERMAT__NR + c] = 128 * sum;
+            }
+    if (pw->p) supermat__release(L, pw->p);
+    if (pw->q) supermat__release(L, pw->q);
+    if (pw->qs) supermat__release(L, pw->qs);
+    pw->p = NULL; pw->q = q; pw->qs = qs; pw->fmt = 5;
+}
 /* converts a packed f32 weight to its storage format and releases the f32 copy */
 static void supermat__quantize(supermat__loader *L, supermat__pw *pw, int fmt, size_t total, const char *name) {
     size_t bad = 0;
@@ -3260,10 +3411,12 @@ static int supermat__pk_take(supermat__loader *L, int kind, int K, int N, int ne
 static uint64_t supermat__pk_main_bytes(int fmt, int K, int N) {
     uint64_t np = (uint64_t)(N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     if (fmt == 4) return np * (uint64_t)((K + 1) / 2) * SUPERMAT__NR * 2 * 2;
+    if (fmt == 5) return np * (uint64_t)((K + 3) / 4) * SUPERMAT__NR * 4;
     return np * SUPERMAT__NR * (uint64_t)K * (fmt == 0 ? 4u : fmt == 3 ? 1u : 2u);
 }
 static uint64_t supermat__pk_qs_bytes(int fmt, int K, int N, int qcin) {
-    return fmt == 3 ? (uint64_t)supermat__qgroups(K, qcin) * (uint64_t)((N + SUPERMAT__NR - 1) / SUPERMAT__NR) * SUPERMAT__NR * 4 : 0;
+    uint64_t cols = (uint64_t)((N + SUPERMAT__NR - 1) / SUPERMAT__NR) * SUPERMAT__NR;
+    return fmt == 3 ? (uint64_t)supermat__qgroups(K, qcin) * cols * 4 : fmt == 5 ? (uint64_t)((K + 63) / 64) * cols * 8 : 0;
 }
 /* supermat__pack for a pre-packed file: the panels come from the blob */
 static void supermat__pk_pw(supermat__loader *L, supermat__pw *pw, const supermat__wpart *parts, int nparts, int cin, int k, int need_bias) {
@@ -3278,8 +3431,8 @@ static void supermat__pk_pw(supermat__loader *L, supermat__pw *pw, const superma
     if (rec < 0) return;
     fmt = (int)supermat__pk_field(L, rec, 3);
     sfmt = (int)supermat__pk_field(L, rec, 4);
-    if (supermat__pk_field(L, rec, 3) < 0 || supermat__pk_field(L, rec, 3) > 4 || supermat__pk_field(L, rec, 4) < 0 ||
-        supermat__pk_field(L, rec, 4) > 3 || (fmt == 4 && !L->bf16c) || (fmt != 4 && fmt != sfmt)) {
+    if (supermat__pk_field(L, rec, 3) < 0 || supermat__pk_field(L, rec, 3) > 5 || supermat__pk_field(L, rec, 4) < 0 ||
+        supermat__pk_field(L, rec, 4) > 3 || (fmt == 4 && !L->bf16c) || (fmt == 5 && !L->i8c) || (fmt < 4 && fmt != sfmt)) {
         L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, parts[0].name, "pre-packed record %d ('%s') has a bad format", rec, parts[0].name);
         return;
     }
@@ -3287,7 +3440,7 @@ static void supermat__pk_pw(supermat__loader *L, supermat__pw *pw, const superma
     pw->K = K; pw->N = N; pw->qcin = cin; pw->fmt = fmt;
     if (fmt == 0) pw->p = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 5), supermat__pk_main_bytes(fmt, K, N), parts[0].name);
     else pw->q = supermat__pk_use(L, supermat__pk_field(L, rec, 5), supermat__pk_main_bytes(fmt, K, N), parts[0].name);
-    if (fmt == 3) pw->qs = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 6), supermat__pk_qs_bytes(fmt, K, N, cin), parts[0].name);
+    if (fmt == 3 || fmt == 5) pw->qs = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 6), supermat__pk_qs_bytes(fmt, K, N, cin), parts[0].name);
     if (need_bias) pw->bias = (float *)supermat__pk_use(L, supermat__pk_field(L, rec, 7), np * SUPERMAT__NR * 4, parts[0].name);
 }
 /* the writer's record of one packed weight */
@@ -3412,6 +3565,8 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
     }
     if (L->r) return;
     if (direct) pw->fmt = 3;
+    if (L->i8c && !L->keep_f32) supermat__i8_quads(L, pw);
+    else if (direct) { /* as read */ }
     else if (L->bf16c && !L->keep_f32) supermat__bf16_pairs(L, pw);
     else if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
     if (L->rec) supermat__pk_note(L, pw, direct ? 3 : fmt);
@@ -3796,6 +3951,12 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
         if (desc->weights == SUPERMAT_WEIGHTS_I8)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute multiplies bf16 weights: not with int8 weights");
     }
+    if (desc->compute == SUPERMAT_COMPUTE_INT8) {
+        if (!supermat_cpu_has_avx512_vnni())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks");
+        if (desc->kernel != SUPERMAT_KERNEL_AUTO && desc->kernel != SUPERMAT_KERNEL_AVX512)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "int8 compute runs on the AVX-512 kernel (kernel auto or avx512)");
+    }
     if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
     if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat_cpu_has_neon())
@@ -3818,6 +3979,7 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     L.weights = (int)desc->weights;
     L.cap = desc->max_memory;
     L.bf16c = desc->compute == SUPERMAT_COMPUTE_BF16;
+    L.i8c = desc->compute == SUPERMAT_COMPUTE_INT8;
     m->info.compute = desc->compute;
     L.conv = (int)desc->conv;
     m->info.conv = desc->conv;
@@ -3928,7 +4090,7 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
             int pconv = (int)supermat__meta_num(&L, "supermat.packed.conv", 0, SUPERMAT_CONV_COUNT - 1, 0, 1);
             int pcomp = (int)supermat__meta_num(&L, "supermat.packed.compute", 0, SUPERMAT_COMPUTE_COUNT - 1, 0, 1);
             int pwts = (int)supermat__meta_num(&L, "supermat.packed.weights", 1, SUPERMAT_WEIGHTS_COUNT - 1, 1, 1);
-            static const char *const wn[] = {"default", "f32", "f16", "bf16", "int8"}, *const cn[] = {"direct", "winograd-f2", "winograd-f4"}, *const xn[] = {"f32", "bf16"};
+            static const char *const wn[] = {"default", "f32", "f16", "bf16", "int8"}, *const cn[] = {"direct", "winograd-f2", "winograd-f4"}, *const xn[] = {"f32", "bf16", "int8"};
             if (L.r) goto done;
             if (strcmp(pkv, "1")) { L.r = supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "pre-packed format '%s' (this version reads 1): pack the original model file again", pkv); goto done; }
             if (rec) { L.r = supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the model file is pre-packed already: pack the original file"); goto done; }
@@ -3969,6 +4131,7 @@ done:
     if (L.toks) supermat__free(&a, L.toks, sizeof(supermat_json_tok) * (size_t)ntok);
     if (L.r) { supermat__model_free(m); return L.r; }
     if (L.bf16c) m->info.weights = SUPERMAT_WEIGHTS_BF16;
+    if (L.i8c) m->info.weights = SUPERMAT_WEIGHTS_I8;
     m->info.kernel = !L.avx2 ? (desc->kernel == SUPERMAT_KERNEL_NEON || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_neon())
                                     ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR)
                    : L.bf16c && (desc->kernel == SUPERMAT_KERNEL_AMX || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_amx_bf16()))

@@ -430,8 +430,11 @@ static void test_compute(void) {
         {SUPERMAT_KERNEL_AUTO, 0, SUPERMAT_COMPUTE_COUNT, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown compute mode"},
         {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "the AMX kernel with f32 compute"},
         {SUPERMAT_KERNEL_COUNT, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown kernel"},
+        {SUPERMAT_KERNEL_SCALAR, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the scalar kernel"},
+        {SUPERMAT_KERNEL_AVX2, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the AVX2 kernel"},
+        {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the AMX kernel"},
     };
-    int i, has = supermat_cpu_has_avx512_bf16();
+    int i, has = supermat_cpu_has_avx512_bf16(), has8 = supermat_cpu_has_avx512_vnni();
     for (i = 0; i < (int)(sizeof cases / sizeof cases[0]); i++) {
         supermat_model_desc md;
         supermat_model *m = NULL;
@@ -441,6 +444,7 @@ static void test_compute(void) {
         md.data = model_data; md.size = model_size;
         md.kernel = (supermat_kernel)cases[i].kernel; md.weights = (supermat_weights)cases[i].weights; md.compute = (supermat_compute)cases[i].compute;
         if (!has && cases[i].compute == SUPERMAT_COMPUTE_BF16) want = SUPERMAT_ERROR_UNSUPPORTED; /* refused for the CPU first */
+        if (!has8 && cases[i].compute == SUPERMAT_COMPUTE_INT8) want = SUPERMAT_ERROR_UNSUPPORTED;
         r = supermat_model_create(&md, &m, &err);
         TU_CHECK(r == want && !m, "%s: got %s (%s), want %s", cases[i].what, supermat_result_string(r), err.message, supermat_result_string(want));
         supermat_model_destroy(m);
@@ -475,6 +479,23 @@ static void test_compute(void) {
             r = supermat_model_create(&md, &m, &err);
             if (supermat_cpu_has_amx_bf16()) TU_CHECK(r == SUPERMAT_SUCCESS && m, "bf16 compute on AMX: %s", err.message);
             else TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "AMX without AMX: got %s", supermat_result_string(r));
+        }
+        {   /* int8 compute: a model on the AVX-512 kernel with int8 weights, from f32 and from int8 weights */
+            static const supermat_weights ws[] = {SUPERMAT_WEIGHTS_DEFAULT, SUPERMAT_WEIGHTS_I8};
+            int wi;
+            for (wi = 0; wi < 2; wi++) {
+                supermat_model_destroy(m);
+                m = NULL;
+                md.kernel = SUPERMAT_KERNEL_AUTO; md.compute = SUPERMAT_COMPUTE_INT8; md.weights = ws[wi];
+                r = supermat_model_create(&md, &m, &err);
+                if (!has8) TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "int8 compute without AVX512_VNNI: got %s", supermat_result_string(r));
+                else {
+                    if (m) supermat_model_get_info(m, &info);
+                    TU_CHECK(r == SUPERMAT_SUCCESS && m && info.compute == SUPERMAT_COMPUTE_INT8 && info.kernel == SUPERMAT_KERNEL_AVX512 &&
+                             info.weights == SUPERMAT_WEIGHTS_I8, "int8 compute (weights %d): %s", (int)ws[wi], err.message);
+                }
+            }
+            md.compute = SUPERMAT_COMPUTE_BF16; md.weights = SUPERMAT_WEIGHTS_DEFAULT;
         }
         if (!supermat_cpu_has_neon()) { /* the NEON kernel by name on a build without it */
             supermat_model_destroy(m);

@@ -1,5 +1,5 @@
 /* Stage-by-stage comparison of the C pipeline with goldens made by the official code (tests/data/golden).
-   usage: test_golden MODEL.safetensors auto|scalar|avx2|avx512[:f16|:bf16|:i8|:wf2|:wf4] THREADS GOLDEN_DIR...
+   usage: test_golden MODEL.safetensors auto|scalar|avx2|avx512|amx[:f16|:bf16|:i8|:wf2|:wf4|:bf16c|:i8c] THREADS GOLDEN_DIR...
    (exit 77 = skipped: the CPU lacks the kernel asked for) */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
@@ -226,12 +226,16 @@ int main(int argc, char **argv) {
        with the bound given by GOLDEN_TOL */
     if (strstr(kern, ":f16")) md.weights = SUPERMAT_WEIGHTS_F16;
     if (strstr(kern, ":bf16") && !strstr(kern, ":bf16c")) md.weights = SUPERMAT_WEIGHTS_BF16;
-    if (strstr(kern, ":i8")) md.weights = SUPERMAT_WEIGHTS_I8;
+    if (strstr(kern, ":i8") && !strstr(kern, ":i8c")) md.weights = SUPERMAT_WEIGHTS_I8;
     if (strstr(kern, ":wf2")) md.conv = SUPERMAT_CONV_WINOGRAD_F2;
     if (strstr(kern, ":wf4")) md.conv = SUPERMAT_CONV_WINOGRAD_F4;
     if (strstr(kern, ":bf16c")) { /* bf16 compute (AVX512_BF16) */
         if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16 on this CPU (or build)\n"); free(file); return 77; }
         md.compute = SUPERMAT_COMPUTE_BF16;
+    }
+    if (strstr(kern, ":i8c")) { /* int8 compute (AVX512_VNNI) */
+        if (!supermat_cpu_has_avx512_vnni()) { printf("SKIP: no AVX512_VNNI on this CPU (or build)\n"); free(file); return 77; }
+        md.compute = SUPERMAT_COMPUTE_INT8;
     }
     if (!strncmp(kern, "avx2", 4)) {
         if (!supermat_cpu_has_avx2()) { printf("SKIP: no AVX2 on this CPU (or build)\n"); free(file); return 77; }

@@ -643,6 +643,110 @@ static void test_bf16_compute(void) {
 #endif
 }
 
+/* int8 compute (AVX512_VNNI): the vpdpbusd kernel against float64 sums of the quantized operands as this
+   test quantizes them (weights: max |w| / 127 per column per 64 rows of K; activations: the same per row,
+   both rounded to nearest even; what is left is the float32 sum of the chunks' scaled int32 sums: 1e-5), and
+   against the float32 operands (the mode's own error, printed; bound 3e-2 of max |C|); bias, residual, K
+   tails (not a multiple of 4 or 64), several K blocks, a zero row, a row of a wide range, 1 and 3 threads */
+static void test_int8_compute(void) {
+#if SUPERMAT__HAS_AVX512
+    kctx k[2];
+    int t, th;
+    double worst_r = 0, worst_x = 0;
+    if (!supermat_cpu_has_avx512_vnni()) { printf("SKIP: no AVX512_VNNI: int8 compute not tested\n"); return; }
+    kctx_init(&k[0], 2, 1);
+    kctx_init(&k[1], 2, 3);
+    for (t = 0; t < 40; t++) {
+        int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np, K4, nch, j;
+        float *a, *w, *b, *R, *c[2], *ws, *as;
+        double *ref_r, *ref_x;
+        signed char *q, *qw;
+        int32_t *cor;
+        supermat__pw pw;
+        int use_b = t % 2, use_r = t % 3 == 0;
+        if (t == 0) { M = 96; N = 32; K = 512; }
+        if (t == 1) { M = 140; N = 70; K = 700; }
+        if (t == 2) { M = 13; N = 17; K = 3; }
+        np = (N + 15) / 16; K4 = (K + 3) / 4; nch = (K + 63) / 64;
+        a = rvec((size_t)M * K, 1.0); w = rvec((size_t)N * K, 1.0); b = rvec((size_t)N, 1.0); R = rvec((size_t)M * N, 1.0);
+        if (M > 2) {
+            for (kk = 0; kk < K; kk++) a[(size_t)1 * K + kk] = 0.0f;                          /* a zero row: scale 0 */
+            for (kk = 0; kk < K; kk++) a[(size_t)2 * K + kk] *= kk % 7 == 0 ? 1000.0f : 0.001f; /* a wide range */
+        }
+        ref_r = (double *)malloc(sizeof(double) * (size_t)M * N); ref_x = (double *)malloc(sizeof(double) * (size_t)M * N);
+        /* the weights: quads [K/4][16][4] per panel, scales and 128 x column sums per 64 rows */
+        q = (signed char *)calloc((size_t)np * K4 * 64, 1);
+        qw = (signed char *)calloc((size_t)np * 16 * K, 1);
+        ws = (float *)calloc((size_t)nch * np * 16 * 2, sizeof(float));
+        cor = (int32_t *)(ws + (size_t)nch * np * 16);
+        for (n = 0; n < N; n++)
+            for (j = 0; j < nch; j++) {
+                int k0 = 64 * j, k1 = K < k0 + 64 ? K : k0 + 64;
+                float mx = 0.0f, inv;
+                int32_t sum = 0;
+                for (kk = k0; kk < k1; kk++) mx = fabsf(w[(size_t)n * K + kk]) > mx ? fabsf(w[(size_t)n * K + kk]) : mx;
+                inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+                ws[(size_t)j * np * 16 + n] = mx / 127.0f;
+                for (kk = k0; kk < k1; kk++) {
+                    int v = (int)rintf(w[(size_t)n * K + kk] * inv);
+                    qw[(size_t)n * K + kk] = (signed char)v;
+                    q[(((size_t)(n / 16) * K4 + kk / 4) * 16 + n % 16) * 4 + (kk & 3)] = (signed char)v;
+                    sum += v;
+                }
+                cor[(size_t)j * np * 16 + n] = 128 * sum;
+            }
+        memset(&pw, 0, sizeof pw);
+        pw.K = K; pw.N = N; pw.qcin = K; pw.fmt = 5; pw.q = q; pw.qs = ws;
+        if (use_b) { pw.bias = (float *)calloc((size_t)np * 16, sizeof(float)); memcpy(pw.bias, b, sizeof(float) * (size_t)N); }
+        /* the activations, quantized per row per 64 of K */
+        as = (float *)malloc(sizeof(float) * (size_t)M * nch);
+        {
+            int *qa = (int *)malloc(sizeof(int) * (size_t)M * K);
+            for (m = 0; m < M; m++)
+                for (j = 0; j < nch; j++) {
+                    int k0 = 64 * j, k1 = K < k0 + 64 ? K : k0 + 64;
+                    float mx = 0.0f, inv;
+                    for (kk = k0; kk < k1; kk++) mx = fabsf(a[(size_t)m * K + kk]) > mx ? fabsf(a[(size_t)m * K + kk]) : mx;
+                    inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+                    as[(size_t)m * nch + j] = mx / 127.0f;
+                    for (kk = k0; kk < k1; kk++) qa[(size_t)m * K + kk] = (int)rintf(a[(size_t)m * K + kk] * inv);
+                }
+            for (m = 0; m < M; m++)
+                for (n = 0; n < N; n++) {
+                    double sr = use_b ? b[n] : 0.0, sx = sr;
+                    if (use_r) { sr += R[(size_t)m * N + n]; sx += R[(size_t)m * N + n]; }
+                    for (j = 0; j < nch; j++) {
+                        int k0 = 64 * j, k1 = K < k0 + 64 ? K : k0 + 64;
+                        long isum = 0;
+                        for (kk = k0; kk < k1; kk++) isum += (long)qa[(size_t)m * K + kk] * qw[(size_t)n * K + kk];
+                        sr += (double)isum * (double)(ws[(size_t)j * np * 16 + n] * as[(size_t)m * nch + j]);
+                    }
+                    for (kk = 0; kk < K; kk++) sx += (double)a[(size_t)m * K + kk] * w[(size_t)n * K + kk];
+                    ref_r[(size_t)m * N + n] = sr; ref_x[(size_t)m * N + n] = sx;
+                }
+            free(qa);
+        }
+        for (th = 0; th < 2; th++) {
+            double er, ex;
+            c[th] = (float *)malloc(sizeof(float) * (size_t)M * N);
+            k[th].X.status = SUPERMAT_SUCCESS;
+            supermat__linear(&k[th].X, a, (size_t)K, M, &pw, c[th], (size_t)N, use_r ? R : NULL, (size_t)N);
+            er = maxerr(c[th], ref_r, (size_t)M * N); ex = maxerr(c[th], ref_x, (size_t)M * N);
+            TU_CHECK(k[th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 3e-2, "int8 compute t%d M%d N%d K%d: err %.3g vs quantized operands, %.3g vs f32",
+                     th ? 3 : 1, M, N, K, er, ex);
+            if (er > worst_r) worst_r = er;
+            if (ex > worst_x) worst_x = ex;
+        }
+        TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "int8 compute M%d N%d K%d: 1 and 3 threads differ", M, N, K);
+        free(c[0]); free(c[1]);
+        free(a); free(w); free(b); free(R); free(ref_r); free(ref_x); free(q); free(qw); free(ws); free(as); free(pw.bias);
+    }
+    kctx_free(&k[0]);
+    kctx_free(&k[1]);
+    printf("int8 compute (vpdpbusd): worst %.3g vs the quantized operands, %.3g vs f32 operands (40 GEMMs)\n", worst_r, worst_x);
+#endif
+}
+
 static void test_scheduler(void) {
     float a = supermat__alphas_cumprod(1000, 0.00085, 0.012, 1, 999);
     uint32_t bits;
@@ -695,6 +799,7 @@ int main(void) {
     test_winograd();
     test_same_bits();
     test_bf16_compute();
+    test_int8_compute();
     for (avx2 = 0; avx2 < NMODES; avx2++) {
         if (!mode_ok(avx2)) {
             printf("SKIP: this CPU (or build) has no %s: that kernel was not tested\n", avx2 == 3 ? "NEON (not aarch64)" : avx2 == 2 ? "AVX-512F" : "AVX2");

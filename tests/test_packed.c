@@ -285,6 +285,7 @@ int main(int argc, char **argv) {
         {"winograd-f2", SUPERMAT_WEIGHTS_DEFAULT, SUPERMAT_CONV_WINOGRAD_F2, SUPERMAT_COMPUTE_F32},
         {"f16+wino-f4", SUPERMAT_WEIGHTS_F16, SUPERMAT_CONV_WINOGRAD_F4, SUPERMAT_COMPUTE_F32},
         {"bf16-compute", SUPERMAT_WEIGHTS_DEFAULT, SUPERMAT_CONV_DIRECT, SUPERMAT_COMPUTE_BF16},
+        {"int8-compute+wino-f4", SUPERMAT_WEIGHTS_DEFAULT, SUPERMAT_CONV_WINOGRAD_F4, SUPERMAT_COMPUTE_INT8},
     };
     const char *names[] = {"single", "mv", "uv", "single-i8file"};
     int f, o;
@@ -296,6 +297,7 @@ int main(int argc, char **argv) {
         for (o = 0; o < (int)(sizeof O / sizeof O[0]); o++) {
             unsigned char *packed;
             if (O[o].compute == SUPERMAT_COMPUTE_BF16 && !supermat_cpu_has_avx512_bf16()) { printf("%s %s: skipped (no AVX512_BF16 here)\n", names[f], O[o].name); continue; }
+            if (O[o].compute == SUPERMAT_COMPUTE_INT8 && !supermat_cpu_has_avx512_vnni()) { printf("%s %s: skipped (no AVX512_VNNI here)\n", names[f], O[o].name); continue; }
             if (f == 3 && O[o].weights != SUPERMAT_WEIGHTS_DEFAULT) continue; /* the int8 file as stored */
             if (f == 3 && O[o].compute == SUPERMAT_COMPUTE_BF16) continue;
             packed = check_one(names[f], file, size, &O[o], &psize);

@@ -76,7 +76,8 @@ static const char cli_usage_pack[] =
     "                    the file stores them)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\n"
     "                    Winograd weights are stored transformed, in f32: 16/9 or 4x their size)\n"
-    "  --compute X       f32 | bf16: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to load)\n"
+    "  --compute X       f32 | bf16 | int8: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to\n"
+    "                    load) or int8 compute (int8 quads; needs AVX512_VNNI to load)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (the panels are the same for every kernel)\n";
 
 static const char cli_usage_image[] =
@@ -114,7 +115,8 @@ static const char cli_usage_image[] =
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
+    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
+    "                    AVX512_VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -157,7 +159,8 @@ static const char cli_usage_views[] =
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
+    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
+    "                    AVX512_VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -191,7 +194,8 @@ static const char cli_usage_refine[] =
     "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
+    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
+    "                    AVX512_VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -211,7 +215,8 @@ static const char cli_usage_info[] =
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto)\n"
     "  --max-memory SIZE refuse a model that needs more than SIZE (512M, 4G) while it is created\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
+    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
+    "                    AVX512_VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n";
 
@@ -240,7 +245,8 @@ static const char cli_usage_bench[] =
     "                    makes its one refined map)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16: what the GEMMs multiply (bf16: AVX512_BF16 CPUs; default f32)\n"
+    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
+    "                    AVX512_VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "  --json FILE       also write the numbers as JSON\n";
@@ -264,6 +270,8 @@ static const char cli_usage_bench_image[] =
     "  uv-refine     --image MAP --mask MASK --position POS\n"
     "Images are not resized: width and height must be multiples of 8.\n"
     "\n"
+    ;
+static const char cli_usage_bench_modes[] =
     "modes (--modes all: every mode that applies to the model; or a comma list; f32, the reference,\n"
     "always runs first):\n"
     "  f32                 f32 weights, direct convolutions, the official computation (the reference)\n"
@@ -288,6 +296,9 @@ static const char cli_usage_bench_image[] =
     "                      without AVX-512)\n"
     "  bf16_amx            bf16 compute on AMX tiles (skipped without AMX-BF16)\n"
     "  bf16_amx_wf4        bf16_amx with Winograd F4 (f32) for the 3x3 convolutions\n"
+    "  int8_compute        int8 x int8 products in the GEMMs with vpdpbusd, activations quantized per\n"
+    "                      row per 64 of K (AVX512_VNNI; skipped without it)\n"
+    "  int8_compute_wf4    int8_compute with Winograd F4 (f32) for the 3x3 convolutions\n"
     "\n"
     "options with --image (besides --model, --threads, --repeats, --kernel, --views above):\n"
     "  --image FILE      the input (see above; repeated for the views of a supermat-mv model)\n"
@@ -365,7 +376,8 @@ static int cli_parse_compute(const char *cmd, const char *s) {
     cli_compute_given = 1;
     if (!strcmp(s, "f32")) cli_compute = SUPERMAT_COMPUTE_F32;
     else if (!strcmp(s, "bf16")) cli_compute = SUPERMAT_COMPUTE_BF16;
-    else { cli_usage_error(cmd, "--compute: '%s' is not f32 or bf16", s); return -1; }
+    else if (!strcmp(s, "int8")) cli_compute = SUPERMAT_COMPUTE_INT8;
+    else { cli_usage_error(cmd, "--compute: '%s' is not f32, bf16 or int8", s); return -1; }
     return 0;
 }
 /* --conv: how the 3x3 convolutions run (a speed lever: Winograd, see README) */
@@ -379,7 +391,9 @@ static int cli_parse_conv(const char *cmd, const char *s) {
     else { cli_usage_error(cmd, "--conv: '%s' is not direct, winograd-f2 or winograd-f4", s); return -1; }
     return 0;
 }
-static const char *cli_compute_name(supermat_compute c) { return c == SUPERMAT_COMPUTE_BF16 ? "bf16" : "f32"; }
+static const char *cli_compute_name(supermat_compute c) {
+    return c == SUPERMAT_COMPUTE_BF16 ? "bf16" : c == SUPERMAT_COMPUTE_INT8 ? "int8" : "f32";
+}
 static const char *cli_conv_name(supermat_conv c) {
     return c == SUPERMAT_CONV_WINOGRAD_F2 ? "winograd-f2" : c == SUPERMAT_CONV_WINOGRAD_F4 ? "winograd-f4" : "direct";
 }

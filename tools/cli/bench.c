@@ -262,6 +262,7 @@ enum {
     CLI_MODE_TILED_VAE, CLI_MODE_FOREGROUND, CLI_MODE_BRANCH_ALBEDO, CLI_MODE_BRANCH_RM, CLI_MODE_RES256,
     CLI_MODE_RES384, CLI_MODE_RES512, CLI_MODE_RES768, CLI_MODE_MV_WINDOW_OWN, CLI_MODE_MV_WINDOW_STRIDE4,
     CLI_MODE_BF16_COMPUTE, CLI_MODE_KERNEL_AVX2, CLI_MODE_BF16_AMX, CLI_MODE_BF16_AMX_WF4,
+    CLI_MODE_INT8_COMPUTE, CLI_MODE_INT8_COMPUTE_WF4,
     CLI_MODE_COUNT
 };
 /* the model kinds a mode applies to */
@@ -279,6 +280,7 @@ static const struct { const char *name; unsigned kinds; } cli_modes[CLI_MODE_COU
     {"mv_window_own", CLI_KMV},                  {"mv_window_stride4", CLI_KMV},
     {"bf16_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"kernel_avx2", CLI_KS | CLI_KMV | CLI_KUV},
     {"bf16_amx", CLI_KS | CLI_KMV | CLI_KUV},     {"bf16_amx_wf4", CLI_KS | CLI_KMV | CLI_KUV},
+    {"int8_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"int8_compute_wf4", CLI_KS | CLI_KMV | CLI_KUV},
 };
 /* set by cli_mode_setup: the mode's compute and kernel (-1: the run's own kernel) */
 static supermat_compute cli_mode_compute;
@@ -302,11 +304,11 @@ static int cli_parse_modes(const char *cmd, const char *s, int *list, int *n, in
             for (k = 0; k < CLI_MODE_COUNT; k++)
                 if (strlen(cli_modes[k].name) == len && !strncmp(p, cli_modes[k].name, len)) break;
             if (k == CLI_MODE_COUNT) {
-                char names[400];
+                char names[1000];
                 size_t used = 0;
                 int j;
                 names[0] = 0;
-                for (j = 0; j < CLI_MODE_COUNT; j++)
+                for (j = 0; j < CLI_MODE_COUNT && used < sizeof names; j++)
                     used += (size_t)snprintf(names + used, sizeof names - used, "%s%s", j ? ", " : "", cli_modes[j].name);
                 cli_usage_error(cmd, "--modes: unknown mode '%.*s' (all, or a comma list of: %s)", (int)len, p, names);
                 return -1;
@@ -343,6 +345,14 @@ static int cli_mode_setup(int mode, int w, int h, supermat_weights *weights, sup
         if (!supermat_cpu_has_amx_bf16()) { snprintf(why, why_cap, "this CPU (OS or build) has no AMX-BF16"); return 1; }
         cli_mode_compute = SUPERMAT_COMPUTE_BF16;
         cli_mode_kernel = SUPERMAT_KERNEL_AMX;
+        break;
+    case CLI_MODE_INT8_COMPUTE_WF4: /* int8 compute for the GEMMs, Winograd F4 (f32) for the 3x3 convolutions */
+        *conv = SUPERMAT_CONV_WINOGRAD_F4;
+        /* fall through */
+    case CLI_MODE_INT8_COMPUTE: /* vpdpbusd on the AVX-512 kernel */
+        if (!supermat_cpu_has_avx512_vnni()) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_VNNI"); return 1; }
+        cli_mode_compute = SUPERMAT_COMPUTE_INT8;
+        cli_mode_kernel = SUPERMAT_KERNEL_AVX512;
         break;
     case CLI_MODE_KERNEL_AVX2: /* beside the f32 row's AVX-512 kernel: the same bits, the time of the narrower one */
         if (!supermat_cpu_has_avx512()) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
@@ -1052,7 +1062,7 @@ static int cli_bench(int argc, char **argv) {
 
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); fputs(cli_usage_bench_truth, stdout); cli_print_default_model_help(); return CLI_OK; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); fputs(cli_usage_bench_modes, stdout); fputs(cli_usage_bench_truth, stdout); cli_print_default_model_help(); return CLI_OK; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             model_arg = v;
