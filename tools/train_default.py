@@ -117,6 +117,14 @@ def _group_norm_f32(x, num_groups, weight=None, bias=None, eps=1e-5):
     return _group_norm(x.float(), num_groups, weight, bias, eps)
 
 
+_layer_norm = F.layer_norm
+
+
+def _layer_norm_f32(x, normalized_shape, weight=None, bias=None, eps=1e-5):
+    """The same for layer_norm (the UNet's transformer blocks)."""
+    return _layer_norm(x.float(), normalized_shape, weight, bias, eps)
+
+
 class _PipeShim:
     def __init__(self, unet):
         self.unet = unet
@@ -789,6 +797,7 @@ def main():
     AMP = args.amp == "bf16"
     if AMP:
         F.group_norm = _group_norm_f32
+        F.layer_norm = _layer_norm_f32
     os.makedirs(args.out, exist_ok=True)
     data = Data(args.data)
     if args.hdri_dir is None:
