@@ -15,8 +15,9 @@ What runs, one engine after the other, every engine on the same threads (--threa
   ort       the same three modules exported to ONNX here (torch.onnx.export, opset 17, static shapes,
             the UNet's weights as external data) and run by ONNX Runtime for Node.js (npm onnxruntime-node,
             tools/race_ort.js), graph optimisation level "all", sequential, intra-op threads = --threads.
-  supermat  `supermat bench --pipeline-only` per mode (--modes: f32, winograd_f4, bf16, bf16_wf4; bf16 is
-            --compute bf16: AMX tiles where the CPU has them, else vdpbf16ps; skipped without AVX512_BF16);
+  supermat  `supermat bench --pipeline-only` per mode (--modes: f32, winograd_f4, bf16, bf16_wf4, int8; bf16 is
+            --compute bf16: AMX tiles where the CPU has them, else vdpbf16ps; skipped without AVX512_BF16;
+            int8 is --compute int8, skipped without AVX512_VNNI);
             the FMA peak is measured once by `supermat bench` in the same run.
 Each engine and mode runs --runs times (default 2: the first warms caches and allocators) and the fastest
 run is reported, stage by stage. Accuracy: every engine and mode also writes its maps for the picture,
@@ -71,6 +72,7 @@ SUPERMAT_MODES = {  # name: (bench / image options, what)
     "winograd_f4": (["--conv", "winograd-f4"], "f32, Winograd F(4x4,3x3)"),
     "bf16": (["--compute", "bf16"], "bf16 compute (AMX where present)"),
     "bf16_wf4": (["--compute", "bf16", "--conv", "winograd-f4"], "bf16 compute + Winograd F4"),
+    "int8": (["--compute", "int8"], "int8 compute (AVX512_VNNI)"),
 }
 
 
@@ -363,7 +365,7 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--runs", type=int, default=2, help="runs per engine and mode; the fastest is reported (default 2)")
     ap.add_argument("--engines", default="supermat,ort,torch")
-    ap.add_argument("--modes", default="f32,winograd_f4,bf16,bf16_wf4", help="supermat modes: " + ",".join(SUPERMAT_MODES))
+    ap.add_argument("--modes", default="f32,winograd_f4,bf16,bf16_wf4,int8", help="supermat modes: " + ",".join(SUPERMAT_MODES))
     ap.add_argument("--image", help="an RGBA picture of --size (default: a synthetic sphere written to --work)")
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
     ap.add_argument("--ort-dir", help="folder with node_modules/onnxruntime-node (default --work/ort)")
