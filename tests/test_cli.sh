@@ -267,6 +267,20 @@ check_png "$O4/ring_48x72_metallic.png" 72 48 0
 absent "$O4/ring_48x72_albedo.png"
 absent "$O4/ring_48x72_roughness.png"
 
+# int8 compute: maps on a CPU with AVX512_VNNI (+ BW), else exit 1 naming what is missing; a bad value is usage
+O6=$T/out_i8c
+run image --model "$MODEL" --out "$O6" --compute int8 "$SPHERE"
+if grep -qw avx512_vnni /proc/cpuinfo 2>/dev/null && grep -qw avx512bw /proc/cpuinfo 2>/dev/null; then
+    check "image --compute int8 exits 0 (AVX512_VNNI here)" [ $RC -eq 0 ]
+    check_png "$O6/sphere_64_albedo.png" 64 64 2
+else
+    check "image --compute int8 without AVX512_VNNI exits 1" [ $RC -eq 1 ]
+    check "image --compute int8 without AVX512_VNNI says so" grep -q "AVX512_VNNI" "$T/err"
+fi
+run image --model "$MODEL" --out "$O6" --compute int4 "$SPHERE"
+check "image --compute int4 exits 2" [ $RC -eq 2 ]
+check "image --compute int4: the message lists the values" grep -q "f32, bf16 or int8" "$T/err"
+
 O5=$T/out5
 run image --model "$T/tiny_f16.safetensors" --out "$O5" "$SPHERE"
 check "image with the f16 model exits 0" [ $RC -eq 0 ]
