@@ -3243,6 +3243,18 @@ nonfinite:
     return NULL;
 }
 
+/* symmetric int8 of n values v[i * stride]: q[i] = rint(v / s) within +-127, s = max |v| / 127 (returned) */
+static float supermat__q8_run(const float *v, size_t stride, int n, int *q) {
+    float mx = 0.0f, inv;
+    int i;
+    for (i = 0; i < n; i++) { float a = fabsf(v[(size_t)i * stride]); if (a > mx) mx = a; }
+    inv = mx > 0.0f ? 127.0f / mx : 0.0f;
+    for (i = 0; i < n; i++) {
+        float r = rintf(v[(size_t)i * stride] * inv);
+        q[i] = r > 127.0f ? 127 : r < -127.0f ? -127 : (int)r;
+    }
+    return mx / 127.0f;
+}
 /* converts packed f32 panels (K x 16 each) to f16 / bf16 / int8 panels of the same layout; int8 takes
    one symmetric scale (max |w| / 127) per column per group of rows (supermat__qgroup). Returns -1 if a
    value does not fit f16 (first such index in *bad). */
@@ -3265,15 +3277,10 @@ static int supermat__quantize_panels(const float *p, size_t total, int K, int N,
             for (k0 = 0; k0 < K; k0 = k1) {
                 grp = supermat__qgroup(k0, qcin, &k1);
                 for (c = 0; c < SUPERMAT__NR; c++) {
-                    float mx = 0.0f, inv;
-                    for (k = k0; k < k1; k++) { float v = fabsf(p[((size_t)pnl * K + k) * SUPERMAT__NR + c]); if (v > mx) mx = v; }
-                    inv = mx > 0.0f ? 127.0f / mx : 0.0f;
-                    qs[(size_t)grp * np * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
-                    for (k = k0; k < k1; k++) {
-                        size_t o = ((size_t)pnl * K + k) * SUPERMAT__NR + c;
-                        float v = rintf(p[o] * inv);
-                        q[o] = (signed char)(v > 127.0f ? 127 : v < -127.0f ? -127 : (int)v);
-                    }
+                    int iq[SUPERMAT__QG];
+                    size_t o = ((size_t)pnl * K + k0) * SUPERMAT__NR + c;
+                    qs[(size_t)grp * np * SUPERMAT__NR + (size_t)pnl * SUPERMAT__NR + c] = supermat__q8_run(p + o, SUPERMAT__NR, k1 - k0, iq);
+                    for (k = k0; k < k1; k++) q[o + (size_t)(k - k0) * SUPERMAT__NR] = (signed char)iq[k - k0];
                 }
             }
     }
@@ -3330,17 +3337,14 @@ static void supermat__i8_quads(supermat__loader *L, supermat__pw *pw) {
     for (pnl = 0; pnl < np; pnl++)
         for (c = 0; c < SUPERMAT__NR; c++)
             for (j = 0; j < nch; j++) {
-                int k0 = 64 * j, k1 = SUPERMAT__MIN(pw->K, k0 + 64);
+                int k0 = 64 * j, k1 = SUPERMAT__MIN(pw->K, k0 + 64), iq[64];
                 int32_t sum = 0;
-                float mx = 0.0f, inv;
-                for (k = k0; k < k1; k++) { float v = fabsf(supermat__pw_value(pw, pnl, k, c)); if (v > mx) mx = v; }
-                inv = mx > 0.0f ? 127.0f / mx : 0.0f;
-                qs[(size_t)j * cst + (size_t)pnl * SUPERMAT__NR + c] = mx / 127.0f;
+                float v[64];
+                for (k = k0; k < k1; k++) v[k - k0] = supermat__pw_value(pw, pnl, k, c);
+                qs[(size_t)j * cst + (size_t)pnl * SUPERMAT__NR + c] = supermat__q8_run(v, 1, k1 - k0, iq);
                 for (k = k0; k < k1; k++) {
-                    float v = rintf(supermat__pw_value(pw, pnl, k, c) * inv);
-                    int iv = v > 127.0f ? 127 : v < -127.0f ? -127 : (int)v;
-                    q[(((size_t)pnl * K4 + k / 4) * SUPERMAT__NR + c) * 4 + (k & 3)] = (signed char)iv;
-                    sum += iv;
+                    q[(((size_t)pnl * K4 + k / 4) * SUPERMAT__NR + c) * 4 + (k & 3)] = (signed char)iq[k - k0];
+                    sum += iq[k - k0];
                 }
                 cor[(size_t)j * cst + (size_t)pnl * SUPERMAT__NR + c] = 128 * sum;
             }
@@ -3564,11 +3568,10 @@ static void supermat__pack(supermat__loader *L, supermat__pw *pw, const supermat
         n0 += parts[p].count;
     }
     if (L->r) return;
-    if (direct) pw->fmt = 3;
+    if (direct) pw->fmt = 3; /* as read; int8 compute requantizes it below */
     if (L->i8c && !L->keep_f32) supermat__i8_quads(L, pw);
-    else if (direct) { /* as read */ }
-    else if (L->bf16c && !L->keep_f32) supermat__bf16_pairs(L, pw);
-    else if (fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
+    else if (!direct && L->bf16c && !L->keep_f32) supermat__bf16_pairs(L, pw);
+    else if (!direct && fmt && !L->keep_f32) supermat__quantize(L, pw, fmt, total, parts[0].name);
     if (L->rec) supermat__pk_note(L, pw, direct ? 3 : fmt);
 }
 
