@@ -584,7 +584,8 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
     return failed || missing ? CLI_FAIL : CLI_OK;
 }
 
-/* removes a folder and everything below it (no links followed) */
+#ifdef SUPERMAT_CLI_MESH
+/* removes a folder and everything below it (no links followed); only the mesh jobs stage folders */
 static void cli_rmtree(const char *path) {
     DIR *d = opendir(path);
     struct dirent *e;
@@ -602,6 +603,7 @@ static void cli_rmtree(const char *path) {
     }
     rmdir(path);
 }
+#endif
 
 #ifdef SUPERMAT_CLI_MESH
 int supermat_cli_mesh(int argc, char **argv); /* tools/cli/mesh.cpp */
