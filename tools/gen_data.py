@@ -21,7 +21,9 @@ interrupted run resumes):
 Objects: 1-3 of superquadric / ellipsoid / torus / rounded box / capsule / displaced blob, smoothly
 united, randomly rotated, orthographic camera, 2x2 supersampling.  Materials in object space: fBm,
 Voronoi cells, stripes, checks, decals, worn edges (exposed metal under paint), roughness over
-[0.05, 1], metallic mostly binary with coloured metals.  Shading: tools/smrender.py (Cook-Torrance GGX,
+[0.05, 1], metallic mostly binary with coloured metals; each material is dielectric, metal, masked metal
+or worn edges with the probabilities --mode-probs (default 0.42 / 0.2 / 0.2 / 0.18: 32 % of the object
+pixels metallic; the same random draws whatever the probabilities).  Shading: tools/smrender.py (Cook-Torrance GGX,
 Smith, Schlick + Lambert, split-sum prefiltered environment).
 """
 import argparse
@@ -253,6 +255,9 @@ METALS = np.array([[1.000, 0.766, 0.336], [0.972, 0.960, 0.915], [0.955, 0.637, 
                   np.float32)  # gold, silver, copper, iron, aluminium, brass, chromium, bronze (linear F0)
 
 
+MODE_P = [0.42, 0.2, 0.2, 0.18]   # material modes dielectric / metal / metal mask / worn edges (--mode-probs)
+
+
 def hsv2rgb(h, s, v):
     i = int(h * 6) % 6
     f = h * 6 - int(h * 6)
@@ -287,7 +292,7 @@ def make_material(rng):
          "cols": palette(rng, 3), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
          "dir": rng.normal(size=3).astype(np.float32), "rough": rng.uniform(0.05, 1.0, 2).astype(np.float32),
          "rough_var": float(rng.uniform(0, 0.25)), "mode": str(rng.choice(["dielectric", "metal", "mask", "worn"],
-                                                                           p=[0.42, 0.2, 0.2, 0.18])),
+                                                                           p=MODE_P)),
          "metal_col": METALS[rng.integers(len(METALS))].copy(), "decals": []}
     m["dir"] /= np.linalg.norm(m["dir"])
     if rng.random() < 0.25:  # anodised / coloured metal
@@ -443,6 +448,7 @@ def make_shard(args, shard):
     path = os.path.join(args.out, f"shard_{shard:04d}.npz")
     if os.path.exists(path):
         return path, 0.0
+    MODE_P[:] = args.mode_probs
     t0 = time.time()
     envs = [R.EnvLight(p) for p in env_paths(args.hdri_dir)]
     R.brdf_lut()
@@ -494,7 +500,14 @@ def main():
                     help="write --count PNG pictures + truth maps into --out instead of shards, lit by the "
                          "held-out map --example-env (for the demo and README)")
     ap.add_argument("--example-env", default=HELD_OUT[0])
+    ap.add_argument("--mode-probs", default="0.42,0.2,0.2,0.18",
+                    help="probabilities of the material modes dielectric, metal, metal mask, worn edges (the same "
+                         "random draws: only the modes change)")
     args = ap.parse_args()
+    args.mode_probs = [float(v) for v in args.mode_probs.split(",")]
+    if len(args.mode_probs) != 4 or min(args.mode_probs) < 0 or abs(sum(args.mode_probs) - 1) > 1e-6:
+        raise SystemExit("gen_data: --mode-probs wants four probabilities that sum to 1")
+    MODE_P[:] = args.mode_probs
     os.makedirs(args.out, exist_ok=True)
     if args.examples:
         write_examples(args)
@@ -502,7 +515,7 @@ def main():
     paths = env_paths(args.hdri_dir)
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
-    meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard,
+    meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)
