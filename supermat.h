@@ -1712,7 +1712,6 @@ typedef struct supermat__gemm_args {
     float **scratch;       /* per thread: MC x KC floats */
     int amx;               /* bf16 compute on AMX tiles */
     int wide;              /* f32 panels two at a time (the AVX-512 12 x 32 kernel) */
-    int gather;            /* convolutions through the im2col gather only */
 } supermat__gemm_args;
 
 #if SUPERMAT__HAS_AMX
@@ -1824,45 +1823,24 @@ static void supermat__gemm_task(void *user, int index, int thread) {
     int m0 = mb * SUPERMAT__MC, m1 = SUPERMAT__MIN(g->M, m0 + SUPERMAT__MC);
     int npanels = (g->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     int p0 = nc * g->panels_per_chunk, p1 = SUPERMAT__MIN(npanels, p0 + g->panels_per_chunk);
-    int k0, p, m, kc, r;
+    int k0, p, m;
     const supermat__asrc *A = g->A;
     float *buf = g->scratch[thread];
-    /* direct convolution: K blocks that stay within one tap, whose A rows are the input pixels' channel
-       runs in place (the padding reads a row of zeros), so no im2col copy; the same products in the same
-       order as the gathered blocks, hence the same bits where the blocks keep the groups the products are
-       summed in: int8 compute's 64-row scale chunks (channels a multiple of 64) and AMX's 32-row tile
-       products (a multiple of 32) */
-    int direct = A->conv && !g->gather && A->c % 16 == 0 && A->c >= 32 && (g->fmt != 5 || A->c % 64 == 0) &&
-                 (!g->amx || A->c % 32 == 0);
-    const float *rowp[SUPERMAT__MC];
-    if (direct) memset(buf, 0, sizeof(float) * SUPERMAT__KC); /* the zero row (the gather's block is unused) */
-    for (k0 = 0; k0 < g->K; k0 += kc) {
-        const float *abase = NULL;
-        size_t lda = 0;
-        kc = SUPERMAT__MIN(SUPERMAT__KC, g->K - k0);
-        if (direct) {
-            int ci = k0 % A->c, tap = k0 / A->c, ky = tap / A->kw, kx = tap - ky * A->kw;
-            kc = SUPERMAT__MIN(kc, A->c - ci);
-            for (r = 0; r < m1 - m0; r++) {
-                int mm = m0 + r, ox = mm % A->ow, oy = (mm / A->ow) % A->oh, img = mm / (A->ow * A->oh);
-                int vy = oy * A->stride - A->pad_t + ky, vx = ox * A->stride - A->pad_l + kx;
-                if (vy < 0 || vy >= A->uh || vx < 0 || vx >= A->uw) rowp[r] = buf;
-                else rowp[r] = A->x + (((size_t)img * A->h + supermat__nearest(vy, A->h, A->uh)) * A->w + supermat__nearest(vx, A->w, A->uw)) * A->c + ci;
-            }
+    for (k0 = 0; k0 < g->K; k0 += SUPERMAT__KC) {
+        int kc = SUPERMAT__MIN(SUPERMAT__KC, g->K - k0);
+        const float *abase;
+        size_t lda;
+        if (A->conv) {
+            supermat__gather(A, m0, m1 - m0, k0, kc, buf);
+            abase = buf; lda = (size_t)kc;
         } else {
-            if (A->conv) {
-                supermat__gather(A, m0, m1 - m0, k0, kc, buf);
-                abase = buf; lda = (size_t)kc;
-            } else {
-                abase = A->a + (size_t)m0 * A->lda + k0; lda = A->lda;
-            }
-            for (r = 0; r < m1 - m0; r++) rowp[r] = abase + (size_t)r * lda;
+            abase = A->a + (size_t)m0 * A->lda + k0; lda = A->lda;
         }
 #if SUPERMAT__HAS_AVX512
         if (g->fmt == 4) { /* bf16 compute: this block of A as bf16 pairs once, then every panel */
-            int kc2 = (kc + 1) / 2, K2 = (g->K + 1) / 2, rows_n = m1 - m0;
+            int kc2 = (kc + 1) / 2, K2 = (g->K + 1) / 2, rows_n = m1 - m0, r;
             uint32_t *ab = (uint32_t *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
-            for (r = 0; r < rows_n; r++) supermat__to_bf16_pairs(rowp[r], kc, ab + (size_t)r * kc2);
+            for (r = 0; r < rows_n; r++) supermat__to_bf16_pairs(abase + (size_t)r * lda, kc, ab + (size_t)r * kc2);
 #if SUPERMAT__HAS_AMX
             if (g->amx) { supermat__amx_block(g, ab, kc2, rows_n, k0, p0, p1, m0); continue; }
 #endif
@@ -1880,12 +1858,12 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             continue;
         }
         if (g->fmt == 5) { /* int8 compute: this block of A as u8 quads + row scales once, then every panel */
-            int kc4 = (kc + 3) / 4, K4 = (g->K + 3) / 4, rows_n = m1 - m0;
+            int kc4 = (kc + 3) / 4, K4 = (g->K + 3) / 4, rows_n = m1 - m0, r;
             size_t cst = (size_t)g->np * SUPERMAT__NR, j0 = (size_t)k0 / 64;
             unsigned char *a8 = (unsigned char *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
             float *asc = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR + (size_t)SUPERMAT__MC * SUPERMAT__KC / 4;
             const int32_t *cor = (const int32_t *)(g->qs + (size_t)((g->K + 63) / 64) * cst);
-            for (r = 0; r < rows_n; r++) supermat__quant_row_u8(rowp[r], kc, a8 + (size_t)r * kc4 * 4, asc + (size_t)r * (SUPERMAT__KC / 64));
+            for (r = 0; r < rows_n; r++) supermat__quant_row_u8(abase + (size_t)r * lda, kc, a8 + (size_t)r * kc4 * 4, asc + (size_t)r * (SUPERMAT__KC / 64));
             for (p = p0; p < p1; p++) {
                 const signed char *bq = (const signed char *)g->Bq + ((size_t)p * K4 + (size_t)k0 / 4) * 64;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
@@ -1933,7 +1911,7 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                 for (m = m0; m < m1; m += SUPERMAT__MR512) {
                     const float *rows[SUPERMAT__MR512];
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
-                    for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = rowp[i < mr ? m - m0 + i : m - m0];
+                    for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
                     supermat__ukr2_avx512(kc, rows, bp, bp1, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
                                           (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
                 }
@@ -1944,7 +1922,7 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (m = m0; m < m1; m += g->mr) {
                 const float *rows[SUPERMAT__MRMAX];
                 int mr = SUPERMAT__MIN(g->mr, m1 - m), i;
-                for (i = 0; i < g->mr; i++) rows[i] = rowp[i < mr ? m - m0 + i : m - m0];
+                for (i = 0; i < g->mr; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
                 g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
                            k0 > 0);
@@ -2084,7 +2062,6 @@ typedef struct supermat__ctx {
     int avx512;
     int neon;                   /* the aarch64 GEMM micro-kernel (over the scalar rest) */
     int amx;                    /* bf16-compute GEMMs on AMX tiles (over the AVX-512 rest) */
-    int conv_gather;            /* tests: convolutions through the im2col gather only (no direct blocks) */
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
     size_t scratch_floats;
@@ -2168,7 +2145,6 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
     g.amx = X->amx;
-    g.gather = X->conv_gather;
 #if SUPERMAT__HAS_AVX512
     g.wide = X->ukr == supermat__ukr_avx512;
 #endif

@@ -132,48 +132,6 @@ static void test_gemm_conv(int avx2, int threads) {
                  "conv %s t%d: n%d %dx%d->%dx%d cin %d cout %d k%d s%d pad%d: err %.3g", KN(avx2), threads, n, h, w, uh, uw, cin, cout, kk, stride, pad_mode, maxerr(out.d, ref, no));
         free(x); free(wt); free(b); free(R); free(ref); free(out.d); free(cv.w.p); free(cv.w.bias);
     }
-    /* direct convolution blocks (input channels a multiple of 16, at least 32: no im2col copy, K blocks
-       within one tap, more than one where cin > KC) against float64 (K up to 2880: 5e-6) and bit for bit
-       against the im2col gather */
-    for (it = 0; it < 14; it++) {
-        static const int cins[7] = {32, 48, 64, 96, 128, 272, 320};
-        int n = irand(1, 2), h = irand(1, 11), w = irand(1, 11), cin = cins[it % 7], cout = irand(1, 40);
-        int kk = (it % 4 == 3) ? 1 : 3, stride = (kk == 3 && it % 5 == 1) ? 2 : 1, pad_mode = (stride == 2 && it % 2 == 1) ? 1 : 0;
-        int uh = h, uw = w, oh, ow, use_r = it % 2, mode;
-        float *x, *wt, *b, *R = NULL, *o[2];
-        double *ref;
-        supermat__conv cv;
-        supermat__t in, out;
-        size_t no;
-        if (it % 3 == 2) { uh = 2 * h; uw = 2 * w; }           /* fused nearest x2 */
-        if (pad_mode == 1 && (uh < 2 || uw < 2)) pad_mode = 0;
-        x = rvec((size_t)n * h * w * cin, 1.0); wt = rvec((size_t)cout * cin * kk * kk, 0.1); b = rvec((size_t)cout, 1.0);
-        ref = (double *)malloc(sizeof(double) * (size_t)n * (uh + 2) * (uw + 2) * cout);
-        memset(&cv, 0, sizeof cv);
-        cv.k = kk; cv.stride = stride; cv.cin = cin; cv.cout = cout;
-        pack_w(&cv.w, wt, b, cout, cin, kk);
-        {
-            int pt = pad_mode ? 0 : kk / 2, pb = pad_mode ? 1 : kk / 2;
-            oh = (uh + pt + pb - kk) / stride + 1; ow = (uw + pt + pb - kk) / stride + 1;
-            no = (size_t)n * oh * ow * cout;
-            if (use_r) R = rvec(no, 1.0);
-            conv2d_ref(x, n, h, w, cin, uh, uw, wt, b, cout, kk, stride, pt, pt, pb, pb, R, ref, &oh, &ow);
-        }
-        in.d = x; in.n = n; in.h = h; in.w = w; in.c = cin;
-        for (mode = 0; mode < 2; mode++) {
-            o[mode] = (float *)malloc(no * sizeof(float));
-            out.d = o[mode]; out.n = n; out.h = oh; out.w = ow; out.c = cout;
-            if (R) memcpy(out.d, R, no * sizeof(float));
-            k.X.status = SUPERMAT_SUCCESS;
-            k.X.conv_gather = mode;
-            supermat__conv2d(&k.X, &in, uh, uw, &cv, pad_mode, &out, NULL, R ? out.d : NULL);
-        }
-        k.X.conv_gather = 0;
-        TU_CHECK(k.X.status == SUPERMAT_SUCCESS && nan_free(o[0], no) && maxerr(o[0], ref, no) < 5e-6 && !memcmp(o[0], o[1], no * sizeof(float)),
-                 "direct conv %s t%d: n%d %dx%d->%dx%d cin %d cout %d k%d s%d pad%d: err %.3g, %s the gather's bits", KN(avx2), threads, n, h, w, uh, uw,
-                 cin, cout, kk, stride, pad_mode, maxerr(o[0], ref, no), memcmp(o[0], o[1], no * sizeof(float)) ? "not" : "");
-        free(x); free(wt); free(b); free(R); free(ref); free(o[0]); free(o[1]); free(cv.w.p); free(cv.w.bias);
-    }
     /* dense GEMM with K across several KC blocks */
     for (it = 0; it < 12; it++) {
         int M = irand(1, 150), N = irand(1, 70), K = irand(1, 700), i, j, kq;
