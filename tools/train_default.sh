@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Train the default model from scratch, or resume an interrupted run: data -> VAE -> UNet -> official-format
-# release -> `supermat convert --precision f16` -> models/supermat_default.safetensors.
+# Train the default model from scratch, or resume an interrupted run: data -> VAE -> UNet -> a second data set
+# with fewer metals -> UNet fine-tuned on it -> official-format release -> `supermat convert --precision f16`
+# -> models/supermat_default.safetensors.
 #
 #   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_default.sh
 #
@@ -11,6 +12,7 @@
 #                 to resume: finished data shards and training phases are kept, the others restart from
 #                 their last checkpoint
 #   COUNT         training samples (default 20000), SEED (default 0), THREADS (default: all cores)
+#   COUNT2        samples of the second set (default 6000, seed SEED + 1); AMP bf16 | off for its phases
 #   TRAIN_ARGS    extra arguments for tools/train_default.py (step counts, batch sizes, learning rates)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -21,6 +23,9 @@ export HARNESS_DEPS
 COUNT="${COUNT:-20000}"
 SEED="${SEED:-0}"
 THREADS="${THREADS:-$(nproc 2>/dev/null || echo 2)}"
+COUNT2="${COUNT2:-6000}"
+# bf16 autocast for the fine-tuning where the CPU has AMX (the shipped model's ft phases ran so), else float32
+AMP="${AMP:-$(grep -qw amx_bf16 /proc/cpuinfo 2>/dev/null && echo bf16 || echo off)}"
 PY=/usr/bin/python3
 
 need=()
@@ -44,6 +49,14 @@ echo "== training"
 # shellcheck disable=SC2086
 $PY tools/train_default.py --data "$WORK/data128" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
     --threads "$THREADS" ${TRAIN_ARGS:-}
+
+echo "== data, second set ($COUNT2 samples, seed $((SEED + 1)), fewer metals: material modes 0.62 / 0.12 / 0.13 / 0.13)"
+$PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/data128b" --count "$COUNT2" --size 128 \
+    --seed "$((SEED + 1))" --jobs "$THREADS" --mode-probs 0.62,0.12,0.13,0.13
+
+echo "== fine-tuning on it (latent 2000 steps, end to end 100)"
+$PY tools/train_default.py --data "$WORK/data128b" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
+    --threads "$THREADS" --amp "$AMP" --phases ft,ft_e2e,export
 
 echo "== conversion"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
