@@ -156,6 +156,13 @@ def build_unet():
     return SuperMatAdapterWrapper.convert(_PipeShim(base), use_camera_embeddings=False, replicate_num=2).unet.to(DEV)
 
 
+def load_unet(run, phase):
+    """The UNet as phase `phase` of the run left it."""
+    unet = build_unet()
+    unet.load_state_dict(load_ckpt(os.path.join(run, f"ckpt_{phase}.pt"))["models"]["unet"])
+    return unet
+
+
 def x0_coefficient():
     """-sqrt(1 - alphas_cumprod[999]) exactly as diffusers' DDIM step computes it (float32)."""
     s = DDIMScheduler.from_config(SCHEDULER)
@@ -531,9 +538,8 @@ def phase_latent(args, data, name="latent", cache_name="latents.pt", steps=None,
     ctx = context(args.out)
     coef, _ = x0_coefficient()
     torch.manual_seed(args.seed + 1)
-    unet = build_unet()
+    unet = load_unet(args.out, init) if init else build_unet()
     if init:
-        unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{init}.pt"))["models"]["unet"])
         print(f"{name}: from {init}", flush=True)
     lr = lr or args.unet_lr
     opt = torch.optim.AdamW(unet.parameters(), lr=lr, weight_decay=0.0)
@@ -586,15 +592,17 @@ def rerender_loss(envs, rng, b, pa, po):
     return ((pr_img - gt_img).abs() * m).mean()
 
 
-def phase_e2e(args, data, name="e2e", src="latent"):
-    vae = load_vae(args.out)
+def end_to_end_setup(run, src):
+    """What the end-to-end phases with a frozen VAE start from: the VAE (no gradients), its scaling factor,
+    the empty-prompt context, the x0 coefficient and the UNet of phase `src`."""
+    vae = load_vae(run)
     for p in vae.parameters():
         p.requires_grad_(False)
-    sf = vae.config.scaling_factor
-    ctx = context(args.out)
-    coef, _ = x0_coefficient()
-    unet = build_unet()
-    unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
+    return vae, vae.config.scaling_factor, context(run), x0_coefficient()[0], load_unet(run, src)
+
+
+def phase_e2e(args, data, name="e2e", src="latent"):
+    vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
     envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
     opt = torch.optim.AdamW(unet.parameters(), lr=args.e2e_lr, weight_decay=0.0)
     ph = Phase(args.out, name, {"unet": unet}, opt, args.e2e_steps, args.ckpt_every, args.seed)
@@ -662,10 +670,8 @@ def phase_joint(args, data, name="joint"):
         p.requires_grad_(True)
     ctx = context(args.out)
     coef, _ = x0_coefficient()
-    unet = build_unet()
     squared = name == "joint_mse"
-    src = "joint" if squared else "e2e" if done(args.out, "e2e") else "latent"
-    unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
+    unet = load_unet(args.out, "joint" if squared else "e2e" if done(args.out, "e2e") else "latent")
     envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
     lr0 = args.joint_mse_lr if squared else args.joint_lr
     opt = torch.optim.AdamW([{"params": list(unet.parameters())}, {"params": dec}], lr=lr0, weight_decay=0.0)
@@ -716,15 +722,8 @@ def phase_alb(args, data):
     --alb-samples training renders, end to end through the frozen decoder with squared errors (what PSNR
     measures: under the albedo level's ambiguity they ask for the conditional mean, L1 for the median)
     + gradient L1, colour channels of picture and albedo permuted together on half the samples."""
-    vae = load_vae(args.out)
-    for p in vae.parameters():
-        p.requires_grad_(False)
-    sf = vae.config.scaling_factor
-    ctx = context(args.out)
-    coef, _ = x0_coefficient()
-    unet = build_unet()
     src = unet_source(args.out)
-    unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
+    vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
     params = []
     for k, p in unet.named_parameters():
         p.requires_grad_(k.startswith(ALB_BRANCH))
@@ -878,8 +877,7 @@ def phase_export(args, data):
     vae.to("cpu").save_pretrained(os.path.join(base, "vae"), safe_serialization=True)
     vae.to(DEV)
     src = unet_source(args.out)
-    unet = build_unet()
-    unet.load_state_dict(load_ckpt(os.path.join(args.out, f"ckpt_{src}.pt"))["models"]["unet"])
+    unet = load_unet(args.out, src)
     f16_round_(unet)
     torch.save({k: v.cpu() for k, v in unet.state_dict().items()}, os.path.join(args.out, "release", "supermat.pth"))
     report = {"unet_from": src, "unet_params": sum(p.numel() for p in unet.parameters()),
