@@ -255,7 +255,7 @@ METALS = np.array([[1.000, 0.766, 0.336], [0.972, 0.960, 0.915], [0.955, 0.637, 
                   np.float32)  # gold, silver, copper, iron, aluminium, brass, chromium, bronze (linear F0)
 
 
-MODE_P = [0.42, 0.2, 0.2, 0.18]   # material modes dielectric / metal / metal mask / worn edges (--mode-probs)
+MODE_P = (0.42, 0.2, 0.2, 0.18)   # material modes dielectric / metal / metal mask / worn edges (--mode-probs)
 
 
 def hsv2rgb(h, s, v):
@@ -287,12 +287,12 @@ def palette(rng, n):
     return np.array(cols)  # sRGB-space colours
 
 
-def make_material(rng):
+def make_material(rng, mode_p=MODE_P):
     m = {"pattern": str(rng.choice(["plain", "fbm", "voronoi", "stripes", "checks"], p=[0.15, 0.3, 0.2, 0.2, 0.15])),
          "cols": palette(rng, 3), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
          "dir": rng.normal(size=3).astype(np.float32), "rough": rng.uniform(0.05, 1.0, 2).astype(np.float32),
          "rough_var": float(rng.uniform(0, 0.25)), "mode": str(rng.choice(["dielectric", "metal", "mask", "worn"],
-                                                                           p=MODE_P)),
+                                                                           p=mode_p)),
          "metal_col": METALS[rng.integers(len(METALS))].copy(), "decals": []}
     m["dir"] /= np.linalg.norm(m["dir"])
     if rng.random() < 0.25:  # anodised / coloured metal
@@ -356,9 +356,9 @@ def eval_material(m, q, curv):
 # ----------------------------------------------------------------------------------------------------------
 # one sample
 # ----------------------------------------------------------------------------------------------------------
-def render_sample(rng, envs, size, ss=2):
+def render_sample(rng, envs, size, ss=2, mode_p=MODE_P):
     obj = Obj(rng)
-    mats = [make_material(rng) for _ in obj.shapes]
+    mats = [make_material(rng, mode_p) for _ in obj.shapes]
     if rng.random() < 0.3:  # one material for the whole group
         mats = [mats[0]] * len(mats)
     frame(obj, rng.uniform(0.55, 0.92))
@@ -448,7 +448,6 @@ def make_shard(args, shard):
     path = os.path.join(args.out, f"shard_{shard:04d}.npz")
     if os.path.exists(path):
         return path, 0.0
-    MODE_P[:] = args.mode_probs
     t0 = time.time()
     envs = [R.EnvLight(p) for p in env_paths(args.hdri_dir)]
     R.brdf_lut()
@@ -457,7 +456,7 @@ def make_shard(args, shard):
     for i in range(first, min(first + args.shard, args.count)):
         rng = np.random.default_rng([args.seed, i])
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
-            s = render_sample(rng, envs, args.size)
+            s = render_sample(rng, envs, args.size, mode_p=args.mode_probs)
             if s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
@@ -474,7 +473,7 @@ def write_examples(args):
     env = R.EnvLight(os.path.join(args.hdri_dir, args.example_env + ".hdr"))
     for i in range(args.count):
         rng = np.random.default_rng([args.seed, 1 << 30, i])   # a stream no training sample uses
-        s = render_sample(rng, [env], args.size)
+        s = render_sample(rng, [env], args.size, mode_p=args.mode_probs)
         stem = os.path.join(args.out, f"obj{i:02d}")
         Image.fromarray(s["rgba"]).save(stem + ".png")
         Image.fromarray(s["albedo"]).save(stem + "_gt_albedo.png")
@@ -507,7 +506,6 @@ def main():
     args.mode_probs = [float(v) for v in args.mode_probs.split(",")]
     if len(args.mode_probs) != 4 or min(args.mode_probs) < 0 or abs(sum(args.mode_probs) - 1) > 1e-6:
         raise SystemExit("gen_data: --mode-probs wants four probabilities that sum to 1")
-    MODE_P[:] = args.mode_probs
     os.makedirs(args.out, exist_ok=True)
     if args.examples:
         write_examples(args)
