@@ -80,6 +80,7 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
+from safetensors.torch import safe_open  # noqa: E402
 from src.adapters import SuperMatAdapterWrapper  # noqa: E402
 from transformers import CLIPTextConfig, CLIPTextModel, CLIPTokenizer  # noqa: E402
 from transformers.tokenization_clip import synthetic_clip_vocab  # noqa: E402
@@ -761,26 +762,18 @@ def init_from(args):
     this is the f16-rounded state of those phases of the run that made the file."""
     if done(args.out, "e2e"):
         return
-    with open(args.init_from, "rb") as f:
-        n = int.from_bytes(f.read(8), "little")
-        head = json.loads(f.read(n))
-        blob = f.read()
-    meta = head.pop("__metadata__", {})
-    if meta.get("supermat.kind") != "supermat" or int(meta.get("unet.branches", 0)) != 2:
-        raise SystemExit(f"train_default: {args.init_from} is not a two-branch SuperMat model file")
-    dt = {"F16": np.float16, "F32": np.float32, "BF16": None}
-    sd_unet, sd_vae = {}, {}
-    for k, h in head.items():
-        if dt.get(h["dtype"]) is None:
-            raise SystemExit(f"train_default: {args.init_from}: tensor {k} is {h['dtype']} (f16 / f32 files only)")
-        a, e = h["data_offsets"]
-        t = torch.from_numpy(np.frombuffer(blob[a:e], dt[h["dtype"]]).astype(np.float32).reshape(h["shape"]))
-        if k == "context":
-            ctx = t
-        elif k.startswith("vae."):
-            sd_vae[k[4:]] = t
-        else:
-            sd_unet[k] = t
+    with safe_open(args.init_from, framework="pt") as f:
+        meta = f.metadata() or {}
+        if meta.get("supermat.kind") != "supermat" or int(meta.get("unet.branches", 0)) != 2:
+            raise SystemExit(f"train_default: {args.init_from} is not a two-branch SuperMat model file")
+        tensors = {k: f.get_tensor(k) for k in f.keys()}
+    bad = [k for k, v in tensors.items() if not v.is_floating_point()]
+    if bad:
+        raise SystemExit(f"train_default: {args.init_from}: {bad[0]} is {tensors[bad[0]].dtype} (f32 / f16 / bf16 files only)")
+    tensors = {k: v.float() for k, v in tensors.items()}
+    ctx = tensors.pop("context")
+    sd_vae = {k[4:]: v for k, v in tensors.items() if k.startswith("vae.")}
+    sd_unet = {k: v for k, v in tensors.items() if not k.startswith("vae.")}
     vae = make_vae()
     vae.load_state_dict(sd_vae, strict=True)
     unet = build_unet()
