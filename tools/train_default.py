@@ -44,6 +44,8 @@ Phases
           model: the default phases on 20 000 renders, then ft + ft_e2e (--amp bf16) on 6 000 renders with
           fewer metals (gen_data.py --seed 1 --mode-probs 0.62,0.12,0.13,0.13; tools/train_default.sh does
           both): real assets albedo / roughness / metallic 13.70 / 12.12 / 8.95 -> 14.66 / 12.23 / 8.87 dB.
+  e2e_more  the e2e phase again, longer (--e2e-more-steps, --e2e-more-lr), on a third data set (--data), from the
+          UNet the run has (unet_source); tools/train_default.sh runs it after ft_e2e.
   export  the official release format: RUN/release/supermat.pth (torch.save of the UNet state dict) and
           RUN/release/base/ (diffusers layout: vae/, text_encoder/, tokenizer/, scheduler/ v_prediction,
           unet/config.json), every weight rounded to float16 so the f16 model file of `supermat convert
@@ -602,15 +604,17 @@ def end_to_end_setup(run, src):
     return vae, vae.config.scaling_factor, context(run), x0_coefficient()[0], load_unet(run, src)
 
 
-def phase_e2e(args, data, name="e2e", src="latent"):
+def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None):
+    steps = args.e2e_steps if steps is None else steps
+    base_lr = args.e2e_lr if lr is None else lr   # (the loop's `lr` is the roughness loss)
     vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
     envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
-    opt = torch.optim.AdamW(unet.parameters(), lr=args.e2e_lr, weight_decay=0.0)
-    ph = Phase(args.out, name, {"unet": unet}, opt, args.e2e_steps, args.ckpt_every, args.seed)
+    opt = torch.optim.AdamW(unet.parameters(), lr=base_lr, weight_decay=0.0)
+    ph = Phase(args.out, name, {"unet": unet}, opt, steps, args.ckpt_every, args.seed)
     unet.train()
     while ph.step < ph.total:
         for g in opt.param_groups:
-            g["lr"] = lr_at(ph.step, ph.total, args.e2e_lr, warm=20)
+            g["lr"] = lr_at(ph.step, ph.total, base_lr, warm=20)
         idx = ph.rng.choice(data.train, args.e2e_batch, replace=False)
         b = data.batch(idx, ph.rng)
         with torch.no_grad(), amp():
@@ -637,6 +641,13 @@ def phase_ft(args, data):
 def phase_ft_e2e(args, data):
     """The e2e phase after ft, on the same data."""
     phase_e2e(args, data, "ft_e2e", "ft")
+
+
+def phase_e2e_more(args, data):
+    """The e2e phase again, longer, on --data (a third data set in train_default.sh), from the UNet the run
+    has (unet_source, resolved before this phase counts as done)."""
+    src = unet_source(args.out)
+    phase_e2e(args, data, "e2e_more", src, args.e2e_more_steps, args.e2e_more_lr)
 
 
 def permute_colour(b, rng, p=0.5):
@@ -714,7 +725,7 @@ ALB_BRANCH = ("last_up_blocks.0.", "rep_conv_out.0.")   # the albedo expert bran
 
 def unet_source(run):
     """The phase whose UNet the later phases start from / the release takes."""
-    return next(p for p in ("ft_e2e", "ft", "alb", "joint_mse", "joint", "e2e", "latent") if done(run, p))
+    return next(p for p in ("e2e_more", "ft_e2e", "ft", "alb", "joint_mse", "joint", "e2e", "latent") if done(run, p))
 
 
 def phase_alb(args, data):
@@ -916,6 +927,8 @@ def main():
     ap.add_argument("--e2e-steps", type=int, default=100)
     ap.add_argument("--e2e-batch", type=int, default=8)
     ap.add_argument("--e2e-lr", type=float, default=1e-4)
+    ap.add_argument("--e2e-more-steps", type=int, default=900)
+    ap.add_argument("--e2e-more-lr", type=float, default=1e-4)
     ap.add_argument("--rerender-weight", type=float, default=0.5)
     ap.add_argument("--joint-steps", type=int, default=800)
     ap.add_argument("--joint-lr", type=float, default=1e-4)
@@ -954,7 +967,7 @@ def main():
         t0 = time.time()
         {"vae": phase_vae, "vae_crops": phase_vae_crops, "vae_more": phase_vae_more, "latent": phase_latent, "e2e": phase_e2e,
          "joint": phase_joint, "joint_mse": phase_joint_mse, "alb": phase_alb, "ft": phase_ft,
-         "ft_e2e": phase_ft_e2e, "export": phase_export}[name](args, data)
+         "ft_e2e": phase_ft_e2e, "e2e_more": phase_e2e_more, "export": phase_export}[name](args, data)
         print(f"{name}: {time.time() - t0:.0f} s this run", flush=True)
 
 
