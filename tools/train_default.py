@@ -44,8 +44,11 @@ Phases
           model: the default phases on 20 000 renders, then ft + ft_e2e (--amp bf16) on 6 000 renders with
           fewer metals (gen_data.py --seed 1 --mode-probs 0.62,0.12,0.13,0.13; tools/train_default.sh does
           both): real assets albedo / roughness / metallic 13.70 / 12.12 / 8.95 -> 14.66 / 12.23 / 8.87 dB.
-  e2e_more  the e2e phase again, longer (--e2e-more-steps, --e2e-more-lr), on a third data set (--data), from the
-          UNet the run has (unet_source); tools/train_default.sh runs it after ft_e2e.
+  e2e_more  (not in the default phases: measured, not shipped) the e2e phase again, longer (--e2e-more-steps,
+          --e2e-more-lr), on another data set (--data), from the UNet the run has (unet_source).  900 steps from
+          the shipped model (--init-from) on a third set (gen_data.py --seed 2, the second set's material modes):
+          its held-out renders 11.08 / 11.35 / 9.31 -> 11.57 / 11.60 / 9.31 dB, the real assets 14.66 / 12.23 /
+          8.87 -> 14.18 / 12.13 / 8.94 dB (59 min with --amp bf16 on AVX512_BF16 without AMX).
   export  the official release format: RUN/release/supermat.pth (torch.save of the UNet state dict) and
           RUN/release/base/ (diffusers layout: vae/, text_encoder/, tokenizer/, scheduler/ v_prediction,
           unet/config.json), every weight rounded to float16 so the f16 model file of `supermat convert
@@ -61,7 +64,8 @@ SuperMat only ever feeds it the empty prompt, so its output is one constant cont
 
 --amp bf16 runs the forward passes under bfloat16 autocast (group and layer norms in float32): on this
 project's Sapphire Rapids (AMX) 1.1 s a VAE step at 128² x 8 instead of 2.1, 0.53 s a latent UNet step
-instead of 1.6, the latent cache in 27 min instead of 80; slower on CPUs without AMX / AVX512_BF16.
+instead of 1.6, the latent cache in 27 min instead of 80; on a Xeon with AVX512_BF16 but no AMX an e2e step
+takes 3.7 s instead of 4.25; slower on CPUs without either.
 --device cuda trains on a GPU where there is one (never required). Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
 HARNESS_DEPS (default ../shared/reference/out/deps, see ../shared/reference/README.md).
 """
