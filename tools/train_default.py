@@ -648,8 +648,8 @@ def phase_ft_e2e(args, data):
 
 
 def phase_e2e_more(args, data):
-    """The e2e phase again, longer, on --data (a third data set in train_default.sh), from the UNet the run
-    has (unet_source, resolved before this phase counts as done)."""
+    """The e2e phase again, longer, on --data (another data set), from the UNet the run has (unet_source,
+    resolved before this phase counts as done).  Not run by train_default.sh: measured, not shipped."""
     src = unet_source(args.out)
     phase_e2e(args, data, "e2e_more", src, args.e2e_more_steps, args.e2e_more_lr)
 
