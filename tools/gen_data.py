@@ -23,7 +23,10 @@ united, randomly rotated, orthographic camera, 2x2 supersampling.  Materials in 
 Voronoi cells, stripes, checks, decals, worn edges (exposed metal under paint), roughness over
 [0.05, 1], metallic mostly binary with coloured metals; each material is dielectric, metal, masked metal
 or worn edges with the probabilities --mode-probs (default 0.42 / 0.2 / 0.2 / 0.18: 29 % of the object
-pixels metallic; 0.62 / 0.12 / 0.13 / 0.13: 18 %; the same random draws whatever the probabilities).  Shading: tools/smrender.py (Cook-Torrance GGX,
+pixels metallic; 0.62 / 0.12 / 0.13 / 0.13: 18 %; the same random draws whatever the probabilities).
+--albedo-floor F lifts the palettes' darkest values (v -> F + (1 - F) v; PBR charts put dielectric albedo at
+30-240 of 255 in sRGB, F = 0.12 is 31) and --anodised P sets how often a metal is a random coloured one
+(default 0.25); both keep the random draws, so the same objects and patterns come out.  Shading: tools/smrender.py (Cook-Torrance GGX,
 Smith, Schlick + Lambert, split-sum prefiltered environment).
 """
 import argparse
@@ -256,6 +259,7 @@ METALS = np.array([[1.000, 0.766, 0.336], [0.972, 0.960, 0.915], [0.955, 0.637, 
 
 
 MODE_P = (0.42, 0.2, 0.2, 0.18)   # material modes dielectric / metal / metal mask / worn edges (--mode-probs)
+ANODISED = 0.25                   # probability that a metal is a random coloured one, not one of METALS (--anodised)
 
 
 def hsv2rgb(h, s, v):
@@ -265,7 +269,9 @@ def hsv2rgb(h, s, v):
     return np.array([(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)][i], np.float32)
 
 
-def palette(rng, n):
+def palette(rng, n, floor=0.0):
+    """n sRGB colours of one random style; the values v in [0, 1] become floor + (1 - floor) v (--albedo-floor:
+    the same draws, a floor for dark colours)."""
     style = rng.choice(["earthy", "vivid", "pastel", "dark", "grey", "mixed"])
     h0 = rng.random()
     cols = []
@@ -283,23 +289,24 @@ def palette(rng, n):
             s, v = rng.uniform(0, 0.08), rng.uniform(0.05, 0.95)
         else:
             s, v = rng.uniform(0, 1), rng.uniform(0.05, 1)
+        v = floor + (1 - floor) * v
         cols.append(hsv2rgb(h, s, v))
     return np.array(cols)  # sRGB-space colours
 
 
-def make_material(rng, mode_p=MODE_P):
+def make_material(rng, mode_p=MODE_P, floor=0.0, anodised=ANODISED):
     m = {"pattern": str(rng.choice(["plain", "fbm", "voronoi", "stripes", "checks"], p=[0.15, 0.3, 0.2, 0.2, 0.15])),
-         "cols": palette(rng, 3), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
+         "cols": palette(rng, 3, floor), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
          "dir": rng.normal(size=3).astype(np.float32), "rough": rng.uniform(0.05, 1.0, 2).astype(np.float32),
          "rough_var": float(rng.uniform(0, 0.25)), "mode": str(rng.choice(["dielectric", "metal", "mask", "worn"],
                                                                            p=mode_p)),
          "metal_col": METALS[rng.integers(len(METALS))].copy(), "decals": []}
     m["dir"] /= np.linalg.norm(m["dir"])
-    if rng.random() < 0.25:  # anodised / coloured metal
+    if rng.random() < anodised:  # anodised / coloured metal
         m["metal_col"] = R.srgb_decode(hsv2rgb(rng.random(), rng.uniform(0.3, 0.8), rng.uniform(0.7, 1.0)))
     for _ in range(int(rng.choice([0, 0, 1, 2, 3]))):
         m["decals"].append((rng.normal(size=3).astype(np.float32) * 0.5, float(rng.uniform(0.08, 0.3)),
-                            palette(rng, 1)[0], float(rng.uniform(0.1, 0.9))))
+                            palette(rng, 1, floor)[0], float(rng.uniform(0.1, 0.9))))
     return m
 
 
@@ -356,9 +363,9 @@ def eval_material(m, q, curv):
 # ----------------------------------------------------------------------------------------------------------
 # one sample
 # ----------------------------------------------------------------------------------------------------------
-def render_sample(rng, envs, size, ss=2, mode_p=MODE_P):
+def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED):
     obj = Obj(rng)
-    mats = [make_material(rng, mode_p) for _ in obj.shapes]
+    mats = [make_material(rng, mode_p, floor, anodised) for _ in obj.shapes]
     if rng.random() < 0.3:  # one material for the whole group
         mats = [mats[0]] * len(mats)
     frame(obj, rng.uniform(0.55, 0.92))
@@ -456,7 +463,8 @@ def make_shard(args, shard):
     for i in range(first, min(first + args.shard, args.count)):
         rng = np.random.default_rng([args.seed, i])
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
-            s = render_sample(rng, envs, args.size, mode_p=args.mode_probs)
+            s = render_sample(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
+                              anodised=args.anodised)
             if s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
@@ -473,7 +481,8 @@ def write_examples(args):
     env = R.EnvLight(os.path.join(args.hdri_dir, args.example_env + ".hdr"))
     for i in range(args.count):
         rng = np.random.default_rng([args.seed, 1 << 30, i])   # a stream no training sample uses
-        s = render_sample(rng, [env], args.size, mode_p=args.mode_probs)
+        s = render_sample(rng, [env], args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
+                          anodised=args.anodised)
         stem = os.path.join(args.out, f"obj{i:02d}")
         Image.fromarray(s["rgba"]).save(stem + ".png")
         Image.fromarray(s["albedo"]).save(stem + "_gt_albedo.png")
@@ -502,7 +511,14 @@ def main():
     ap.add_argument("--mode-probs", default="0.42,0.2,0.2,0.18",
                     help="probabilities of the material modes dielectric, metal, metal mask, worn edges (the same "
                          "random draws: only the modes change)")
+    ap.add_argument("--albedo-floor", type=float, default=0.0,
+                    help="lowest palette value (HSV V, sRGB): values v become floor + (1 - floor) v, the same draws "
+                         "(PBR charts put dielectric albedo at 30-240 of 255 sRGB; 0.12 = 31)")
+    ap.add_argument("--anodised", type=float, default=0.25,
+                    help="probability that a metal is a random coloured (anodised) one (default 0.25)")
     args = ap.parse_args()
+    if not 0 <= args.albedo_floor < 1 or not 0 <= args.anodised <= 1:
+        raise SystemExit("gen_data: --albedo-floor wants [0, 1), --anodised [0, 1]")
     args.mode_probs = [float(v) for v in args.mode_probs.split(",")]
     if len(args.mode_probs) != 4 or min(args.mode_probs) < 0 or abs(sum(args.mode_probs) - 1) > 1e-6:
         raise SystemExit("gen_data: --mode-probs wants four probabilities that sum to 1")
@@ -514,6 +530,7 @@ def main():
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
     meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
+            "albedo_floor": args.albedo_floor, "anodised": args.anodised,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)

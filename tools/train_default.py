@@ -647,6 +647,17 @@ def phase_ft_e2e(args, data):
     phase_e2e(args, data, "ft_e2e", "ft")
 
 
+def phase_ft2(args, data):
+    """A third data set's fine-tuning, as ft (its own latent cache RUN/latents_ft2.pt), from the UNet the run
+    has after ft_e2e."""
+    phase_latent(args, data, "ft2", "latents_ft2.pt", args.ft_steps, args.ft_lr, init=unet_source(args.out))
+
+
+def phase_ft2_e2e(args, data):
+    """The e2e phase after ft2, on the same data."""
+    phase_e2e(args, data, "ft2_e2e", "ft2")
+
+
 def phase_e2e_more(args, data):
     """The e2e phase again, longer, on --data (another data set), from the UNet the run has (unet_source,
     resolved before this phase counts as done).  Not run by train_default.sh: measured, not shipped."""
@@ -729,7 +740,7 @@ ALB_BRANCH = ("last_up_blocks.0.", "rep_conv_out.0.")   # the albedo expert bran
 
 def unet_source(run):
     """The phase whose UNet the later phases start from / the release takes."""
-    return next(p for p in ("e2e_more", "ft_e2e", "ft", "alb", "joint_mse", "joint", "e2e", "latent") if done(run, p))
+    return next(p for p in ("ft2_e2e", "ft2", "e2e_more", "ft_e2e", "ft", "alb", "joint_mse", "joint", "e2e", "latent") if done(run, p))
 
 
 def phase_alb(args, data):
@@ -971,7 +982,7 @@ def main():
         t0 = time.time()
         {"vae": phase_vae, "vae_crops": phase_vae_crops, "vae_more": phase_vae_more, "latent": phase_latent, "e2e": phase_e2e,
          "joint": phase_joint, "joint_mse": phase_joint_mse, "alb": phase_alb, "ft": phase_ft,
-         "ft_e2e": phase_ft_e2e, "e2e_more": phase_e2e_more, "export": phase_export}[name](args, data)
+         "ft_e2e": phase_ft_e2e, "ft2": phase_ft2, "ft2_e2e": phase_ft2_e2e, "e2e_more": phase_e2e_more, "export": phase_export}[name](args, data)
         print(f"{name}: {time.time() - t0:.0f} s this run", flush=True)
 
 
