@@ -28,7 +28,10 @@ What it does
      zeroed outside the mask, averaged over the mask, per channel then averaged; albedo in sRGB), and the
      re-render PSNR: ground truth and predicted maps shaded with the ground-truth normals under the OTHER
      held-out map, both tone mapped with the exposure auto-chosen for the ground truth;
-  6. prints markdown tables (overall = mean over every asset-view, then per asset), and writes the JSON
+     --env-in all does all of this under each held-out map in turn, re-rendered under the next one (3x the
+     views: one map's colour cast or contrast weighs less in the mean);
+  6. prints markdown tables (overall = mean over every asset-view, per input lighting with --env-in all, then
+     per asset), and writes the JSON
      (--json), contact sheets (--sheets DIR: one PNG per view, one row per predictor: input over gray |
      pred albedo | pred roughness | pred metallic | gt albedo | gt roughness | gt metallic).
   --levers MODEL [--levers-modes all|LIST] also measures the speed / accuracy levers of MODEL against the
@@ -610,9 +613,17 @@ def write_slice(args, meshes):
     print(f"wrote {len(stems)} views to {args.write_slice} ({total / 1024:.0f} KiB)")
 
 
+def lightings(args):
+    """(input map, re-render map) pairs: the one asked for, or with --env-in all each held-out map lighting the
+    input in turn, re-rendered under the next one."""
+    if args.env_in != "all":
+        return [(args.env_in, args.env_relight)]
+    return [(e, HELD_OUT_ENVS[(i + 1) % len(HELD_OUT_ENVS)]) for i, e in enumerate(HELD_OUT_ENVS)]
+
+
 def evaluate(args, meshes, work):
-    env_in = smr.EnvLight(os.path.join(args.hdri_dir, args.env_in + ".hdr"))
-    env_rl = smr.EnvLight(os.path.join(args.hdri_dir, args.env_relight + ".hdr"))
+    pairs = lightings(args)
+    envs = {e: smr.EnvLight(os.path.join(args.hdri_dir, e + ".hdr")) for pair in pairs for e in pair}
     stats = dict(albedo_srgb_mean=[0.5, 0.5, 0.5], rough_mean=0.5, metal_mean=0.0)
     if args.dataset_stats:
         with open(args.dataset_stats) as f:
@@ -622,24 +633,26 @@ def evaluate(args, meshes, work):
     os.makedirs(os.path.join(work, "inputs"), exist_ok=True)
     if args.levers:
         os.makedirs(os.path.join(work, "truth"), exist_ok=True)
-    for mesh in meshes:
-        for v, params in enumerate(view_params(mesh.name, args.seed, args.views)):
-            t0 = time.time()
-            stem = f"{mesh.name}_{v:02d}"
-            rgba8, gt8, gb = render_view(mesh, params, args.size, env_in)
-            gt = {k: a.astype(np.float32) / 255.0 for k, a in gt8.items()}
-            rot_rl = smr.rotation_y(params["relight_angle"])
-            lin = relight(gb, gt, env_rl, rot_rl)
-            exposure = smr.auto_exposure(lin, gb["cov"], params["key"])
-            views[stem] = dict(asset=mesh.name, view=v, rgba8=rgba8, gt=gt, gb=gb, rot_rl=rot_rl,
-                               exposure=exposure, relit_gt=smr.tonemap(lin, exposure, (1, 1, 1)))
-            inputs[stem] = os.path.join(work, "inputs", stem + ".png")
-            write_png(inputs[stem], rgba8)
-            if args.levers:                                     # the 8-bit truth as PNGs for `supermat bench`
-                for name in MAPS:
-                    write_png(os.path.join(work, "truth", f"{stem}_{name}.png"), gt8[name])
-            t_render += time.time() - t0
-            print(f"rendered {stem} ({time.time() - t0:.1f} s)", file=sys.stderr)
+    for env_in, env_rl in pairs:
+        for mesh in meshes:
+            for v, params in enumerate(view_params(mesh.name, args.seed, args.views)):
+                t0 = time.time()
+                stem = f"{mesh.name}_{v:02d}" + (f"_{env_in}" if len(pairs) > 1 else "")
+                rgba8, gt8, gb = render_view(mesh, params, args.size, envs[env_in])
+                gt = {k: a.astype(np.float32) / 255.0 for k, a in gt8.items()}
+                rot_rl = smr.rotation_y(params["relight_angle"])
+                lin = relight(gb, gt, envs[env_rl], rot_rl)
+                exposure = smr.auto_exposure(lin, gb["cov"], params["key"])
+                views[stem] = dict(asset=mesh.name, view=v, rgba8=rgba8, gt=gt, gb=gb, rot_rl=rot_rl,
+                                   env_in=env_in, env_rl=env_rl,
+                                   exposure=exposure, relit_gt=smr.tonemap(lin, exposure, (1, 1, 1)))
+                inputs[stem] = os.path.join(work, "inputs", stem + ".png")
+                write_png(inputs[stem], rgba8)
+                if args.levers:                                     # the 8-bit truth as PNGs for `supermat bench`
+                    for name in MAPS:
+                        write_png(os.path.join(work, "truth", f"{stem}_{name}.png"), gt8[name])
+                t_render += time.time() - t0
+                print(f"rendered {stem} ({time.time() - t0:.1f} s)", file=sys.stderr)
 
     preds, t_pred = {}, {}
     for name, path in args.model:
@@ -658,8 +671,9 @@ def evaluate(args, meshes, work):
     for stem, v in views.items():
         mask = v["rgba8"][..., 3] >= 128
         for p in preds:
-            relit = smr.tonemap(relight(v["gb"], preds[p][stem], env_rl, v["rot_rl"]), v["exposure"], (1, 1, 1))
-            rows.append(dict(asset=v["asset"], view=v["view"], predictor=p,
+            relit = smr.tonemap(relight(v["gb"], preds[p][stem], envs[v["env_rl"]], v["rot_rl"]), v["exposure"],
+                                (1, 1, 1))
+            rows.append(dict(asset=v["asset"], view=v["view"], env_in=v["env_in"], predictor=p,
                              **measure(preds[p][stem], v["gt"], mask, relit, v["relit_gt"])))
         if args.sheets:
             contact_sheet(os.path.join(args.sheets, stem + ".png"), v["rgba8"], v["gt"],
@@ -667,9 +681,14 @@ def evaluate(args, meshes, work):
     t_metrics = (time.time() - t0) / len(views)
 
     overall, per_asset = summarise(rows, list(preds))
-    print(f"## overall ({len(views)} views, {args.size}x{args.size}, lit by {args.env_in}, "
-          f"re-rendered under {args.env_relight})\n")
+    print(f"## overall ({len(views)} views, {args.size}x{args.size}, "
+          + ", ".join(f"lit by {a}, re-rendered under {b}" for a, b in pairs) + ")\n")
     print(markdown(overall.items()))
+    per_env = {}
+    if len(pairs) > 1:
+        per_env = {a: summarise([r for r in rows if r["env_in"] == a], list(preds))[0] for a, _ in pairs}
+        print("\n## per input lighting\n")
+        print(markdown([(f"{a} / {p}", m) for a, t in per_env.items() for p, m in t.items()], "lighting / predictor"))
     print("\n## per asset\n")
     print(markdown([(f"{a} / {p}", m) for a, t in per_asset.items() for p, m in t.items()], "asset / predictor"))
     timing = dict(render_s_per_view=t_render / len(views), metrics_s_per_view=t_metrics,
@@ -687,9 +706,9 @@ def evaluate(args, meshes, work):
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(config=dict(assets=[m.name for m in meshes], size=args.size, views=args.views,
-                                       seed=args.seed, env_in=args.env_in, env_relight=args.env_relight,
+                                       seed=args.seed, lightings=pairs,
                                        models=dict(args.model), dataset_stats=stats),
-                           overall=overall, per_asset=per_asset, views=rows, timing=timing,
+                           overall=overall, per_asset=per_asset, per_lighting=per_env, views=rows, timing=timing,
                            **(dict(levers=levers) if levers else {})), f, indent=1)
 
 
@@ -711,7 +730,9 @@ def main():
     ap.add_argument("--size", type=int, help="output size, a multiple of 8 (default 256; 128 with --write-slice)")
     ap.add_argument("--views", type=int, default=8, help="views per asset (default 8)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--env-in", default=HELD_OUT_ENVS[0], help="held-out map lighting the input")
+    ap.add_argument("--env-in", default=HELD_OUT_ENVS[0],
+                    help="held-out map lighting the input, or all: each held-out map in turn, re-rendered under "
+                         "the next one (--env-relight ignored; 3x the views)")
     ap.add_argument("--env-relight", default=HELD_OUT_ENVS[1], help="held-out map of the re-render check")
     ap.add_argument("--hdri-dir", required=True, help="folder with the held-out .hdr maps (pmndrs/drei-assets hdri/)")
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
@@ -731,10 +752,12 @@ def main():
         args.size = 128 if args.write_slice else 256
     if args.size % 8 or args.size < 8:
         ap.error("--size must be a positive multiple of 8")
-    for e in (args.env_in, args.env_relight):
+    if args.env_in == "all" and (args.write_slice or args.levers):
+        ap.error("--env-in all does not apply with --write-slice or --levers")
+    for e in (args.env_in, args.env_relight) if args.env_in != "all" else ():
         if e not in HELD_OUT_ENVS:
             ap.error(f"{e} is not a held-out environment map ({', '.join(HELD_OUT_ENVS)})")
-    if args.env_in == args.env_relight:
+    if args.env_in == args.env_relight and args.env_in != "all":
         ap.error("--env-in and --env-relight must differ")
     for b in args.baselines:
         if b not in ("input_as_albedo", "dataset_mean", "oracle"):
