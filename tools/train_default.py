@@ -44,6 +44,10 @@ Phases
           model: the default phases on 20 000 renders, then ft + ft_e2e (--amp bf16) on 6 000 renders with
           fewer metals (gen_data.py --seed 1 --mode-probs 0.62,0.12,0.13,0.13; tools/train_default.sh does
           both): real assets albedo / roughness / metallic 13.70 / 12.12 / 8.95 -> 14.66 / 12.23 / 8.87 dB.
+  ft2, ft2_e2e  (not in the default phases: measured, not shipped) ft and ft_e2e again on a third data set
+          (own cache RUN/latents_ft2.pt), from the UNet the run has.  From the shipped model (--init-from), 2000 +
+          100 steps on 5 000 renders of gen_data.py --seed 3 --mode-probs 0.7,0.1,0.1,0.1 --albedo-floor 0.12
+          --anodised 0.1: real assets 14.66 / 12.23 / 8.87 -> 14.22 / 12.50 / 8.96 dB (48 min, --amp bf16, no AMX).
   e2e_more  (not in the default phases: measured, not shipped) the e2e phase again, longer (--e2e-more-steps,
           --e2e-more-lr), on another data set (--data), from the UNet the run has (unet_source).  900 steps from
           the shipped model (--init-from) on a third set (gen_data.py --seed 2, the second set's material modes):
