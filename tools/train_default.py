@@ -625,6 +625,8 @@ def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None):
             g["lr"] = lr_at(ph.step, ph.total, base_lr, warm=20)
         idx = ph.rng.choice(data.train, args.e2e_batch, replace=False)
         b = data.batch(idx, ph.rng)
+        if args.e2e_permute:
+            b = permute_colour(b, ph.rng)
         with torch.no_grad(), amp():
             zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode().float() * sf
         with amp():
@@ -946,6 +948,8 @@ def main():
     ap.add_argument("--e2e-steps", type=int, default=100)
     ap.add_argument("--e2e-batch", type=int, default=8)
     ap.add_argument("--e2e-lr", type=float, default=1e-4)
+    ap.add_argument("--e2e-permute", type=int, default=0,
+                    help="end-to-end phases: permute the colour channels of picture and albedo on half the samples")
     ap.add_argument("--e2e-more-steps", type=int, default=900)
     ap.add_argument("--e2e-more-lr", type=float, default=1e-4)
     ap.add_argument("--rerender-weight", type=float, default=0.5)
