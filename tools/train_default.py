@@ -52,7 +52,9 @@ Phases
           --e2e-more-lr), on another data set (--data), from the UNet the run has (unet_source).  900 steps from
           the shipped model (--init-from) on a third set (gen_data.py --seed 2, the second set's material modes):
           its held-out renders 11.08 / 11.35 / 9.31 -> 11.57 / 11.60 / 9.31 dB, the real assets 14.66 / 12.23 /
-          8.87 -> 14.18 / 12.13 / 8.94 dB (59 min with --amp bf16 on AVX512_BF16 without AMX).
+          8.87 -> 14.18 / 12.13 / 8.94 dB (59 min with --amp bf16 on AVX512_BF16 without AMX).  With
+          --e2e-permute 1 (colour channels of picture and albedo swapped together on half the samples), 600 steps
+          on the same set: over the three held-out maps 13.84 / 12.23 / 8.81 -> 13.48 / 12.74 / 8.91 dB.
   export  the official release format: RUN/release/supermat.pth (torch.save of the UNet state dict) and
           RUN/release/base/ (diffusers layout: vae/, text_encoder/, tokenizer/, scheduler/ v_prediction,
           unet/config.json), every weight rounded to float16 so the f16 model file of `supermat convert
@@ -655,7 +657,7 @@ def phase_ft_e2e(args, data):
 
 def phase_ft2(args, data):
     """A third data set's fine-tuning, as ft (its own latent cache RUN/latents_ft2.pt), from the UNet the run
-    has after ft_e2e."""
+    has (unet_source).  Not run by train_default.sh: measured, not shipped."""
     phase_latent(args, data, "ft2", "latents_ft2.pt", args.ft_steps, args.ft_lr, init=unet_source(args.out))
 
 
