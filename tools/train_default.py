@@ -643,27 +643,17 @@ def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None):
     ph.finish()
 
 
-def phase_ft(args, data):
-    """Fine-tuning on a second data set (--data, e.g. renders with other material-mode probabilities): the
+def phase_ft(args, data, name="ft"):
+    """Fine-tuning on another data set (--data, e.g. renders with other material-mode probabilities): the
     latent phase again, from the UNet the run has (unet_source), --ft-steps at --ft-lr, on that data's own
-    latent cache (RUN/latents_ft.pt)."""
-    phase_latent(args, data, "ft", "latents_ft.pt", args.ft_steps, args.ft_lr, init=unet_source(args.out))
+    latent cache (RUN/latents_<name>.pt).  name ft2: a third data set's round (not run by train_default.sh:
+    measured, not shipped)."""
+    phase_latent(args, data, name, f"latents_{name}.pt", args.ft_steps, args.ft_lr, init=unet_source(args.out))
 
 
-def phase_ft_e2e(args, data):
-    """The e2e phase after ft, on the same data."""
-    phase_e2e(args, data, "ft_e2e", "ft")
-
-
-def phase_ft2(args, data):
-    """A third data set's fine-tuning, as ft (its own latent cache RUN/latents_ft2.pt), from the UNet the run
-    has (unet_source).  Not run by train_default.sh: measured, not shipped."""
-    phase_latent(args, data, "ft2", "latents_ft2.pt", args.ft_steps, args.ft_lr, init=unet_source(args.out))
-
-
-def phase_ft2_e2e(args, data):
-    """The e2e phase after ft2, on the same data."""
-    phase_e2e(args, data, "ft2_e2e", "ft2")
+def phase_ft_e2e(args, data, name="ft_e2e"):
+    """The e2e phase after ft (ft2_e2e: after ft2), on the same data."""
+    phase_e2e(args, data, name, name[:-len("_e2e")])
 
 
 def phase_e2e_more(args, data):
@@ -992,7 +982,8 @@ def main():
         t0 = time.time()
         {"vae": phase_vae, "vae_crops": phase_vae_crops, "vae_more": phase_vae_more, "latent": phase_latent, "e2e": phase_e2e,
          "joint": phase_joint, "joint_mse": phase_joint_mse, "alb": phase_alb, "ft": phase_ft,
-         "ft_e2e": phase_ft_e2e, "ft2": phase_ft2, "ft2_e2e": phase_ft2_e2e, "e2e_more": phase_e2e_more, "export": phase_export}[name](args, data)
+         "ft_e2e": phase_ft_e2e, "ft2": lambda a, d: phase_ft(a, d, "ft2"),
+         "ft2_e2e": lambda a, d: phase_ft_e2e(a, d, "ft2_e2e"), "e2e_more": phase_e2e_more, "export": phase_export}[name](args, data)
         print(f"{name}: {time.time() - t0:.0f} s this run", flush=True)
 
 
