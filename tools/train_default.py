@@ -339,7 +339,9 @@ def save_ckpt(path, **state):
 
 
 def load_ckpt(path):
-    return torch.load(path, map_location="cpu") if os.path.exists(path) else None
+    # weights_only=False: these are this script's own files (numpy RNG states, a tuple-valued cache), and
+    # torch >= 2.6 would otherwise refuse them
+    return torch.load(path, map_location="cpu", weights_only=False) if os.path.exists(path) else None
 
 
 def lr_at(step, total, base, warm=100):
@@ -348,8 +350,14 @@ def lr_at(step, total, base, warm=100):
     return base * 0.5 * (1 + math.cos(math.pi * min(1.0, (step - warm) / max(1, total - warm)))) * 0.95 + base * 0.05
 
 
+SECONDS = {}  # --seconds: phase name -> wall-clock budget
+
+
 class Phase:
-    """Step loop with time-based checkpoints and resumption."""
+    """Step loop with time-based checkpoints and resumption.  A phase with a --seconds budget times its
+    steps 20-120 of this run and then lowers `total` (never raises it) so that the rest fits the budget; the
+    learning-rate schedules read `total` each step, so they end where the phase ends.  The total is saved
+    with the checkpoint, so a resumed phase keeps it."""
 
     def __init__(self, run, name, models, opt, total, ckpt_every, seed):
         self.run, self.name, self.models, self.opt, self.total = run, name, models, opt, total
@@ -364,11 +372,15 @@ class Phase:
                 m.load_state_dict(st["models"][k])
             opt.load_state_dict(st["opt"])
             self.step = st["step"]
+            self.total = min(self.total, st.get("total", self.total))
             self.rng.bit_generator.state = st["rng"]
             torch.set_rng_state(st["torch_rng"])
             print(f"{name}: resumed at step {self.step}/{total}", flush=True)
         self.last = time.time()
         self.t0 = time.time()
+        self.budget = SECONDS.get(name)
+        self.first = self.step
+        self.t20 = None
 
     def update(self, loss, params, clip=1.0):
         """One optimiser step: gradients of loss, clipped to norm `clip`."""
@@ -379,10 +391,23 @@ class Phase:
 
     def save(self):
         save_ckpt(self.path, models={k: m.state_dict() for k, m in self.models.items()}, opt=self.opt.state_dict(),
-                  step=self.step, rng=self.rng.bit_generator.state, torch_rng=torch.get_rng_state())
+                  step=self.step, total=self.total, rng=self.rng.bit_generator.state, torch_rng=torch.get_rng_state())
 
     def tick(self, msg):
         self.step += 1
+        if self.budget is not None and self.step - self.first in (20, 120):
+            if DEV.type == "cuda":
+                torch.cuda.synchronize()
+            if self.step - self.first == 20:
+                self.t20 = time.time()
+            else:
+                per = (time.time() - self.t20) / 100
+                fit = self.step + int((self.budget - (time.time() - self.t0)) / per)
+                self.total = max(self.step, min(self.total, fit))
+                print(f"{self.name}: {per * 1000:.1f} ms a step, {self.total} steps fit --seconds {self.budget:g}", flush=True)
+        if self.budget is not None and time.time() - self.t0 > self.budget and self.total > self.step:
+            self.total = self.step   # over budget before the estimate (slow first steps): end here
+            print(f"{self.name}: --seconds {self.budget:g} spent at step {self.step}", flush=True)
         if self.step % 20 == 0 or self.step == self.total:
             line = f"{self.name} {self.step}/{self.total} {time.time() - self.t0:.0f}s {msg}"
             print(line, flush=True)
@@ -537,7 +562,7 @@ def phase_latent(args, data, name="latent", cache_name="latents.pt", steps=None,
     sf = vae.config.scaling_factor
     cache = os.path.join(args.out, cache_name)
     if os.path.exists(cache):
-        lat = {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu").items()}
+        lat = {k: tuple(t.to(DEV) for t in v) for k, v in torch.load(cache, map_location="cpu", weights_only=False).items()}
         if lat[False][0].shape[0] != len(data.train):
             raise SystemExit(f"train_default: {cache} holds {lat[False][0].shape[0]} latents, --data has "
                              f"{len(data.train)} training renders (another data set? delete the cache)")
@@ -920,6 +945,8 @@ def main():
                     help="bf16: forward passes under bfloat16 autocast (2x the steps per second where the CPU has "
                          "AMX: oneDNN's bf16 convolutions; slower without AMX / AVX512_BF16)")
     ap.add_argument("--device", default="cpu", help="torch device, e.g. cuda (never required; CI and the defaults use the CPU)")
+    ap.add_argument("--seconds", default="", metavar="PHASE=S,...",
+                    help="wall-clock budgets: such a phase runs min(its steps, what fits S seconds) (see Phase)")
     ap.add_argument("--ckpt-every", type=float, default=120.0, help="seconds between checkpoints")
     ap.add_argument("--vae-steps", type=int, default=700)
     ap.add_argument("--vae-crop-steps", type=int, default=1600)
@@ -962,6 +989,13 @@ def main():
     torch.set_num_threads(args.threads)
     global DEV, AMP
     DEV = torch.device(args.device)
+    for item in filter(None, args.seconds.split(",")):
+        k, _, v = item.partition("=")
+        SECONDS[k] = float(v)
+    if DEV.type == "cuda":
+        torch.backends.cuda.matmul.allow_tf32 = True
+        torch.backends.cudnn.allow_tf32 = True
+        torch.backends.cudnn.benchmark = True
     AMP = args.amp == "bf16"
     if AMP:
         F.group_norm = _group_norm_f32

@@ -1,0 +1,124 @@
+#!/usr/bin/env bash
+# One short training round on a borrowed GPU machine that has PyTorch but no network: fresh renders made on
+# its cores, then the shipped model fine-tuned on them (latent phase, then end to end), within fixed
+# wall-clock budgets.  Never required: the default model and CI use the CPU only (tools/train_default.sh).
+#
+#   here:   HARNESS_DEPS=<deps> HDRI=<hdri dir> bash tools/train_gpu.sh pack      -> .gpu/payload.tar.gz
+#   there:  OUT=<folder> bash tools/train_gpu.sh device                            -> OUT/unet_*.npz, logs
+#   back:   bash tools/train_gpu.sh import OUT/unet_ft_e2e.npz RUN ft_e2e                 -> RUN/ckpt_ft_e2e.pt
+#           then train_default.py --data D --out RUN --init-from models/supermat_default.safetensors
+#           --phases export, and `supermat convert` as in train_default.sh
+#
+# pack: the reference harness' import shims and stubs (../shared/reference), the extracted diffusers /
+#   huggingface_hub / einops / SuperMat sources ($HARNESS_DEPS), and the prefiltered training maps
+#   (HDRI/*.hdr.smenv.npz: the .hdr files travel as empty stand-ins older than their caches, which
+#   smrender.EnvLight then reads instead), ~9 MB.  Add /.gpu/ to .git/info/exclude.
+# device: budgets in seconds GEN_S (renders, default 160), FT_S (latent phase, 30), E2E_S (end to end, 220);
+#   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  Gives back the UNet after the latent phase
+#   (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16 (the release rounds to it
+#   anyway), the logs and the export report.
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+mode="${1:-}"
+if [ "$mode" = pack ]; then
+    : "${HARNESS_DEPS:?}"; : "${HDRI:?}"
+    REF="${SUPERMAT_REFERENCE:-../shared/reference}"
+    st=$(mktemp -d)
+    mkdir -p "$st/reference" "$st/deps/SuperMat" "$st/hdri" .gpu
+    cp "$REF/harness_env.py" "$st/reference/" && cp -r "$REF/stubs" "$st/reference/"
+    cp -r "$HARNESS_DEPS/site" "$HARNESS_DEPS/VERSIONS.txt" "$st/deps/"
+    cp -r "$HARNESS_DEPS/SuperMat/src" "$st/deps/SuperMat/"
+    held="venice_sunset_1k|studio_small_03_1k|kiara_1_dawn_1k"
+    for f in "$HDRI"/*.hdr; do
+        b=$(basename "$f")
+        echo "$b" | grep -qE "^($held)\.hdr$" && continue
+        [ -f "$f.smenv.npz" ] || { echo "train_gpu: $f.smenv.npz missing (run gen_data.py once here)" >&2; exit 1; }
+        cp "$f.smenv.npz" "$st/hdri/"
+        : > "$st/hdri/$b"
+        touch -d '2000-01-01' "$st/hdri/$b"
+    done
+    find "$st" -name __pycache__ -prune -exec rm -rf {} +
+    tar -C "$st" -czf .gpu/payload.tar.gz . && rm -rf "$st"
+    ls -l .gpu/payload.tar.gz
+    exit 0
+fi
+if [ "$mode" = import ]; then
+    [ $# -eq 4 ] || { echo "usage: train_gpu.sh import NPZ RUN PHASE" >&2; exit 2; }
+    mkdir -p "$3" && /usr/bin/python3 - "$2" "$3" "$4" <<'EOF' || exit 1
+import os, sys
+import numpy as np
+import torch
+npz, run, ph = sys.argv[1:]
+sd = {k: torch.from_numpy(v.astype(np.float32)) for k, v in np.load(npz).items()}
+tmp = os.path.join(run, f"ckpt_{ph}.pt.tmp")
+torch.save({"models": {"unet": sd}}, tmp)
+os.replace(tmp, os.path.join(run, f"ckpt_{ph}.pt"))
+open(os.path.join(run, f"{ph}.done"), "w").write("imported\n")
+print(f"{npz} -> {run}/ckpt_{ph}.pt ({len(sd)} tensors)")
+EOF
+    exit 0
+fi
+[ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|import" >&2; exit 2; }
+: "${OUT:?}"
+T0=$(date +%s)
+W="${W:-/tmp/smgpu}"
+rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
+export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
+PY="${PY:-python3}"
+DEVICE="${DEVICE:-cuda}"
+JOBS="${JOBS:-$(nproc)}"
+{ nvidia-smi -L; $PY -c 'import torch, numpy; print("torch", torch.__version__, "numpy", numpy.__version__, "cuda", torch.cuda.is_available())'; nproc; } 2>&1 | tee "$OUT/env.txt"
+# the training script's imports and one UNet step on the device, before minutes go into renders
+$PY - "$DEVICE" <<'EOF' 2>&1 | tee -a "$OUT/env.txt"
+import sys, time
+sys.path.insert(0, "tools")
+import torch
+import train_default as T
+T.DEV = torch.device(sys.argv[1])
+T.F.group_norm, T.F.layer_norm = T._group_norm_f32, T._layer_norm_f32   # as --amp bf16 does
+u = T.build_unet()
+z = torch.randn(4, 16, 16, 16, device=T.DEV)
+ctx = torch.zeros(4, 77, 64, device=T.DEV)
+t = time.time()
+with torch.autocast(T.DEV.type, dtype=torch.bfloat16):
+    out = u(z, 999, encoder_hidden_states=ctx).sample
+sum(o.float().square().mean() for o in out).backward()
+print("preflight: UNet", sum(p.numel() for p in u.parameters()), "parameters, forward + backward", f"{time.time() - t:.2f} s")
+EOF
+[ "${PIPESTATUS[0]}" = 0 ] || { echo "train_gpu: preflight failed"; exit 1; }
+
+echo "== renders: $JOBS jobs for ${GEN_S:-160} s (seed 11, material modes 0.62 / 0.12 / 0.13 / 0.13)"
+OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-160}" \
+    $PY tools/gen_data.py --hdri-dir "$W/w/hdri" --out "$W/data" --count 100000 --size 128 --shard 25 \
+    --seed 11 --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 > "$W/gen.log" 2>&1
+pkill -f tools/gen_data.py; sleep 1
+n=$(ls "$W/data" | grep -c '^shard_[0-9]*\.npz$')
+echo "renders: $n shards of 25 in $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
+tail -3 "$W/gen.log"
+[ "$n" -gt 0 ] || { tail -30 "$W/gen.log" | tee -a "$OUT/env.txt"; exit 1; }
+
+echo "== training"
+timeout "${TRAIN_TIMEOUT:-380}" $PY tools/train_default.py --data "$W/data" --out "$W/run" --hdri-dir "$W/w/hdri" \
+    --device "$DEVICE" --amp bf16 --threads 8 --seed 0 --init-from models/supermat_default.safetensors \
+    --phases ft,ft_e2e,export --ckpt-every 30 --seconds "ft=${FT_S:-30},ft_e2e=${E2E_S:-220}" \
+    --ft-steps 100000 --ft-lr 3e-4 --latent-batch "${FT_BATCH:-64}" \
+    --e2e-steps 100000 --e2e-lr 2e-4 --e2e-batch "${E2E_BATCH:-32}" --e2e-permute 1 2>&1 | tee "$OUT/train.log"
+echo "training rc ${PIPESTATUS[0]} at $(( $(date +%s) - T0 )) s"
+
+$PY - "$W/run" "$OUT" <<'EOF'
+import os, sys
+import numpy as np
+import torch
+run, out = sys.argv[1:]
+for ph in ("ft", "ft_e2e"):
+    p = os.path.join(run, f"ckpt_{ph}.pt")
+    if not os.path.exists(p):
+        print(ph, "no checkpoint")
+        continue
+    st = torch.load(p, map_location="cpu", weights_only=False)
+    sd = st["models"]["unet"]
+    np.savez(os.path.join(out, f"unet_{ph}.npz"), **{k: v.half().numpy() for k, v in sd.items()})
+    print(ph, "step", st["step"], "of", st.get("total"), "done" if os.path.exists(os.path.join(run, ph + ".done")) else "NOT done")
+EOF
+cp "$W"/run/log_*.txt "$W/run/release/report.json" "$OUT/" 2>/dev/null
+echo "device: $(( $(date +%s) - T0 )) s"
