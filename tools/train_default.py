@@ -88,8 +88,20 @@ REF = os.environ.get("SUPERMAT_REFERENCE", os.path.join(HERE, "..", "..", "share
 sys.path.insert(0, REF)
 sys.path.insert(0, HERE)
 import harness_env  # noqa: E402,F401  (sys.path for diffusers / SuperMat / stubs)
+import importlib.util  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+
+_find_spec = importlib.util.find_spec
+
+
+def _find_spec_no_peft(name, package=None):
+    """diffusers 0.31 imports an installed peft (the GPU machines' images have one), and peft the real
+    transformers that the harness stubs out: hide peft, which this script never uses."""
+    return None if name.split(".")[0] == "peft" else _find_spec(name, package)
+
+
+importlib.util.find_spec = _find_spec_no_peft
 import torch.nn.functional as F  # noqa: E402
 from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
 from safetensors.torch import safe_open  # noqa: E402

@@ -65,11 +65,13 @@ W="${W:-/tmp/smgpu}"
 rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
 export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
 PY="${PY:-python3}"
+# a real safetensors there: diffusers then imports more of it than the harness' stand-in has
+$PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
 DEVICE="${DEVICE:-cuda}"
 JOBS="${JOBS:-$(nproc)}"
 { nvidia-smi -L; $PY -c 'import torch, numpy; print("torch", torch.__version__, "numpy", numpy.__version__, "cuda", torch.cuda.is_available())'; nproc; } 2>&1 | tee "$OUT/env.txt"
 # the training script's imports and one UNet step on the device, before minutes go into renders
-$PY - "$DEVICE" <<'EOF' 2>&1 | tee -a "$OUT/env.txt"
+$PY - "$DEVICE" "$(ls "$W"/w/hdri/*.hdr | head -1)" <<'EOF' 2>&1 | tee -a "$OUT/env.txt"
 import sys, time
 sys.path.insert(0, "tools")
 import torch
@@ -83,6 +85,16 @@ t = time.time()
 with torch.autocast(T.DEV.type, dtype=torch.bfloat16):
     out = u(z, 999, encoder_hidden_states=ctx).sample
 sum(o.float().square().mean() for o in out).backward()
+vae = T.make_vae()
+x = torch.rand(2, 3, 128, 128, device=T.DEV, requires_grad=True)
+with torch.autocast(T.DEV.type, dtype=torch.bfloat16):
+    y = vae.decode(vae.encode(x).latent_dist.mode()).sample
+import smrender as R
+env = T.TorchEnv(R.EnvLight(sys.argv[2]))
+nrm = torch.nn.functional.normalize(torch.randn(2, 3, 128, 128, device=T.DEV), dim=1)
+img = T.shade_t(env, R.rotation_y(0.3), nrm, y.float().clamp(0, 1), x[:, :1], x[:, 1:2])
+T.tonemap_t(img, torch.ones(2, 1, 1, 1, device=T.DEV)).mean().backward()
+print("preflight: x0 coefficient", T.x0_coefficient()[0], "VAE + shading backward", x.grad.abs().sum().item() > 0)
 print("preflight: UNet", sum(p.numel() for p in u.parameters()), "parameters, forward + backward", f"{time.time() - t:.2f} s")
 EOF
 [ "${PIPESTATUS[0]}" = 0 ] || { echo "train_gpu: preflight failed"; exit 1; }
