@@ -231,45 +231,53 @@ class Data:
               f"({len(self.train)} train, {len(self.val)} validation)", flush=True)
 
     def batch(self, idx, aug_rng=None):
-        """Tensors in [0,1], NCHW: input (over gray 0.5), albedo, orm, mask, normal."""
-        a = torch.from_numpy(self.rgba[idx]).float().div_(255).permute(0, 3, 1, 2)
+        """Tensors in [0,1], NCHW: input (over gray 0.5), albedo, orm, mask, normal (made on --device from the
+        stored 8-bit / f16 arrays, augmented there)."""
+        def t(x):
+            return torch.from_numpy(x).to(DEV)
+        a = t(self.rgba[idx]).float().div_(255).permute(0, 3, 1, 2)
         m = a[:, 3:4]
         inp = a[:, :3] * m + 0.5 * (1 - m)
-        alb = torch.from_numpy(self.albedo[idx]).float().div_(255).permute(0, 3, 1, 2)
-        r = torch.from_numpy(self.rough[idx]).float().div_(255)[:, None]
-        mt = torch.from_numpy(self.metal[idx]).float().div_(255)[:, None]
+        alb = t(self.albedo[idx]).float().div_(255).permute(0, 3, 1, 2)
+        r = t(self.rough[idx]).float().div_(255)[:, None]
+        mt = t(self.metal[idx]).float().div_(255)[:, None]
         orm = torch.cat([torch.ones_like(r), r, mt], 1)
         # maps over gray 0.5 where there is no object, like the input
         alb = alb * m + 0.5 * (1 - m)
         orm = orm * m + 0.5 * (1 - m)
-        nrm = torch.from_numpy(self.normal[idx].astype(np.float32)).permute(0, 3, 1, 2)
+        nrm = t(self.normal[idx]).float().permute(0, 3, 1, 2)
         b = {"inp": inp, "alb": alb, "orm": orm, "mask": m, "nrm": nrm}
         if aug_rng is not None:
             b = augment(b, aug_rng)
-        return {k: v.to(DEV) for k, v in b.items()}
+        return b
 
 
 def augment(b, rng):
-    """Horizontal flips and quarter turns of the picture (normals turned with it)."""
+    """Horizontal flips and quarter turns of the picture (normals turned with it).  The draws are made per
+    sample in order (quarter turns, then flip), then applied to each group of samples at once."""
+    draws = [(int(rng.integers(4)), bool(rng.integers(2))) for _ in range(b["inp"].shape[0])]
     out = {k: v.clone() for k, v in b.items()}
-    for i in range(b["inp"].shape[0]):
-        k = int(rng.integers(4))
-        flip = bool(rng.integers(2))
-        for key in out:
-            x = out[key][i]
-            if flip:
-                x = x.flip(-1)
-                if key == "nrm":
-                    x = x * torch.tensor([-1.0, 1, 1])[:, None, None]
-            if k:
-                x = torch.rot90(x, k, (-2, -1))
-                if key == "nrm":
-                    # rot90 by k quarter turns counter-clockwise in image space: rotate (x, y) the same way
-                    nx, ny = x[0].clone(), x[1].clone()
-                    for _ in range(k):
-                        nx, ny = -ny, nx
-                    x = torch.stack([nx, ny, x[2]])
-            out[key][i] = x
+    for k in range(4):
+        for flip in (False, True):
+            sel = [i for i, d in enumerate(draws) if d == (k, flip)]
+            if not sel or (k == 0 and not flip):
+                continue
+            ii = torch.tensor(sel, device=b["inp"].device)
+            for key in out:
+                x = b[key][ii]
+                if flip:
+                    x = x.flip(-1)
+                    if key == "nrm":
+                        x = x * torch.tensor([-1.0, 1, 1], device=x.device)[:, None, None]
+                if k:
+                    x = torch.rot90(x, k, (-2, -1))
+                    if key == "nrm":
+                        # rot90 by k quarter turns counter-clockwise in image space: rotate (x, y) the same way
+                        nx, ny = x[:, 0].clone(), x[:, 1].clone()
+                        for _ in range(k):
+                            nx, ny = -ny, nx
+                        x = torch.stack([nx, ny, x[:, 2]], 1)
+                out[key][ii] = x
     return out
 
 
@@ -679,8 +687,9 @@ def rerender_loss(envs, rng, b, pa, po):
     with torch.no_grad():
         gt_lin = shade_t(env, rot, b["nrm"], b["alb"], b["orm"][:, 1:2], b["orm"][:, 2:3])
         lum = (gt_lin * torch.tensor([0.2126, 0.7152, 0.0722], device=DEV)[None, :, None, None]).sum(1, keepdim=True)
-        med = torch.stack([lum[i][m[i] > 0.5].median() if (m[i] > 0.5).any() else torch.tensor(1.0, device=DEV)
-                           for i in range(lum.shape[0])])
+        inside = (m > 0.5).flatten(1)   # the median over each sample's object pixels (1 where it has none)
+        med = torch.nanmedian(lum.flatten(1).masked_fill(~inside, float("nan")), dim=1).values
+        med = torch.where(inside.any(1), med, torch.ones_like(med))
         expo = (0.25 / med.clamp(min=1e-6))[:, None, None, None]
         gt_img = tonemap_t(gt_lin, expo)
     pr_img = tonemap_t(shade_t(env, rot, b["nrm"], pa, po[:, 1:2], po[:, 2:3]), expo)
@@ -749,13 +758,15 @@ def permute_colour(b, rng, p=0.5):
     """Swap the colour channels of the picture and the albedo together (half the samples, one of the five
     other orders each): exactly the render of the swapped albedo under the swapped environment map."""
     out = dict(b)
-    inp, alb = b["inp"].clone(), b["alb"].clone()
+    n = b["inp"].shape[0]
     perms = [(0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
-    for i in range(inp.shape[0]):
+    order = [[0, 1, 2]] * n
+    for i in range(n):
         if rng.random() < p:
-            o = list(perms[int(rng.integers(len(perms)))])
-            inp[i], alb[i] = inp[i][o], alb[i][o]
-    out["inp"], out["alb"] = inp, alb
+            order[i] = list(perms[int(rng.integers(len(perms)))])
+    dev = b["inp"].device
+    rows, order = torch.arange(n, device=dev)[:, None], torch.tensor(order, device=dev)
+    out["inp"], out["alb"] = b["inp"][rows, order], b["alb"][rows, order]
     return out
 
 
