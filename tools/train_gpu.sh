@@ -18,9 +18,9 @@
 #   (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16 (the release rounds to it
 #   anyway), the logs and the export report.
 # Measured (2026-11-26, H200, 16 cores): 4 600 renders in 194 s; a latent step of batch 64 162 ms, an end-to-end
-#   step of batch 32 271 ms (the batch assembly takes 66 ms of a step on 2 CPU threads; the rest is not
-#   profiled yet: the re-render loss's per-sample median waits on the GPU 32 times a step); 485 s in all, with
-#   30-40 s to start the machine.  Results: README ("A GPU round").
+#   step of batch 32 271 ms, not profiled (the batch assembly took 66 ms of a step on 2 CPU threads here, and
+#   the re-render loss waited on the GPU 32 times a step: both are done on the device at once since); 485 s in
+#   all, with 30-40 s to start the machine.  Results: README ("A GPU round").
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 mode="${1:-}"
