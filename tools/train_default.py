@@ -84,7 +84,8 @@ instead of 1.6, the latent cache in 27 min instead of 80; on a Xeon with AVX512_
 takes 3.7 s instead of 4.25; slower on CPUs without either.
 --device cuda trains on a GPU where there is one (never required; tools/train_gpu.sh runs one round there).
 --seconds PHASE=S,... gives phases wall-clock budgets: such a phase times its steps 20-120, then lowers its
-step count to what fits (the learning-rate schedule follows) and stops at the budget in any case. Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
+step count to what fits (the learning-rate schedule follows) and stops at the budget in any case.
+Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
 HARNESS_DEPS (default ../shared/reference/out/deps, see ../shared/reference/README.md).
 """
 import argparse
@@ -103,6 +104,7 @@ import harness_env  # noqa: E402,F401  (sys.path for diffusers / SuperMat / stub
 import importlib.util  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+import torch.nn.functional as F  # noqa: E402
 
 _find_spec = importlib.util.find_spec
 
@@ -114,7 +116,6 @@ def _find_spec_no_peft(name, package=None):
 
 
 importlib.util.find_spec = _find_spec_no_peft
-import torch.nn.functional as F  # noqa: E402
 from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
 from safetensors.torch import safe_open  # noqa: E402
 from src.adapters import SuperMatAdapterWrapper  # noqa: E402
@@ -536,9 +537,9 @@ def phase_vae_more(args, data):
 def phase_dec(args, data):
     """The VAE decoder alone (+ post_quant_conv) on reconstructions of the pictures, albedo and ORM maps, the
     encoder frozen so that the latent space the UNet predicts in stays the same: --dec-steps, batch
-    --dec-batch, --dec-crop crops (0: whole pictures), lr --dec-lr; L1 + gradient L1, object pixels weighted 1, background 0.25.  Made for a
-    measured defect: the shipped decoder returns a flat metal ORM (1, r, 1) with roughness 0.74-0.86 whatever r
-    (0.05-1), although the encoder keeps r apart (tools/train_default.py's docs, README)."""
+    --dec-batch, --dec-crop crops (0: whole pictures), lr --dec-lr; L1 + gradient L1, object pixels weighted
+    1, background 0.25.  Made for a measured defect: the shipped decoder returns a flat metal ORM (1, r, 1)
+    with roughness 0.74-0.86 whatever r is (0.05-1), although the encoder keeps r apart (README)."""
     vae = load_vae(args.out)
     for p in vae.parameters():
         p.requires_grad_(False)
