@@ -12,11 +12,12 @@
 # pack: the reference harness' import shims and stubs (../shared/reference), the extracted diffusers /
 #   huggingface_hub / einops / SuperMat sources ($HARNESS_DEPS), and the prefiltered training maps
 #   (HDRI/*.hdr.smenv.npz: the .hdr files travel as empty stand-ins older than their caches, which
-#   smrender.EnvLight then reads instead), ~9 MB.  Add /.gpu/ to .git/info/exclude.
+#   smrender.EnvLight then reads instead), 6.4 MB.  Add /.gpu/ to .git/info/exclude.  Where the lent
+#   machine takes at most 64 MiB of working tree, move tests/data/tiny (40 MB) aside for the call: 41 MB travel.
 # device: budgets in seconds GEN_S (renders, default 160), FT_S (latent phase, 30), E2E_S (end to end, 220);
-#   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  Gives back the UNet after the latent phase
-#   (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16 (the release rounds to it
-#   anyway), the logs and the export report.
+#   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  Gives back
+#   the UNet after the latent phase (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16
+#   (the release rounds to it anyway), the logs and the export report.
 # Measured (2026-11-26, H200, 16 cores): 4 600 renders in 194 s; a latent step of batch 64 162 ms, an end-to-end
 #   step of batch 32 271 ms, not profiled (the batch assembly took 66 ms of a step on 2 CPU threads here, and
 #   the re-render loss waited on the GPU 32 times a step: both are done on the device at once since); 485 s in
