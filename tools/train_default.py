@@ -534,6 +534,27 @@ def phase_vae_more(args, data):
               batch=args.vae_more_batch, lr=args.vae_more_lr, train=data.train)
 
 
+def decoder_only(vae):
+    """Freeze the VAE but its decoder (+ post_quant_conv), whose parameters it returns: the encoder, hence the
+    latent space the UNet works in, stays as it is."""
+    for p in vae.parameters():
+        p.requires_grad_(False)
+    dec = list(vae.decoder.parameters()) + list(vae.post_quant_conv.parameters())
+    for p in dec:
+        p.requires_grad_(True)
+    return dec
+
+
+def branch_only(unet, prefixes):
+    """Freeze the UNet but the parameters named with one of `prefixes` (an expert branch), which it returns."""
+    params = []
+    for k, p in unet.named_parameters():
+        p.requires_grad_(k.startswith(prefixes))
+        if p.requires_grad:
+            params.append(p)
+    return params
+
+
 def phase_dec(args, data):
     """The VAE decoder alone (+ post_quant_conv) on reconstructions of the pictures, albedo and ORM maps, the
     encoder frozen so that the latent space the UNet predicts in stays the same: --dec-steps, batch
@@ -541,11 +562,7 @@ def phase_dec(args, data):
     1, background 0.25.  Made for a measured defect: the shipped decoder returns a flat metal ORM (1, r, 1)
     with roughness 0.74-0.86 whatever r is (0.05-1), although the encoder keeps r apart (README)."""
     vae = load_vae(args.out)
-    for p in vae.parameters():
-        p.requires_grad_(False)
-    dec = list(vae.decoder.parameters()) + list(vae.post_quant_conv.parameters())
-    for p in dec:
-        p.requires_grad_(True)
+    dec = decoder_only(vae)
     opt = torch.optim.AdamW(dec, lr=args.dec_lr, weight_decay=0.0)
     ph = Phase(args.out, "dec", {"vae": vae}, opt, args.dec_steps, args.ckpt_every, args.seed)
     vae.eval()
@@ -710,12 +727,17 @@ def end_to_end_setup(run, src):
     return vae, vae.config.scaling_factor, context(run), x0_coefficient()[0], load_unet(run, src)
 
 
-def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None):
+def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=None):
+    """End to end (see the phases above); only=RM_BRANCH trains that branch alone (everything else frozen, the
+    albedo map then decoded without gradients: none of its losses reaches the branch)."""
     steps = args.e2e_steps if steps is None else steps
     base_lr = args.e2e_lr if lr is None else lr   # (the loop's `lr` is the roughness loss)
     vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
+    params = branch_only(unet, only) if only else list(unet.parameters())
+    if only:
+        print(f"{name}: from {src}, {sum(p.numel() for p in params)} trainable parameters", flush=True)
     envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
-    opt = torch.optim.AdamW(unet.parameters(), lr=base_lr, weight_decay=0.0)
+    opt = torch.optim.AdamW(params, lr=base_lr, weight_decay=0.0)
     ph = Phase(args.out, name, {"unet": unet}, opt, steps, args.ckpt_every, args.seed)
     unet.train()
     while ph.step < ph.total:
@@ -729,12 +751,13 @@ def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None):
             zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode().float() * sf
         with amp():
             x0a, x0o = unet_forward(unet, zi, ctx, coef)
-            pa = (vae.decode(x0a / sf).sample.float() / 2 + 0.5).clamp(0, 1)
+            with torch.set_grad_enabled(only != RM_BRANCH):
+                pa = (vae.decode(x0a / sf).sample.float() / 2 + 0.5).clamp(0, 1)
             po = (vae.decode(x0o / sf).sample.float() / 2 + 0.5).clamp(0, 1)
         la, lr, lm, lo = map_losses(pa, po, b)
         lrr = rerender_loss(envs, ph.rng, b, pa, po)
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
-        ph.update(loss, unet.parameters())
+        ph.update(loss, params)
         ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
     ph.finish()
 
@@ -786,11 +809,7 @@ def phase_joint(args, data, name="joint"):
     true maps' latents, so that it stays a decoder of the latent space the UNet was trained in."""
     vae = load_vae(args.out)
     sf = vae.config.scaling_factor
-    for p in vae.parameters():
-        p.requires_grad_(False)
-    dec = list(vae.decoder.parameters()) + list(vae.post_quant_conv.parameters())
-    for p in dec:
-        p.requires_grad_(True)
+    dec = decoder_only(vae)
     ctx = context(args.out)
     coef, _ = x0_coefficient()
     squared = name == "joint_mse"
@@ -847,11 +866,7 @@ def phase_alb(args, data):
     + gradient L1, colour channels of picture and albedo permuted together on half the samples."""
     src = unet_source(args.out)
     vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
-    params = []
-    for k, p in unet.named_parameters():
-        p.requires_grad_(k.startswith(ALB_BRANCH))
-        if p.requires_grad:
-            params.append(p)
+    params = branch_only(unet, ALB_BRANCH)
     print(f"alb: from {src}, {sum(p.numel() for p in params)} trainable parameters (the albedo branch)", flush=True)
     train = data.train[:args.alb_samples] if args.alb_samples > 0 else data.train
     opt = torch.optim.AdamW(params, lr=args.alb_lr, weight_decay=0.0)
@@ -885,38 +900,7 @@ def phase_rm(args, data):
     everything else frozen, so that the albedo stays bit-identical: --rm-steps end to end (the e2e phase's
     roughness, metallic, occlusion and re-render losses; the re-render shades the frozen albedo branch's map),
     batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute."""
-    src = unet_source(args.out)
-    vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
-    params = []
-    for k, p in unet.named_parameters():
-        p.requires_grad_(k.startswith(RM_BRANCH))
-        if p.requires_grad:
-            params.append(p)
-    print(f"rm: from {src}, {sum(p.numel() for p in params)} trainable parameters (the roughness / metallic branch)", flush=True)
-    envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
-    opt = torch.optim.AdamW(params, lr=args.rm_lr, weight_decay=0.0)
-    ph = Phase(args.out, "rm", {"unet": unet}, opt, args.rm_steps, args.ckpt_every, args.seed)
-    unet.train()
-    while ph.step < ph.total:
-        for g in opt.param_groups:
-            g["lr"] = lr_at(ph.step, ph.total, args.rm_lr, warm=20)
-        idx = ph.rng.choice(data.train, args.e2e_batch, replace=False)
-        b = data.batch(idx, ph.rng)
-        if args.e2e_permute:
-            b = permute_colour(b, ph.rng)
-        with torch.no_grad(), amp():
-            zi = vae.encode(b["inp"] * 2 - 1).latent_dist.mode().float() * sf
-        with amp():
-            x0a, x0o = unet_forward(unet, zi, ctx, coef)
-            with torch.no_grad():
-                pa = (vae.decode(x0a.detach() / sf).sample.float() / 2 + 0.5).clamp(0, 1)
-            po = (vae.decode(x0o / sf).sample.float() / 2 + 0.5).clamp(0, 1)
-        _, lr, lm, lo = map_losses(pa, po, b)
-        lrr = rerender_loss(envs, ph.rng, b, pa, po)
-        loss = lr + lm + 0.1 * lo + args.rerender_weight * lrr
-        ph.update(loss, params)
-        ph.tick(f"rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
-    ph.finish()
+    phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH)
 
 
 def init_from(args):
