@@ -34,6 +34,10 @@ What it does
      per asset), and writes the JSON
      (--json), contact sheets (--sheets DIR: one PNG per view, one row per predictor: input over gray |
      pred albedo | pred roughness | pred metallic | gt albedo | gt roughness | gt metallic).
+  --decompose also reports the albedo PSNR after the best least-squares gain per view (one for all channels:
+  the exposure, which the input's auto-exposure hides, taken out of the error) and after the best gain per view
+  and channel (exposure and white balance): how much of a predictor's albedo error is global brightness and
+  colour, and how much is the map itself.
   --levers MODEL [--levers-modes all|LIST] also measures the speed / accuracy levers of MODEL against the
   truth: per view, `supermat bench --model MODEL --image WORK/inputs/<stem>.png --truth-albedo
   WORK/truth/<stem>_albedo.png --truth-roughness ... --truth-metallic ... --modes LIST --json
@@ -90,6 +94,7 @@ CC0_ASSETS = ("Avocado", "WaterBottle")
 FRAME_FILL = 0.85                       # the projected bounding box's larger side, in frame widths
 KEY_RANGE = (0.18, 0.3)                 # auto-exposure key (median luminance), as the training data
 MAPS = ("albedo", "roughness", "metallic")
+DECOMPOSE = ("albedo_psnr_gain", "albedo_psnr_wb")   # --decompose
 METRICS = ("albedo_psnr", "albedo_ssim", "roughness_psnr", "roughness_ssim", "metallic_psnr",
            "metallic_ssim", "rerender_psnr")
 
@@ -541,12 +546,24 @@ def masked_ssim(a, b, mask):
     return float(np.mean(vals))
 
 
-def measure(pred, gt, mask, relit_pred, relit_gt):
+def gain_psnr(pred, gt, mask, per_channel):
+    """PSNR after the best least-squares gain on the prediction (one for all channels, or one a channel):
+    what is left once the picture's unknown exposure (and white balance) is taken out of the error."""
+    p, g = pred[mask].astype(np.float64), gt[mask].astype(np.float64)
+    axis = 0 if per_channel else None
+    k = np.sum(p * g, axis=axis) / np.maximum(np.sum(p * p, axis=axis), 1e-12)
+    return masked_psnr(np.clip(pred * k, 0.0, 1.0), gt, mask)
+
+
+def measure(pred, gt, mask, relit_pred, relit_gt, decompose=False):
     out = {}
     for name in MAPS:
         out[f"{name}_psnr"] = masked_psnr(pred[name], gt[name], mask)
         out[f"{name}_ssim"] = masked_ssim(pred[name], gt[name], mask)
     out["rerender_psnr"] = masked_psnr(relit_pred, relit_gt, mask)
+    if decompose:
+        out["albedo_psnr_gain"] = gain_psnr(pred["albedo"], gt["albedo"], mask, False)
+        out["albedo_psnr_wb"] = gain_psnr(pred["albedo"], gt["albedo"], mask, True)
     return out
 
 
@@ -555,7 +572,7 @@ def measure(pred, gt, mask, relit_pred, relit_gt):
 # ----------------------------------------------------------------------------------------------------------
 def summarise(rows, predictors):
     def mean(sel):
-        return {m: float(np.mean([r[m] for r in sel])) for m in METRICS}
+        return {m: float(np.mean([r[m] for r in sel])) for m in METRICS + DECOMPOSE if m in sel[0]}
     assets = list(dict.fromkeys(r["asset"] for r in rows))
     return (
         {p: mean([r for r in rows if r["predictor"] == p]) for p in predictors},
@@ -674,7 +691,7 @@ def evaluate(args, meshes, work):
             relit = smr.tonemap(relight(v["gb"], preds[p][stem], envs[v["env_rl"]], v["rot_rl"]), v["exposure"],
                                 (1, 1, 1))
             rows.append(dict(asset=v["asset"], view=v["view"], env_in=v["env_in"], predictor=p,
-                             **measure(preds[p][stem], v["gt"], mask, relit, v["relit_gt"])))
+                             **measure(preds[p][stem], v["gt"], mask, relit, v["relit_gt"], args.decompose)))
         if args.sheets:
             contact_sheet(os.path.join(args.sheets, stem + ".png"), v["rgba8"], v["gt"],
                           [preds[p][stem] for p in preds])
@@ -691,6 +708,13 @@ def evaluate(args, meshes, work):
         print(markdown([(f"{a} / {p}", m) for a, t in per_env.items() for p, m in t.items()], "lighting / predictor"))
     print("\n## per asset\n")
     print(markdown([(f"{a} / {p}", m) for a, t in per_asset.items() for p, m in t.items()], "asset / predictor"))
+    if args.decompose:
+        print("\n## albedo error decomposed (PSNR as measured | after the best gain per view | after the best gain "
+              "per view and channel)\n")
+        print("| asset / predictor | albedo PSNR | best gain | best gains per channel |\n|---|---|---|---|")
+        for a, t in [("all", overall)] + list(per_asset.items()):
+            for p, m in t.items():
+                print(f"| {a} / {p} | {m['albedo_psnr']:.2f} | {m['albedo_psnr_gain']:.2f} | {m['albedo_psnr_wb']:.2f} |")
     timing = dict(render_s_per_view=t_render / len(views), metrics_s_per_view=t_metrics,
                   predict_s_per_view=t_pred)
     print(f"\ntime per asset-view: render {timing['render_s_per_view']:.1f} s, metrics (all predictors) "
@@ -739,6 +763,9 @@ def main():
     ap.add_argument("--work", help="folder for the inputs and predicted maps (default: a temporary one)")
     ap.add_argument("--threads", type=int, default=0, help="supermat threads (default 0 = all cores)")
     ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--decompose", action="store_true",
+                    help="also the albedo PSNR after the best gain per view (the unknown exposure taken out) and "
+                         "after the best gain per view and channel (exposure and white balance)")
     ap.add_argument("--sheets", help="write a contact sheet per view into this folder")
     ap.add_argument("--levers", metavar="MODEL",
                     help="also run `supermat bench --image` with the truth on every view (all its speed / "
