@@ -47,7 +47,7 @@
  * measures each against the f32 maps on your input)
  *   model_desc.weights      f32 | f16 | bf16 | int8 GEMM weights (memory /2, /2, /4)
  *   model_desc.conv         Winograd F(2x2,3x3) / F(4x4,3x3) for the 3x3 convolutions (<= 640 channels)
- *   model_desc.compute      bf16 (AVX512_BF16, AMX) or int8 (AVX512_VNNI) products in the GEMMs
+ *   model_desc.compute      bf16 (AVX512_BF16, AMX) or int8 (AVX512_VNNI, AVX-VNNI) products in the GEMMs
  *   session_desc.outputs    only the maps you need (a branch and its decode are skipped)
  *   session_desc.work_*     run the network smaller, resample in and out
  *   session_desc.vae_tile   VAE in blended tiles (bounded memory); skip_background: decode only the
@@ -81,7 +81,9 @@
  *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
  *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only; also
  *                                     leaves out AVX-512)
- *   SUPERMAT_NO_AVX512                leave out the AVX-512F GEMM micro-kernel (the rest stays AVX2)
+ *   SUPERMAT_NO_AVX512                leave out the AVX-512F GEMM micro-kernel (the rest stays AVX2;
+ *                                     also leaves out int8 compute, which needs AVX512_VNNI or AVX-VNNI)
+ *   SUPERMAT_NO_AVXVNNI               leave out int8 compute on AVX-VNNI (the AVX2 kernel)
  *   SUPERMAT_ASSERT(x)                internal assertions (default: none)
  *   SUPERMAT_NO_MADVISE               Linux: do not ask for transparent huge pages on the default
  *                                     allocator's big blocks (weights, arenas)
@@ -120,7 +122,8 @@
  *   the CPU and Linux grant them), which sum in another order; both stay within 1e-5 (relative) of the
  *   float64 sums of the rounded operands. int8 compute sums exact int32 products of the quantized operands
  *   per 64 rows of K and those chunks in float32 (1e-5 relative of the float64 sums of the same quantized
- *   operands); its error against f32 is the quantization's. Denormals are not flushed.
+ *   operands); its error against f32 is the quantization's; its two kernels (AVX512_VNNI on the AVX-512
+ *   kernel, AVX-VNNI on the AVX2 one) give the same bits. Denormals are not flushed.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
@@ -314,9 +317,12 @@ typedef enum supermat_model_kind {
    convolutions that Winograd computes stay float32. Its error is measured by `supermat bench --image`.
    INT8: the weights are stored as int8 with one scale per output channel per 64 rows of K (the rows
    k in [64 j, 64 j + 64), whatever the kernel taps), and each GEMM quantizes its activations on the fly
-   with one scale per row per 64 of K (max |a| / 127, round to nearest even); AVX512_VNNI (vpdpbusd: four
-   u8 x s8 products per lane, int32 sums) multiplies them, and each 64-row chunk's int32 sum is scaled to
-   float32 and added. Needs AVX512_VNNI (UNSUPPORTED otherwise); weights may come from F32/F16/BF16 or I8
+   with one scale per row per 64 of K (max |a| / 127, round to nearest even); vpdpbusd (four u8 x s8
+   products per lane, int32 sums) multiplies them, and each 64-row chunk's int32 sum is scaled to float32
+   and added. Runs on the AVX-512 kernel with AVX512_VNNI (12 rows x 16 columns) or on the AVX2 kernel with
+   AVX-VNNI (the 256-bit form of CPUs without AVX-512: 6 x 16), the same bits on both; kernel AUTO picks the
+   first the CPU has, UNSUPPORTED with neither (AVX-VNNI needs gcc >= 11 or clang >= 12 at build time;
+   SUPERMAT_NO_AVXVNNI leaves it out); weights may come from F32/F16/BF16 or I8
    tensors (requantized to the 64-row chunks). Like BF16 it leaves everything but the GEMMs float32 and the
    Winograd convolutions float32. */
 typedef enum supermat_compute {
@@ -530,6 +536,7 @@ SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
 SUPERMAT_API int supermat_cpu_has_avx512_vnni(void); /* AVX-512F + BW + AVX512_VNNI (SUPERMAT_COMPUTE_INT8) */
+SUPERMAT_API int supermat_cpu_has_avx_vnni(void);    /* AVX2 + AVX-VNNI (SUPERMAT_COMPUTE_INT8 on the AVX2 kernel) */
 SUPERMAT_API int supermat_cpu_has_neon(void);        /* an aarch64 build (Advanced SIMD is part of the base ISA) */
 SUPERMAT_API int supermat_cpu_has_amx_bf16(void);    /* AMX-TILE + AMX-BF16, enabled by the OS for this process */
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
@@ -590,6 +597,14 @@ SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, s
 #define SUPERMAT__AVX512VNNI __attribute__((target("avx512f,avx512bw,avx512vnni,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AVX512 0
+#endif
+/* AVX-VNNI (the 256-bit, VEX-encoded vpdpbusd of Alder Lake and later) needs gcc >= 11 / clang >= 12 */
+#if SUPERMAT__HAS_AVX512 && !defined(SUPERMAT_NO_AVXVNNI) && \
+    ((defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && defined(__GNUC__) && __GNUC__ >= 11))
+#define SUPERMAT__HAS_AVXVNNI 1
+#define SUPERMAT__AVXVNNI __attribute__((target("avxvnni,avx2,fma,f16c")))
+#else
+#define SUPERMAT__HAS_AVXVNNI 0
 #endif
 /* AMX needs gcc >= 11 / clang >= 12 for the intrinsics, and Linux to grant the tile state */
 #if SUPERMAT__HAS_AVX512 && !defined(SUPERMAT_NO_AMX) && defined(__linux__) && defined(__x86_64__) && \
@@ -1208,6 +1223,15 @@ SUPERMAT__DEF int supermat_cpu_has_avx512_vnni(void) {
 #endif
 }
 
+SUPERMAT__DEF int supermat_cpu_has_avx_vnni(void) {
+#if SUPERMAT__HAS_AVXVNNI
+    unsigned a, b, c, d;
+    return supermat_cpu_has_avx2() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 4) & 1);
+#else
+    return 0;
+#endif
+}
+
 SUPERMAT__DEF int supermat_cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
 
 #if SUPERMAT__HAS_AMX
@@ -1627,28 +1651,139 @@ static uint32_t supermat__ld32(const unsigned char *p) { uint32_t v; memcpy(&v, 
    64-row chunk j of the block: int32 sums by vpdpbusd (exact: at most 64 x 255 x 127), minus the u8
    offset (128 x the chunk's column sums, cor), converted to float32 (exact below 2^24) and added times
    the row's scale x the column's */
+/* the int32 sums of one 64-row chunk, a function of their own: inlined beside the 12 float32 accumulators,
+   gcc 12 copied every sum to another register on every step */
+SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
+                                                                              __m512i *out) {
+    __m512i s0 = _mm512_setzero_si512(), s1 = s0, s2 = s0, s3 = s0, s4 = s0, s5 = s0, s6 = s0, s7 = s0, s8 = s0, s9 = s0, s10 = s0, s11 = s0;
+    int q;
+    for (q = q0; q < q1; q++) {
+        __m512i bv = _mm512_loadu_si512((const void *)(b + (size_t)q * 64));
+#define SUPERMAT__I8_ROW(i, s) s = _mm512_dpbusd_epi32(s, _mm512_set1_epi32((int)supermat__ld32(a[i] + 4 * (size_t)q)), bv)
+        SUPERMAT__I8_ROW(0, s0); SUPERMAT__I8_ROW(1, s1); SUPERMAT__I8_ROW(2, s2); SUPERMAT__I8_ROW(3, s3);
+        SUPERMAT__I8_ROW(4, s4); SUPERMAT__I8_ROW(5, s5); SUPERMAT__I8_ROW(6, s6); SUPERMAT__I8_ROW(7, s7);
+        SUPERMAT__I8_ROW(8, s8); SUPERMAT__I8_ROW(9, s9); SUPERMAT__I8_ROW(10, s10); SUPERMAT__I8_ROW(11, s11);
+#undef SUPERMAT__I8_ROW
+    }
+    out[0] = s0; out[1] = s1; out[2] = s2; out[3] = s3; out[4] = s4; out[5] = s5;
+    out[6] = s6; out[7] = s7; out[8] = s8; out[9] = s9; out[10] = s10; out[11] = s11;
+}
 SUPERMAT__AVX512VNNI static void supermat__ukr_i8(int kc4, const unsigned char *const *a, const float *const *as, const signed char *b,
                                                   const float *ws, const int32_t *cor, size_t cst, float *c, size_t ldc, int mr, int nr,
                                                   const float *bias, const float *r, size_t ldr, int accumulate) {
     __m512 acc[SUPERMAT__MR512];
     __m512i sum[SUPERMAT__MR512];
     __mmask16 mask = (__mmask16)(nr >= 16 ? 0xFFFF : (1u << nr) - 1u);
-    int i, j, q;
+    int i, j;
     supermat__acc512_init(acc, mr, mask, c, ldc, bias, r, ldr, accumulate);
     for (j = 0; 16 * j < kc4; j++) {
         int q1 = SUPERMAT__MIN(kc4, 16 * j + 16);
         __m512 wv = _mm512_loadu_ps(ws + (size_t)j * cst);
         __m512i cv = _mm512_loadu_si512((const void *)(cor + (size_t)j * cst));
-        for (i = 0; i < SUPERMAT__MR512; i++) sum[i] = _mm512_setzero_si512();
-        for (q = 16 * j; q < q1; q++) {
-            __m512i bv = _mm512_loadu_si512((const void *)(b + (size_t)q * 64));
-            for (i = 0; i < SUPERMAT__MR512; i++) sum[i] = _mm512_dpbusd_epi32(sum[i], _mm512_set1_epi32((int)supermat__ld32(a[i] + 4 * (size_t)q)), bv);
-        }
+        supermat__i8_chunk(16 * j, q1, a, b, sum);
         for (i = 0; i < SUPERMAT__MR512; i++)
             acc[i] = _mm512_fmadd_ps(_mm512_maskz_cvtepi32_ps(0xFFFF, _mm512_sub_epi32(sum[i], cv)), _mm512_mul_ps(wv, _mm512_set1_ps(as[i][j])), acc[i]);
     }
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
+#if SUPERMAT__HAS_AVXVNNI
+/* int8 compute on AVX-VNNI (the 256-bit vpdpbusd of CPUs without AVX-512: Alder Lake and later clients).
+   supermat__quant_row_u8 in 256-bit vectors: the same bytes and scales (a chunk's tail is read from a
+   zero-padded copy, its bytes stored as far as the chunk goes) */
+SUPERMAT__AVXVNNI static void supermat__quant_row_u8_avx2(const float *x, int kc, unsigned char *out, float *s) {
+    const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256i perm = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7), off = _mm256_set1_epi32(128);
+    int j, i, h, nch = (kc + 63) / 64;
+    for (j = 0; j < nch; j++) {
+        int k0 = j * 64, n = SUPERMAT__MIN(64, kc - k0);
+        float t[64], l[8], m;
+        const float *src = x + k0;
+        __m256 mx = _mm256_setzero_ps(), inv;
+        if (n < 64) {
+            memcpy(t, src, sizeof(float) * (size_t)n);
+            memset(t + n, 0, sizeof(float) * (size_t)(64 - n));
+            src = t;
+        }
+        for (i = 0; i < 64; i += 8) mx = _mm256_max_ps(mx, _mm256_and_ps(_mm256_loadu_ps(src + i), absm));
+        _mm256_storeu_ps(l, mx);
+        m = l[0];
+        for (i = 1; i < 8; i++) m = l[i] > m ? l[i] : m;
+        s[j] = m / 127.0f;
+        inv = _mm256_set1_ps(m > 0.0f ? 127.0f / m : 0.0f);
+        for (i = 0; i < n; i += 32) {
+            __m256i q[4], p;
+            for (h = 0; h < 4; h++) /* nearest even, + 128: 1..255 */
+                q[h] = _mm256_add_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_loadu_ps(src + i + 8 * h), inv)), off);
+            /* 32 int32 -> 32 bytes: the packs interleave 128-bit lanes, the permutation puts them back in order */
+            p = _mm256_permutevar8x32_epi32(_mm256_packus_epi16(_mm256_packus_epi32(q[0], q[1]), _mm256_packus_epi32(q[2], q[3])), perm);
+            if (n - i >= 32) _mm256_storeu_si256((__m256i *)(void *)(out + k0 + i), p);
+            else {
+                unsigned char b[32];
+                _mm256_storeu_si256((__m256i *)(void *)b, p);
+                memcpy(out + k0 + i, b, (size_t)(n - i));
+            }
+        }
+    }
+    for (i = kc; i % 4; i++) out[i] = 128;
+}
+/* the AVX-VNNI micro-kernel: SUPERMAT__MRVNNI rows x 16 columns (two YMM halves of each 64-byte quad row
+   of the panel); per output element the same operations in the same order as supermat__ukr_i8 (the same
+   bits). The int32 sums of one 64-row chunk are a function of their own: inlined beside the 12 float32
+   accumulators, gcc 12 moved every sum through memory on every step (the AVX-VNNI path ran 0.68x as fast) */
+#define SUPERMAT__MRVNNI 6
+SUPERMAT__AVXVNNI static __attribute__((noinline)) void supermat__i8avx_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
+                                                                           __m256i *out) {
+    __m256i s00 = _mm256_setzero_si256(), s01 = s00, s10 = s00, s11 = s00, s20 = s00, s21 = s00;
+    __m256i s30 = s00, s31 = s00, s40 = s00, s41 = s00, s50 = s00, s51 = s00;
+    int q;
+    for (q = q0; q < q1; q++) {
+        const signed char *bq = b + (size_t)q * 64;
+        __m256i b0 = _mm256_loadu_si256((const __m256i *)(const void *)bq), b1 = _mm256_loadu_si256((const __m256i *)(const void *)(bq + 32)), av;
+#define SUPERMAT__I8AVX_ROW(i, lo, hi)                                     \
+    av = _mm256_set1_epi32((int)supermat__ld32(a[i] + 4 * (size_t)q)); \
+    lo = _mm256_dpbusd_avx_epi32(lo, av, b0);                          \
+    hi = _mm256_dpbusd_avx_epi32(hi, av, b1)
+        SUPERMAT__I8AVX_ROW(0, s00, s01); SUPERMAT__I8AVX_ROW(1, s10, s11); SUPERMAT__I8AVX_ROW(2, s20, s21);
+        SUPERMAT__I8AVX_ROW(3, s30, s31); SUPERMAT__I8AVX_ROW(4, s40, s41); SUPERMAT__I8AVX_ROW(5, s50, s51);
+#undef SUPERMAT__I8AVX_ROW
+    }
+    _mm256_storeu_si256(out + 0, s00); _mm256_storeu_si256(out + 1, s01); _mm256_storeu_si256(out + 2, s10); _mm256_storeu_si256(out + 3, s11);
+    _mm256_storeu_si256(out + 4, s20); _mm256_storeu_si256(out + 5, s21); _mm256_storeu_si256(out + 6, s30); _mm256_storeu_si256(out + 7, s31);
+    _mm256_storeu_si256(out + 8, s40); _mm256_storeu_si256(out + 9, s41); _mm256_storeu_si256(out + 10, s50); _mm256_storeu_si256(out + 11, s51);
+}
+SUPERMAT__AVXVNNI static void supermat__ukr_i8_avx(int kc4, const unsigned char *const *a, const float *const *as, const signed char *b,
+                                                  const float *ws, const int32_t *cor, size_t cst, float *c, size_t ldc, int mr, int nr,
+                                                  const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m256 acc[SUPERMAT__MRVNNI][2];
+    __m256i sum[SUPERMAT__MRVNNI * 2], mk[2];
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    int i, j, h;
+    for (h = 0; h < 2; h++) mk[h] = _mm256_cmpgt_epi32(_mm256_set1_epi32(nr - 8 * h), lane);
+    for (i = 0; i < SUPERMAT__MRVNNI; i++)
+        for (h = 0; h < 2; h++) {
+            __m256 v = _mm256_setzero_ps();
+            if (i < mr) {
+                if (accumulate) v = _mm256_maskload_ps(c + (size_t)i * ldc + 8 * h, mk[h]);
+                else {
+                    if (bias) v = _mm256_loadu_ps(bias + 8 * h); /* bias is padded to 16 */
+                    if (r) v = _mm256_add_ps(v, _mm256_maskload_ps(r + (size_t)i * ldr + 8 * h, mk[h]));
+                }
+            }
+            acc[i][h] = v;
+        }
+    for (j = 0; 16 * j < kc4; j++) {
+        supermat__i8avx_chunk(16 * j, SUPERMAT__MIN(kc4, 16 * j + 16), a, b, sum);
+        for (h = 0; h < 2; h++) {
+            __m256 wv = _mm256_loadu_ps(ws + (size_t)j * cst + 8 * h);
+            __m256i cv = _mm256_loadu_si256((const __m256i *)(const void *)(cor + (size_t)j * cst + 8 * h));
+            for (i = 0; i < SUPERMAT__MRVNNI; i++)
+                acc[i][h] = _mm256_fmadd_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(sum[2 * i + h], cv)), _mm256_mul_ps(wv, _mm256_set1_ps(as[i][j])), acc[i][h]);
+        }
+    }
+    for (i = 0; i < mr; i++)
+        for (h = 0; h < 2; h++) _mm256_maskstore_ps(c + (size_t)i * ldc + 8 * h, mk[h], acc[i][h]);
+}
+#endif
 #endif
 
 /* A operand of a GEMM */
@@ -1711,6 +1846,7 @@ typedef struct supermat__gemm_args {
     int mblocks, nchunks, panels_per_chunk;
     float **scratch;       /* per thread: MC x KC floats */
     int amx;               /* bf16 compute on AMX tiles */
+    int vnni256;           /* int8 compute on AVX-VNNI (the AVX2 kernel) */
     int wide;              /* f32 panels two at a time (the AVX-512 12 x 32 kernel) */
 } supermat__gemm_args;
 
@@ -1863,19 +1999,34 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             unsigned char *a8 = (unsigned char *)(buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR);
             float *asc = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC + (size_t)SUPERMAT__KC * SUPERMAT__NR + (size_t)SUPERMAT__MC * SUPERMAT__KC / 4;
             const int32_t *cor = (const int32_t *)(g->qs + (size_t)((g->K + 63) / 64) * cst);
+#if SUPERMAT__HAS_AVXVNNI
+            const int step = g->vnni256 ? SUPERMAT__MRVNNI : SUPERMAT__MR512;
+            if (g->vnni256)
+                for (r = 0; r < rows_n; r++) supermat__quant_row_u8_avx2(abase + (size_t)r * lda, kc, a8 + (size_t)r * kc4 * 4, asc + (size_t)r * (SUPERMAT__KC / 64));
+            else
+#else
+            const int step = SUPERMAT__MR512;
+#endif
             for (r = 0; r < rows_n; r++) supermat__quant_row_u8(abase + (size_t)r * lda, kc, a8 + (size_t)r * kc4 * 4, asc + (size_t)r * (SUPERMAT__KC / 64));
             for (p = p0; p < p1; p++) {
                 const signed char *bq = (const signed char *)g->Bq + ((size_t)p * K4 + (size_t)k0 / 4) * 64;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
-                for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                for (m = m0; m < m1; m += step) {
                     const unsigned char *rows[SUPERMAT__MR512];
                     const float *rs[SUPERMAT__MR512];
-                    int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                    int mr = SUPERMAT__MIN(step, m1 - m), i;
                     for (i = 0; i < SUPERMAT__MR512; i++) {
                         int rr = i < mr ? m - m0 + i : m - m0;
                         rows[i] = a8 + (size_t)rr * kc4 * 4;
                         rs[i] = asc + (size_t)rr * (SUPERMAT__KC / 64);
                     }
+#if SUPERMAT__HAS_AVXVNNI
+                    if (g->vnni256)
+                        supermat__ukr_i8_avx(kc4, rows, rs, bq, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
+                                             g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr, g->bias ? g->bias + n0 : NULL,
+                                             (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                    else
+#endif
                     supermat__ukr_i8(kc4, rows, rs, bq, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
                                      g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr, g->bias ? g->bias + n0 : NULL,
                                      (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
@@ -2062,6 +2213,7 @@ typedef struct supermat__ctx {
     int avx512;
     int neon;                   /* the aarch64 GEMM micro-kernel (over the scalar rest) */
     int amx;                    /* bf16-compute GEMMs on AMX tiles (over the AVX-512 rest) */
+    int vnni256;                /* int8-compute GEMMs on AVX-VNNI (over the AVX2 rest) */
     supermat_threading thr;
     float **scratch;            /* per thread: MC x KC floats for the conv gather / attention tiles */
     size_t scratch_floats;
@@ -2145,12 +2297,13 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     g.widen = X->widen;
     g.amx = X->amx;
+    g.vnni256 = X->vnni256;
 #if SUPERMAT__HAS_AVX512
     g.wide = X->ukr == supermat__ukr_avx512;
 #endif
     if (W->fmt && W->fmt < 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
 #if SUPERMAT__HAS_AVX512
-    if (W->fmt >= 4 && (!X->avx512 || !W->q || (W->fmt == 5 && !W->qs) ||
+    if (W->fmt >= 4 && (!(X->avx512 || (W->fmt == 5 && X->vnni256 && SUPERMAT__HAS_AVXVNNI)) || !W->q || (W->fmt == 5 && !W->qs) ||
                         X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
         X->status = SUPERMAT_ERROR_INTERNAL;
         return;
@@ -3955,10 +4108,14 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute multiplies bf16 weights: not with int8 weights");
     }
     if (desc->compute == SUPERMAT_COMPUTE_INT8) {
-        if (!supermat_cpu_has_avx512_vnni())
-            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks");
-        if (desc->kernel != SUPERMAT_KERNEL_AUTO && desc->kernel != SUPERMAT_KERNEL_AVX512)
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "int8 compute runs on the AVX-512 kernel (kernel auto or avx512)");
+        if (desc->kernel != SUPERMAT_KERNEL_AUTO && desc->kernel != SUPERMAT_KERNEL_AVX512 && desc->kernel != SUPERMAT_KERNEL_AVX2)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "int8 compute runs on the AVX-512 (AVX512_VNNI) or AVX2 (AVX-VNNI) kernel (kernel auto, avx512 or avx2)");
+        if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512_vnni())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX-512 kernel needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks");
+        if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx_vnni())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX2 kernel needs AVX-VNNI, which this CPU (or build: gcc >= 11, clang >= 12) lacks");
+        if (desc->kernel == SUPERMAT_KERNEL_AUTO && !supermat_cpu_has_avx512_vnni() && !supermat_cpu_has_avx_vnni())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute needs AVX512_VNNI or AVX-VNNI, which this CPU (or build) lacks");
     }
     if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
@@ -4139,7 +4296,8 @@ done:
                                     ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR)
                    : L.bf16c && (desc->kernel == SUPERMAT_KERNEL_AMX || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_amx_bf16()))
                          ? SUPERMAT_KERNEL_AMX
-                   : desc->kernel == SUPERMAT_KERNEL_AVX512 || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512())
+                   : desc->kernel == SUPERMAT_KERNEL_AVX512 ||
+                             (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512() && (!L.i8c || supermat_cpu_has_avx512_vnni()))
                          ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
     m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
     m->info.layers_per_block = m->lpb; m->info.norm_groups = m->groups;
@@ -5314,6 +5472,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     X.avx2 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 || S->m->info.kernel == SUPERMAT_KERNEL_AVX512 || S->m->info.kernel == SUPERMAT_KERNEL_AMX;
     X.avx512 = S->m->info.kernel == SUPERMAT_KERNEL_AVX512 || S->m->info.kernel == SUPERMAT_KERNEL_AMX;
     X.amx = S->m->info.kernel == SUPERMAT_KERNEL_AMX;
+    X.vnni256 = S->m->info.kernel == SUPERMAT_KERNEL_AVX2 && S->m->info.compute == SUPERMAT_COMPUTE_INT8;
     X.neon = S->m->info.kernel == SUPERMAT_KERNEL_NEON;
     supermat__select_kernels(&X);
     X.thr = S->thr; X.scratch = S->scratch; X.scratch_floats = S->scratch_floats;

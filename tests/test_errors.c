@@ -431,10 +431,10 @@ static void test_compute(void) {
         {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "the AMX kernel with f32 compute"},
         {SUPERMAT_KERNEL_COUNT, 0, SUPERMAT_COMPUTE_F32, SUPERMAT_ERROR_INVALID_ARGUMENT, "unknown kernel"},
         {SUPERMAT_KERNEL_SCALAR, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the scalar kernel"},
-        {SUPERMAT_KERNEL_AVX2, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the AVX2 kernel"},
+        {SUPERMAT_KERNEL_NEON, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the NEON kernel"},
         {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the AMX kernel"},
     };
-    int i, has = supermat_cpu_has_avx512_bf16(), has8 = supermat_cpu_has_avx512_vnni();
+    int i, has = supermat_cpu_has_avx512_bf16(), has8 = supermat_cpu_has_avx512_vnni(), has8v = supermat_cpu_has_avx_vnni();
     for (i = 0; i < (int)(sizeof cases / sizeof cases[0]); i++) {
         supermat_model_desc md;
         supermat_model *m = NULL;
@@ -444,7 +444,6 @@ static void test_compute(void) {
         md.data = model_data; md.size = model_size;
         md.kernel = (supermat_kernel)cases[i].kernel; md.weights = (supermat_weights)cases[i].weights; md.compute = (supermat_compute)cases[i].compute;
         if (!has && cases[i].compute == SUPERMAT_COMPUTE_BF16) want = SUPERMAT_ERROR_UNSUPPORTED; /* refused for the CPU first */
-        if (!has8 && cases[i].compute == SUPERMAT_COMPUTE_INT8) want = SUPERMAT_ERROR_UNSUPPORTED;
         r = supermat_model_create(&md, &m, &err);
         TU_CHECK(r == want && !m, "%s: got %s (%s), want %s", cases[i].what, supermat_result_string(r), err.message, supermat_result_string(want));
         supermat_model_destroy(m);
@@ -480,22 +479,29 @@ static void test_compute(void) {
             if (supermat_cpu_has_amx_bf16()) TU_CHECK(r == SUPERMAT_SUCCESS && m, "bf16 compute on AMX: %s", err.message);
             else TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "AMX without AMX: got %s", supermat_result_string(r));
         }
-        {   /* int8 compute: a model on the AVX-512 kernel with int8 weights, from f32 and from int8 weights */
+        {   /* int8 compute, from f32 and from int8 weights: AUTO picks the AVX-512 kernel (AVX512_VNNI), else the
+               AVX2 kernel (AVX-VNNI), else UNSUPPORTED; each kernel by name needs its own VNNI */
             static const supermat_weights ws[] = {SUPERMAT_WEIGHTS_DEFAULT, SUPERMAT_WEIGHTS_I8};
-            int wi;
-            for (wi = 0; wi < 2; wi++) {
-                supermat_model_destroy(m);
-                m = NULL;
-                md.kernel = SUPERMAT_KERNEL_AUTO; md.compute = SUPERMAT_COMPUTE_INT8; md.weights = ws[wi];
-                r = supermat_model_create(&md, &m, &err);
-                if (!has8) TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "int8 compute without AVX512_VNNI: got %s", supermat_result_string(r));
-                else {
-                    if (m) supermat_model_get_info(m, &info);
-                    TU_CHECK(r == SUPERMAT_SUCCESS && m && info.compute == SUPERMAT_COMPUTE_INT8 && info.kernel == SUPERMAT_KERNEL_AVX512 &&
-                             info.weights == SUPERMAT_WEIGHTS_I8, "int8 compute (weights %d): %s", (int)ws[wi], err.message);
+            static const supermat_kernel ks[] = {SUPERMAT_KERNEL_AUTO, SUPERMAT_KERNEL_AVX512, SUPERMAT_KERNEL_AVX2};
+            int wi, ki;
+            for (ki = 0; ki < 3; ki++)
+                for (wi = 0; wi < 2; wi++) {
+                    int ok = ki == 0 ? has8 || has8v : ki == 1 ? has8 : has8v;
+                    supermat_kernel want_k = ki == 2 || (ki == 0 && !has8) ? SUPERMAT_KERNEL_AVX2 : SUPERMAT_KERNEL_AVX512;
+                    supermat_model_destroy(m);
+                    m = NULL;
+                    md.kernel = ks[ki]; md.compute = SUPERMAT_COMPUTE_INT8; md.weights = ws[wi];
+                    r = supermat_model_create(&md, &m, &err);
+                    if (!ok) TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "int8 compute (kernel %d) without its VNNI: got %s", (int)ks[ki],
+                                      supermat_result_string(r));
+                    else {
+                        if (m) supermat_model_get_info(m, &info);
+                        TU_CHECK(r == SUPERMAT_SUCCESS && m && info.compute == SUPERMAT_COMPUTE_INT8 && info.kernel == want_k &&
+                                 info.weights == SUPERMAT_WEIGHTS_I8, "int8 compute (kernel %d, weights %d): %s; kernel %d, want %d", (int)ks[ki],
+                                 (int)ws[wi], err.message, m ? (int)info.kernel : -1, (int)want_k);
+                    }
                 }
-            }
-            md.compute = SUPERMAT_COMPUTE_BF16; md.weights = SUPERMAT_WEIGHTS_DEFAULT;
+            md.kernel = SUPERMAT_KERNEL_AUTO; md.compute = SUPERMAT_COMPUTE_BF16; md.weights = SUPERMAT_WEIGHTS_DEFAULT;
         }
         if (!supermat_cpu_has_neon()) { /* the NEON kernel by name on a build without it */
             supermat_model_destroy(m);

@@ -233,8 +233,13 @@ int main(int argc, char **argv) {
         if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16 on this CPU (or build)\n"); free(file); return 77; }
         md.compute = SUPERMAT_COMPUTE_BF16;
     }
-    if (strstr(kern, ":i8c")) { /* int8 compute (AVX512_VNNI) */
-        if (!supermat_cpu_has_avx512_vnni()) { printf("SKIP: no AVX512_VNNI on this CPU (or build)\n"); free(file); return 77; }
+    if (strstr(kern, ":i8c")) { /* int8 compute: AVX512_VNNI on the AVX-512 kernel, AVX-VNNI on the AVX2 one */
+        int avx2 = !strncmp(kern, "avx2", 4);
+        if (!(avx2 ? supermat_cpu_has_avx_vnni() : supermat_cpu_has_avx512_vnni())) {
+            printf("SKIP: no %s on this CPU (or build)\n", avx2 ? "AVX-VNNI" : "AVX512_VNNI");
+            free(file);
+            return 77;
+        }
         md.compute = SUPERMAT_COMPUTE_INT8;
     }
     if (!strncmp(kern, "avx2", 4)) {

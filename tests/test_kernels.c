@@ -643,22 +643,32 @@ static void test_bf16_compute(void) {
 #endif
 }
 
-/* int8 compute (AVX512_VNNI): the vpdpbusd kernel against float64 sums of the quantized operands as this
-   test quantizes them (weights: max |w| / 127 per column per 64 rows of K; activations: the same per row,
-   both rounded to nearest even; what is left is the float32 sum of the chunks' scaled int32 sums: 1e-5), and
-   against the float32 operands (the mode's own error, printed; bound 3e-2 of max |C|); bias, residual, K
-   tails (not a multiple of 4 or 64), several K blocks, a zero row, a row of a wide range, 1 and 3 threads */
+/* int8 compute, on each vpdpbusd kernel this CPU has (AVX512_VNNI: 512-bit, 12 rows; AVX-VNNI: 256-bit,
+   6 rows, under the AVX2 kernel): against float64 sums of the quantized operands as this test quantizes them
+   (weights: max |w| / 127 per column per 64 rows of K; activations: the same per row, both rounded to nearest
+   even; what is left is the float32 sum of the chunks' scaled int32 sums: 1e-5), and against the float32
+   operands (the mode's own error, printed; bound 3e-2 of max |C|); bias, residual, K tails (not a multiple
+   of 4 or 64), several K blocks, a zero row, a row of a wide range, 1 and 3 threads; where the CPU has both,
+   the two kernels give the same bits */
 static void test_int8_compute(void) {
 #if SUPERMAT__HAS_AVX512
-    kctx k[2];
-    int t, th;
-    double worst_r = 0, worst_x = 0;
-    if (!supermat_cpu_has_avx512_vnni()) { printf("SKIP: no AVX512_VNNI: int8 compute not tested\n"); return; }
-    kctx_init(&k[0], 2, 1);
-    kctx_init(&k[1], 2, 3);
+    kctx k[2][2];
+    int t, th, v, has[2];
+    double worst_r[2] = {0, 0}, worst_x[2] = {0, 0};
+    static const char *const vname[2] = {"AVX512_VNNI", "AVX-VNNI"};
+    has[0] = supermat_cpu_has_avx512_vnni();
+    has[1] = supermat_cpu_has_avx_vnni();
+    if (!has[0]) printf("SKIP: no AVX512_VNNI: the 512-bit int8 kernel not tested\n");
+    if (!has[1]) printf("SKIP: no AVX-VNNI (or a compiler without it): the 256-bit int8 kernel not tested\n");
+    if (!has[0] && !has[1]) return;
+    for (v = 0; v < 2; v++)
+        for (th = 0; th < 2; th++) {
+            kctx_init(&k[v][th], v ? 1 : 2, th ? 3 : 1);
+            k[v][th].X.vnni256 = v;
+        }
     for (t = 0; t < 40; t++) {
         int M = irand(1, 140), N = irand(1, 70), K = irand(1, 700), m, n, kk, np, K4, nch, j;
-        float *a, *w, *b, *R, *c[2], *ws, *as;
+        float *a, *w, *b, *R, *c[4] = {NULL, NULL, NULL, NULL}, *ws, *as;
         double *ref_r, *ref_x;
         signed char *q, *qw;
         int32_t *cor;
@@ -726,24 +736,33 @@ static void test_int8_compute(void) {
                 }
             free(qa);
         }
-        for (th = 0; th < 2; th++) {
-            double er, ex;
-            c[th] = (float *)malloc(sizeof(float) * (size_t)M * N);
-            k[th].X.status = SUPERMAT_SUCCESS;
-            supermat__linear(&k[th].X, a, (size_t)K, M, &pw, c[th], (size_t)N, use_r ? R : NULL, (size_t)N);
-            er = maxerr(c[th], ref_r, (size_t)M * N); ex = maxerr(c[th], ref_x, (size_t)M * N);
-            TU_CHECK(k[th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 3e-2, "int8 compute t%d M%d N%d K%d: err %.3g vs quantized operands, %.3g vs f32",
-                     th ? 3 : 1, M, N, K, er, ex);
-            if (er > worst_r) worst_r = er;
-            if (ex > worst_x) worst_x = ex;
+        for (v = 0; v < 2; v++) {
+            if (!has[v]) continue;
+            for (th = 0; th < 2; th++) {
+                double er, ex;
+                c[v * 2 + th] = (float *)malloc(sizeof(float) * (size_t)M * N);
+                k[v][th].X.status = SUPERMAT_SUCCESS;
+                supermat__linear(&k[v][th].X, a, (size_t)K, M, &pw, c[v * 2 + th], (size_t)N, use_r ? R : NULL, (size_t)N);
+                er = maxerr(c[v * 2 + th], ref_r, (size_t)M * N); ex = maxerr(c[v * 2 + th], ref_x, (size_t)M * N);
+                TU_CHECK(k[v][th].X.status == SUPERMAT_SUCCESS && er < 1e-5 && ex < 3e-2,
+                         "int8 compute (%s) t%d M%d N%d K%d: err %.3g vs quantized operands, %.3g vs f32", vname[v], th ? 3 : 1, M, N, K, er, ex);
+                if (er > worst_r[v]) worst_r[v] = er;
+                if (ex > worst_x[v]) worst_x[v] = ex;
+            }
+            TU_CHECK(!memcmp(c[v * 2], c[v * 2 + 1], sizeof(float) * (size_t)M * N), "int8 compute (%s) M%d N%d K%d: 1 and 3 threads differ",
+                     vname[v], M, N, K);
         }
-        TU_CHECK(!memcmp(c[0], c[1], sizeof(float) * (size_t)M * N), "int8 compute M%d N%d K%d: 1 and 3 threads differ", M, N, K);
-        free(c[0]); free(c[1]);
+        if (has[0] && has[1])
+            TU_CHECK(!memcmp(c[0], c[2], sizeof(float) * (size_t)M * N), "int8 compute M%d N%d K%d: AVX512_VNNI and AVX-VNNI kernels differ", M, N, K);
+        for (v = 0; v < 4; v++) free(c[v]);
         free(a); free(w); free(b); free(R); free(ref_r); free(ref_x); free(q); free(qw); free(ws); free(as); free(pw.bias);
     }
-    kctx_free(&k[0]);
-    kctx_free(&k[1]);
-    printf("int8 compute (vpdpbusd): worst %.3g vs the quantized operands, %.3g vs f32 operands (40 GEMMs)\n", worst_r, worst_x);
+    for (v = 0; v < 2; v++)
+        for (th = 0; th < 2; th++) kctx_free(&k[v][th]);
+    for (v = 0; v < 2; v++)
+        if (has[v])
+            printf("int8 compute (vpdpbusd, %s): worst %.3g vs the quantized operands, %.3g vs f32 operands (40 GEMMs)%s\n", vname[v], worst_r[v],
+                   worst_x[v], v && has[0] ? "; the same bits as AVX512_VNNI" : "");
 #endif
 }
 

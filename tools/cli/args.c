@@ -77,7 +77,7 @@ static const char cli_usage_pack[] =
     "  --conv C          direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\n"
     "                    Winograd weights are stored transformed, in f32: 16/9 or 4x their size)\n"
     "  --compute X       f32 | bf16 | int8: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to\n"
-    "                    load) or int8 compute (int8 quads; needs AVX512_VNNI to load)\n"
+    "                    load) or int8 compute (int8 quads; needs AVX512_VNNI or AVX-VNNI to load)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (the panels are the same for every kernel)\n";
 
 static const char cli_usage_image[] =
@@ -116,7 +116,7 @@ static const char cli_usage_image[] =
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI CPUs; default f32)\n"
+    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -160,7 +160,7 @@ static const char cli_usage_views[] =
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI CPUs; default f32)\n"
+    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -195,7 +195,7 @@ static const char cli_usage_refine[] =
     "                    before allocating it; the message says how much it needs\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI CPUs; default f32)\n"
+    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
@@ -216,7 +216,7 @@ static const char cli_usage_info[] =
     "  --max-memory SIZE refuse a model that needs more than SIZE (512M, 4G) while it is created\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI CPUs; default f32)\n"
+    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n";
 
@@ -246,7 +246,7 @@ static const char cli_usage_bench[] =
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx: the pipeline's kernels (default auto)\n"
     "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI CPUs; default f32)\n"
+    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "  --json FILE       also write the numbers as JSON\n";
@@ -297,8 +297,11 @@ static const char cli_usage_bench_modes[] =
     "  bf16_amx            bf16 compute on AMX tiles (skipped without AMX-BF16)\n"
     "  bf16_amx_wf4        bf16_amx with Winograd F4 (f32) for the 3x3 convolutions\n"
     "  int8_compute        int8 x int8 products in the GEMMs with vpdpbusd, activations quantized per\n"
-    "                      row per 64 of K (AVX512_VNNI; skipped without it)\n"
+    "                      row per 64 of K (AVX512_VNNI on the AVX-512 kernel, else AVX-VNNI on the AVX2\n"
+    "                      kernel; skipped with neither)\n"
     "  int8_compute_wf4    int8_compute with Winograd F4 (f32) for the 3x3 convolutions\n"
+    "  int8_compute_avx2   int8_compute on the AVX2 kernel with AVX-VNNI (256-bit vpdpbusd, the same bits;\n"
+    "                      only beside AVX512_VNNI: skipped where int8_compute already runs it or without)\n"
     "\n"
     "options with --image (besides --model, --threads, --repeats, --kernel, --views above):\n"
     "  --image FILE      the input (see above; repeated for the views of a supermat-mv model)\n"

@@ -262,7 +262,7 @@ enum {
     CLI_MODE_TILED_VAE, CLI_MODE_FOREGROUND, CLI_MODE_BRANCH_ALBEDO, CLI_MODE_BRANCH_RM, CLI_MODE_RES256,
     CLI_MODE_RES384, CLI_MODE_RES512, CLI_MODE_RES768, CLI_MODE_MV_WINDOW_OWN, CLI_MODE_MV_WINDOW_STRIDE4,
     CLI_MODE_BF16_COMPUTE, CLI_MODE_KERNEL_AVX2, CLI_MODE_BF16_AMX, CLI_MODE_BF16_AMX_WF4,
-    CLI_MODE_INT8_COMPUTE, CLI_MODE_INT8_COMPUTE_WF4,
+    CLI_MODE_INT8_COMPUTE, CLI_MODE_INT8_COMPUTE_WF4, CLI_MODE_INT8_COMPUTE_AVX2,
     CLI_MODE_COUNT
 };
 /* the model kinds a mode applies to */
@@ -281,6 +281,7 @@ static const struct { const char *name; unsigned kinds; } cli_modes[CLI_MODE_COU
     {"bf16_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"kernel_avx2", CLI_KS | CLI_KMV | CLI_KUV},
     {"bf16_amx", CLI_KS | CLI_KMV | CLI_KUV},     {"bf16_amx_wf4", CLI_KS | CLI_KMV | CLI_KUV},
     {"int8_compute", CLI_KS | CLI_KMV | CLI_KUV}, {"int8_compute_wf4", CLI_KS | CLI_KMV | CLI_KUV},
+    {"int8_compute_avx2", CLI_KS | CLI_KMV | CLI_KUV},
 };
 /* set by cli_mode_setup: the mode's compute and kernel (-1: the run's own kernel) */
 static supermat_compute cli_mode_compute;
@@ -349,10 +350,19 @@ static int cli_mode_setup(int mode, int w, int h, supermat_weights *weights, sup
     case CLI_MODE_INT8_COMPUTE_WF4: /* int8 compute for the GEMMs, Winograd F4 (f32) for the 3x3 convolutions */
         *conv = SUPERMAT_CONV_WINOGRAD_F4;
         /* fall through */
-    case CLI_MODE_INT8_COMPUTE: /* vpdpbusd on the AVX-512 kernel */
-        if (!supermat_cpu_has_avx512_vnni()) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_VNNI"); return 1; }
+    case CLI_MODE_INT8_COMPUTE: /* vpdpbusd on the AVX-512 kernel (AVX512_VNNI), else on the AVX2 one (AVX-VNNI) */
+        if (!supermat_cpu_has_avx512_vnni() && !supermat_cpu_has_avx_vnni()) {
+            snprintf(why, why_cap, "this CPU (or build) has neither AVX512_VNNI nor AVX-VNNI");
+            return 1;
+        }
         cli_mode_compute = SUPERMAT_COMPUTE_INT8;
-        cli_mode_kernel = SUPERMAT_KERNEL_AVX512;
+        cli_mode_kernel = supermat_cpu_has_avx512_vnni() ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
+        break;
+    case CLI_MODE_INT8_COMPUTE_AVX2: /* beside int8_compute on AVX512_VNNI: the 256-bit AVX-VNNI kernel, the same bits */
+        if (!supermat_cpu_has_avx_vnni()) { snprintf(why, why_cap, "this CPU (or build) has no AVX-VNNI"); return 1; }
+        if (!supermat_cpu_has_avx512_vnni()) { snprintf(why, why_cap, "int8_compute already runs the AVX-VNNI kernel"); return 1; }
+        cli_mode_compute = SUPERMAT_COMPUTE_INT8;
+        cli_mode_kernel = SUPERMAT_KERNEL_AVX2;
         break;
     case CLI_MODE_KERNEL_AVX2: /* beside the f32 row's AVX-512 kernel: the same bits, the time of the narrower one */
         if (!supermat_cpu_has_avx512()) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
