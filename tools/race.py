@@ -17,7 +17,8 @@ What runs, one engine after the other, every engine on the same threads (--threa
             tools/race_ort.js), graph optimisation level "all", sequential, intra-op threads = --threads.
   supermat  `supermat bench --pipeline-only` per mode (--modes: f32, winograd_f4, bf16, bf16_wf4, int8; bf16 is
             --compute bf16: AMX tiles where the CPU has them, else vdpbf16ps; skipped without AVX512_BF16;
-            int8 is --compute int8, skipped without AVX512_VNNI);
+            int8 is --compute int8, skipped without AVX512_VNNI or AVX-VNNI; f32_avx2 and int8_avx2 (not in the
+            default list) run the AVX2 kernel: f32, and int8 compute on AVX-VNNI);
             the FMA peak is measured once by `supermat bench` in the same run.
 Each engine and mode runs --runs times (default 2: the first warms caches and allocators) and the fastest
 run is reported, stage by stage. Accuracy: every engine and mode also writes its maps for the picture,
@@ -72,7 +73,9 @@ SUPERMAT_MODES = {  # name: (bench / image options, what)
     "winograd_f4": (["--conv", "winograd-f4"], "f32, Winograd F(4x4,3x3)"),
     "bf16": (["--compute", "bf16"], "bf16 compute (AMX where present)"),
     "bf16_wf4": (["--compute", "bf16", "--conv", "winograd-f4"], "bf16 compute + Winograd F4"),
-    "int8": (["--compute", "int8"], "int8 compute (AVX512_VNNI)"),
+    "int8": (["--compute", "int8"], "int8 compute (AVX512_VNNI, else AVX-VNNI)"),
+    "f32_avx2": (["--kernel", "avx2"], "f32, direct, on the AVX2 kernel (what an AVX2-only CPU runs)"),
+    "int8_avx2": (["--compute", "int8", "--kernel", "avx2"], "int8 compute on AVX-VNNI (the AVX2 kernel)"),
 }
 
 
