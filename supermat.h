@@ -1647,10 +1647,6 @@ SUPERMAT__AVX512VNNI static void supermat__quant_row_u8(const float *x, int kc, 
     for (i = kc; i % 4; i++) out[i] = 128;
 }
 static uint32_t supermat__ld32(const unsigned char *p) { uint32_t v; memcpy(&v, p, 4); return v; }
-/* int8 compute: B panels as s8 quads [K/4][16][4] (one ZMM per 4 rows of K), A rows as u8 quads; per
-   64-row chunk j of the block: int32 sums by vpdpbusd (exact: at most 64 x 255 x 127), minus the u8
-   offset (128 x the chunk's column sums, cor), converted to float32 (exact below 2^24) and added times
-   the row's scale x the column's */
 /* the int32 sums of one 64-row chunk, a function of their own: inlined beside the 12 float32 accumulators,
    gcc 12 copied every sum to another register on every step */
 SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
@@ -1668,6 +1664,10 @@ SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk(in
     out[0] = s0; out[1] = s1; out[2] = s2; out[3] = s3; out[4] = s4; out[5] = s5;
     out[6] = s6; out[7] = s7; out[8] = s8; out[9] = s9; out[10] = s10; out[11] = s11;
 }
+/* int8 compute: B panels as s8 quads [K/4][16][4] (one ZMM per 4 rows of K), A rows as u8 quads; per
+   64-row chunk j of the block: int32 sums by vpdpbusd (exact: at most 64 x 255 x 127), minus the u8
+   offset (128 x the chunk's column sums, cor), converted to float32 (exact below 2^24) and added times
+   the row's scale x the column's */
 SUPERMAT__AVX512VNNI static void supermat__ukr_i8(int kc4, const unsigned char *const *a, const float *const *as, const signed char *b,
                                                   const float *ws, const int32_t *cor, size_t cst, float *c, size_t ldc, int mr, int nr,
                                                   const float *bias, const float *r, size_t ldr, int accumulate) {
