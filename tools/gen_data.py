@@ -26,7 +26,11 @@ or worn edges with the probabilities --mode-probs (default 0.42 / 0.2 / 0.2 / 0.
 pixels metallic; 0.62 / 0.12 / 0.13 / 0.13: 18 %; the same random draws whatever the probabilities).
 --albedo-floor F lifts the palettes' darkest values (v -> F + (1 - F) v; PBR charts put dielectric albedo at
 30-240 of 255 in sRGB, F = 0.12 is 31) and --anodised P sets how often a metal is a random coloured one
-(default 0.25); both keep the random draws, so the same objects and patterns come out.  Shading: tools/smrender.py (Cook-Torrance GGX,
+(default 0.25); both keep the random draws, so the same objects and patterns come out.  --photo P makes a
+material's albedo, with probability P, a photographic crop of one of the training environment maps (the same
+CC0 images that light the scenes; hue turned and saturation scaled at random, squeezed into the albedo range,
+projected along a random axis; its roughness follows the photo's luminance a little); drawn from each
+material's own stream, so P = 0 reproduces the earlier sets exactly.  Shading: tools/smrender.py (Cook-Torrance GGX,
 Smith, Schlick + Lambert, split-sum prefiltered environment).
 """
 import argparse
@@ -294,7 +298,82 @@ def palette(rng, n, floor=0.0):
     return np.array(cols)  # sRGB-space colours
 
 
-def make_material(rng, mode_p=MODE_P, floor=0.0, anodised=ANODISED):
+# photographic albedo (--photo P): crops of the training environment maps themselves (CC0 Poly Haven, the only
+# images this generator may use), tone mapped to 8-bit-like sRGB and squeezed into the albedo range, projected
+# on the object along a random axis.  Natural-image texture statistics (grain, foliage, stone, wood, sky
+# gradients) that the procedural patterns lack.  Drawn from a stream of their own (the material's seed), so
+# --photo 0 leaves every other draw, hence every earlier data set, unchanged.
+_PHOTOS = {}
+
+
+def photo_textures(paths):
+    """The training maps as LDR sRGB textures (H x W x 3, float32), cached per process."""
+    key = tuple(paths)
+    if key not in _PHOTOS:
+        out = []
+        for p in paths:
+            hdr = R.read_hdr(p).astype(np.float32)
+            lum = R.luminance(hdr)
+            h = hdr.shape[0]
+            band = lum[int(0.15 * h):int(0.95 * h)]   # leave out the poles and the sun's neighbourhood dominates less
+            white = float(np.percentile(band, 97)) + 1e-6
+            out.append(R.srgb_encode(np.clip(hdr / white, 0, 1)).astype(np.float32))
+        _PHOTOS[key] = out
+    return _PHOTOS[key]
+
+
+def make_photo(m, photos, floor):
+    """Parameters of a photographic albedo for material m (its own stream)."""
+    r = np.random.default_rng([m["seed"], 0x70686f])
+    tex = photos[int(r.integers(len(photos)))]
+    h, w = tex.shape[:2]
+    size = int(r.uniform(0.12, 0.45) * h)                       # crop side in texels
+    y0 = int(r.uniform(0.15 * h, 0.95 * h - size))
+    x0 = int(r.integers(w - size))
+    crop = tex[y0:y0 + size, x0:x0 + size]
+    a = r.normal(size=3)
+    a /= np.linalg.norm(a)
+    b = np.cross(a, r.normal(size=3))
+    b /= np.linalg.norm(b)
+    c = np.cross(a, b)
+    # colour: hue turned by a random rotation of the chroma plane (half the time), saturation scaled
+    lo = floor + (1 - floor) * r.uniform(0.03, 0.15)
+    hi = r.uniform(0.75, 0.95)
+    return {"crop": crop, "axes": np.stack([b, c]).astype(np.float32), "scale": float(r.uniform(0.35, 1.0)),
+            "off": r.uniform(0, 1, 2).astype(np.float32), "hue": float(r.uniform(0, 2 * np.pi)) if r.random() < 0.5 else 0.0,
+            "sat": float(r.uniform(0.7, 1.8)), "lo": float(lo), "hi": float(hi),
+            "tint": hsv2rgb(r.random(), r.uniform(0.2, 0.7), 1.0) if r.random() < 0.25 else None,
+            "rough_k": float(r.uniform(-0.5, 0.5))}
+
+
+def eval_photo(ph, q):
+    """sRGB albedo N x 3 and a luminance-like field N of photo ph at object-space points q (bilinear, mirrored
+    repeat)."""
+    crop = ph["crop"]
+    n = crop.shape[0]
+    uv = (q @ ph["axes"].T) * ph["scale"] * 0.5 + ph["off"]
+    uv = np.abs(((uv % 2) + 2) % 2 - 1) * (n - 1)              # mirrored repeat, texel units
+    i0 = np.floor(uv).astype(np.int64)
+    f = (uv - i0).astype(np.float32)
+    i0 = np.clip(i0, 0, n - 1)
+    i1 = np.clip(i0 + 1, 0, n - 1)
+    t = (crop[i0[:, 1], i0[:, 0]] * ((1 - f[:, :1]) * (1 - f[:, 1:])) + crop[i0[:, 1], i1[:, 0]] * (f[:, :1] * (1 - f[:, 1:]))
+         + crop[i1[:, 1], i0[:, 0]] * ((1 - f[:, :1]) * f[:, 1:]) + crop[i1[:, 1], i1[:, 0]] * (f[:, :1] * f[:, 1:]))
+    y = t.mean(-1, keepdims=True)
+    ch = t - y
+    if ph["hue"]:
+        # rotate the chroma about the grey axis (Rodrigues, unit axis (1,1,1)/sqrt 3)
+        k = np.full(3, 1 / np.sqrt(3), np.float32)
+        cs, sn = np.cos(ph["hue"]), np.sin(ph["hue"])
+        ch = ch * cs + np.cross(k, ch) * sn + k * (ch @ k)[:, None] * (1 - cs)
+    t = y + ch * ph["sat"]
+    if ph["tint"] is not None:
+        t = t * ph["tint"][None]
+    t = np.clip(t, 0, 1)
+    return (ph["lo"] + (ph["hi"] - ph["lo"]) * t).astype(np.float32), y[:, 0]
+
+
+def make_material(rng, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None):
     m = {"pattern": str(rng.choice(["plain", "fbm", "voronoi", "stripes", "checks"], p=[0.15, 0.3, 0.2, 0.2, 0.15])),
          "cols": palette(rng, 3, floor), "seed": int(rng.integers(1 << 20)), "freq": float(rng.uniform(1.5, 8)),
          "dir": rng.normal(size=3).astype(np.float32), "rough": rng.uniform(0.05, 1.0, 2).astype(np.float32),
@@ -307,6 +386,9 @@ def make_material(rng, mode_p=MODE_P, floor=0.0, anodised=ANODISED):
     for _ in range(int(rng.choice([0, 0, 1, 2, 3]))):
         m["decals"].append((rng.normal(size=3).astype(np.float32) * 0.5, float(rng.uniform(0.08, 0.3)),
                             palette(rng, 1, floor)[0], float(rng.uniform(0.1, 0.9))))
+    m["photo"] = None
+    if photo > 0 and photos and np.random.default_rng([m["seed"], 0x7068]).random() < photo:
+        m["photo"] = make_photo(m, photos, floor)
     return m
 
 
@@ -335,7 +417,11 @@ def eval_material(m, q, curv):
         alb = cols[0][None] * (1 - t[:, None]) + cols[1][None] * t[:, None]
     grain = fbm(q * 12.0, m["seed"] + 5, 3)
     alb = alb * (0.85 + 0.3 * grain[:, None])
+    if m.get("photo") is not None:   # the photo replaces the pattern's colours (its pattern still shapes the rest)
+        alb, py = eval_photo(m["photo"], q)
     rough = m["rough"][0] * (1 - t) + m["rough"][1] * t + m["rough_var"] * (fbm(q * 4.0, m["seed"] + 7, 4) - 0.5)
+    if m.get("photo") is not None:
+        rough = rough + m["photo"]["rough_k"] * (py - 0.5)
     metal = np.zeros(n, np.float32)
     mode = m["mode"]
     if mode == "metal":
@@ -363,9 +449,9 @@ def eval_material(m, q, curv):
 # ----------------------------------------------------------------------------------------------------------
 # one sample
 # ----------------------------------------------------------------------------------------------------------
-def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED):
+def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None):
     obj = Obj(rng)
-    mats = [make_material(rng, mode_p, floor, anodised) for _ in obj.shapes]
+    mats = [make_material(rng, mode_p, floor, anodised, photo, photos) for _ in obj.shapes]
     if rng.random() < 0.3:  # one material for the whole group
         mats = [mats[0]] * len(mats)
     frame(obj, rng.uniform(0.55, 0.92))
@@ -457,6 +543,7 @@ def make_shard(args, shard):
         return path, 0.0
     t0 = time.time()
     envs = [R.EnvLight(p) for p in env_paths(args.hdri_dir)]
+    photos = photo_textures(env_paths(args.hdri_dir)) if args.photo > 0 else None
     R.brdf_lut()
     samples = []
     first = shard * args.shard
@@ -464,7 +551,7 @@ def make_shard(args, shard):
         rng = np.random.default_rng([args.seed, i])
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
             s = render_sample(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
-                              anodised=args.anodised)
+                              anodised=args.anodised, photo=args.photo, photos=photos)
             if s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
@@ -482,7 +569,8 @@ def write_examples(args):
     for i in range(args.count):
         rng = np.random.default_rng([args.seed, 1 << 30, i])   # a stream no training sample uses
         s = render_sample(rng, [env], args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
-                          anodised=args.anodised)
+                          anodised=args.anodised, photo=args.photo,
+                          photos=photo_textures(env_paths(args.hdri_dir)) if args.photo > 0 else None)
         stem = os.path.join(args.out, f"obj{i:02d}")
         Image.fromarray(s["rgba"]).save(stem + ".png")
         Image.fromarray(s["albedo"]).save(stem + "_gt_albedo.png")
@@ -516,9 +604,12 @@ def main():
                          "(PBR charts put dielectric albedo at 30-240 of 255 sRGB; 0.12 = 31)")
     ap.add_argument("--anodised", type=float, default=0.25,
                     help="probability that a metal is a random coloured (anodised) one (default 0.25)")
+    ap.add_argument("--photo", type=float, default=0.0,
+                    help="probability that a material's albedo is a photographic crop of a training environment map "
+                         "(hue-turned and resaturated at random; default 0: the procedural palettes only)")
     args = ap.parse_args()
-    if not 0 <= args.albedo_floor < 1 or not 0 <= args.anodised <= 1:
-        raise SystemExit("gen_data: --albedo-floor wants [0, 1), --anodised [0, 1]")
+    if not 0 <= args.albedo_floor < 1 or not 0 <= args.anodised <= 1 or not 0 <= args.photo <= 1:
+        raise SystemExit("gen_data: --albedo-floor wants [0, 1), --anodised and --photo [0, 1]")
     args.mode_probs = [float(v) for v in args.mode_probs.split(",")]
     if len(args.mode_probs) != 4 or min(args.mode_probs) < 0 or abs(sum(args.mode_probs) - 1) > 1e-6:
         raise SystemExit("gen_data: --mode-probs wants four probabilities that sum to 1")
@@ -530,7 +621,7 @@ def main():
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
     meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
-            "albedo_floor": args.albedo_floor, "anodised": args.anodised,
+            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)
