@@ -397,6 +397,7 @@ def lr_at(step, total, base, warm=100):
 
 
 SECONDS = {}  # --seconds: phase name -> wall-clock budget
+UNTIL = {}    # --until: phase name -> the step it ends at (its learning-rate schedule still reads `total`)
 
 
 class Phase:
@@ -454,6 +455,9 @@ class Phase:
         if self.budget is not None and time.time() - self.t0 > self.budget and self.total > self.step:
             self.total = self.step   # over budget before the estimate (slow first steps): end here
             print(f"{self.name}: --seconds {self.budget:g} spent at step {self.step}", flush=True)
+        if self.name in UNTIL and self.step >= UNTIL[self.name] and self.total > self.step:
+            self.total = self.step   # --until: end here, as a --seconds budget would have (a run's replay)
+            print(f"{self.name}: --until {UNTIL[self.name]}", flush=True)
         if self.step % 20 == 0 or self.step == self.total:
             line = f"{self.name} {self.step}/{self.total} {time.time() - self.t0:.0f}s {msg}"
             print(line, flush=True)
@@ -1074,6 +1078,8 @@ def main():
     ap.add_argument("--device", default="cpu", help="torch device, e.g. cuda (never required; CI and the defaults use the CPU)")
     ap.add_argument("--seconds", default="", metavar="PHASE=S,...",
                     help="wall-clock budgets: such a phase runs min(its steps, what fits S seconds) (see Phase)")
+    ap.add_argument("--until", default="", metavar="PHASE=STEP,...",
+                    help="end these phases at these steps, their schedules unchanged (to replay a run a --seconds budget ended)")
     ap.add_argument("--ckpt-every", type=float, default=120.0, help="seconds between checkpoints")
     ap.add_argument("--vae-steps", type=int, default=700)
     ap.add_argument("--vae-crop-steps", type=int, default=1600)
@@ -1130,6 +1136,9 @@ def main():
     for item in filter(None, args.seconds.split(",")):
         k, _, v = item.partition("=")
         SECONDS[k] = float(v)
+    for item in filter(None, args.until.split(",")):
+        k, _, v = item.partition("=")
+        UNTIL[k] = int(v)
     if DEV.type == "cuda":
         torch.backends.cuda.matmul.allow_tf32 = True
         torch.backends.cudnn.allow_tf32 = True
