@@ -559,9 +559,10 @@ def phase_vae_colour(args, data):
     """The VAE trained on from the run's last VAE phase (encoder and decoder: the latent space moves, so the UNet
     phases after it start again from their cache), --vae-colour-steps on --vae-colour-crop crops of every training
     render, batch --vae-colour-batch, with the colour differences (R - G, B - G) weighted --vae-colour-chroma more.
-    Why: the shipped VAE gives back half the saturation it is given (held-out renders' albedo: mean max - min
-    0.187 in, 0.097 out) and its decoder reads 3 of its 16 latent channels (setting any other to its mean moves
-    the round trip by < 0.1 dB), so no UNet on it can keep an object's colour."""
+    Why: the shipped VAE gives back half the saturation it is given (32 held-out renders' albedo: mean max - min
+    0.197 in, 0.091 out) and its decoder reads 3 of its 16 latent channels (setting any other to its mean moves
+    the round trip by < 0.1 dB), so no UNet on it can keep an object's colour.  Measured run (README): the
+    defaults with --seconds vae_colour=3300 (the budget set 3352 steps; it ended at 3103), 16 000 renders."""
     phase_vae(args, data, "vae_colour", args.vae_colour_steps, args.vae_colour_crop, prev=last_vae_phase(args.out),
               batch=args.vae_colour_batch, lr=args.vae_colour_lr, train=data.train, chroma=args.vae_colour_chroma)
 
