@@ -315,7 +315,7 @@ def photo_textures(paths):
             hdr = R.read_hdr(p).astype(np.float32)
             lum = R.luminance(hdr)
             h = hdr.shape[0]
-            band = lum[int(0.15 * h):int(0.95 * h)]   # leave out the poles and the sun's neighbourhood dominates less
+            band = lum[int(0.15 * h):int(0.95 * h)]   # the rows crops come from (no poles); white at their 97th percentile
             white = float(np.percentile(band, 97)) + 1e-6
             out.append(R.srgb_encode(np.clip(hdr / white, 0, 1)).astype(np.float32))
         _PHOTOS[key] = out
@@ -335,12 +335,13 @@ def make_photo(m, photos, floor):
     a /= np.linalg.norm(a)
     b = np.cross(a, r.normal(size=3))
     b /= np.linalg.norm(b)
-    c = np.cross(a, b)
-    # colour: hue turned by a random rotation of the chroma plane (half the time), saturation scaled
+    c = np.cross(a, b)                                          # b, c: the projection plane (normal a)
     lo = floor + (1 - floor) * r.uniform(0.03, 0.15)
     hi = r.uniform(0.75, 0.95)
     return {"crop": crop, "axes": np.stack([b, c]).astype(np.float32), "scale": float(r.uniform(0.35, 1.0)),
-            "off": r.uniform(0, 1, 2).astype(np.float32), "hue": float(r.uniform(0, 2 * np.pi)) if r.random() < 0.5 else 0.0,
+            "off": r.uniform(0, 1, 2).astype(np.float32),
+            # colour: the chroma plane turned by a random angle half the time, saturation scaled, a tint a quarter
+            "hue": float(r.uniform(0, 2 * np.pi)) if r.random() < 0.5 else 0.0,
             "sat": float(r.uniform(0.7, 1.8)), "lo": float(lo), "hi": float(hi),
             "tint": hsv2rgb(r.random(), r.uniform(0.2, 0.7), 1.0) if r.random() < 0.25 else None,
             "rough_k": float(r.uniform(-0.5, 0.5))}
