@@ -13,9 +13,14 @@
 #   huggingface_hub / einops / SuperMat sources ($HARNESS_DEPS), and the prefiltered training maps
 #   (HDRI/*.hdr.smenv.npz: the .hdr files travel as empty stand-ins older than their caches, which
 #   smrender.EnvLight then reads instead), 6.4 MB.  Add /.gpu/ to .git/info/exclude.  Where the lent
-#   machine takes at most 64 MiB of working tree, move tests/data/tiny (40 MB) aside for the call: 41 MB travel.
+#   machine takes at most 64 MiB of working tree, move tests/data (59 MB) aside for the call.  PHOTO_HDR=1 packs
+#   the training maps themselves (+14 MB), which the device's renders need for PHOTO > 0.
 # device: budgets in seconds GEN_S (renders, default 160), FT_S (latent phase, 30), E2E_S (end to end, 220);
-#   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  Gives back
+#   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  INIT: the model
+#   file to start from (default the shipped one; e.g. a candidate with another VAE, carried in .gpu/); SEED (11)
+#   and PHOTO (0: gen_data --photo) for the renders; PHASES (ft,ft_e2e,export); TRAIN_EXTRA: more arguments
+#   for train_default.py (a later --seconds replaces the one above: e.g. PHASES=e2e_more,export TRAIN_EXTRA=
+#   "--seconds e2e_more=120 --e2e-more-steps 100000 --e2e-more-lr 1e-4" continues a model end to end).  Gives back
 #   the UNet after the latent phase (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16
 #   (the release rounds to it anyway), the logs and the export report.
 # Measured (2026-11-26, H200, 16 cores): 4 600 renders in 194 s; a latent step of batch 64 162 ms, an end-to-end
@@ -39,8 +44,8 @@ if [ "$mode" = pack ]; then
         echo "$b" | grep -qE "^($held)\.hdr$" && continue
         [ -f "$f.smenv.npz" ] || { echo "train_gpu: $f.smenv.npz missing (run gen_data.py once here)" >&2; exit 1; }
         cp "$f.smenv.npz" "$st/hdri/"
-        : > "$st/hdri/$b"
-        touch -d '2000-01-01' "$st/hdri/$b"
+        if [ "${PHOTO_HDR:-0}" = 1 ]; then cp -p "$f" "$st/hdri/"   # gen_data --photo crops the maps themselves
+        else : > "$st/hdri/$b"; touch -d '2000-01-01' "$st/hdri/$b"; fi
     done
     find "$st" -name __pycache__ -prune -exec rm -rf {} +
     tar -C "$st" -czf .gpu/payload.tar.gz . && rm -rf "$st"
@@ -104,10 +109,10 @@ print("preflight: UNet", sum(p.numel() for p in u.parameters()), "parameters, fo
 EOF
 [ "${PIPESTATUS[0]}" = 0 ] || { echo "train_gpu: preflight failed"; exit 1; }
 
-echo "== renders: $JOBS jobs for ${GEN_S:-160} s (seed 11, material modes 0.62 / 0.12 / 0.13 / 0.13)"
+echo "== renders: $JOBS jobs for ${GEN_S:-160} s (seed ${SEED:-11}, material modes 0.62 / 0.12 / 0.13 / 0.13, photo ${PHOTO:-0})"
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-160}" \
     $PY tools/gen_data.py --hdri-dir "$W/w/hdri" --out "$W/data" --count 100000 --size 128 --shard 25 \
-    --seed 11 --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 > "$W/gen.log" 2>&1
+    --seed "${SEED:-11}" --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 --photo "${PHOTO:-0}" > "$W/gen.log" 2>&1
 pkill -f tools/gen_data.py; sleep 1
 n=$(ls "$W/data" | grep -c '^shard_[0-9]*\.npz$')
 echo "renders: $n shards of 25 in $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
@@ -116,10 +121,10 @@ tail -3 "$W/gen.log"
 
 echo "== training"
 timeout "${TRAIN_TIMEOUT:-380}" $PY tools/train_default.py --data "$W/data" --out "$W/run" --hdri-dir "$W/w/hdri" \
-    --device "$DEVICE" --amp bf16 --threads 8 --seed 0 --init-from models/supermat_default.safetensors \
-    --phases ft,ft_e2e,export --ckpt-every 30 --seconds "ft=${FT_S:-30},ft_e2e=${E2E_S:-220}" \
+    --device "$DEVICE" --amp bf16 --threads 8 --seed 0 --init-from "${INIT:-models/supermat_default.safetensors}" \
+    --phases "${PHASES:-ft,ft_e2e,export}" --ckpt-every 30 --seconds "ft=${FT_S:-30},ft_e2e=${E2E_S:-220}" \
     --ft-steps 100000 --ft-lr 3e-4 --latent-batch "${FT_BATCH:-64}" \
-    --e2e-steps 100000 --e2e-lr 2e-4 --e2e-batch "${E2E_BATCH:-32}" --e2e-permute 1 2>&1 | tee "$OUT/train.log"
+    --e2e-steps 100000 --e2e-lr 2e-4 --e2e-batch "${E2E_BATCH:-32}" --e2e-permute 1 ${TRAIN_EXTRA:-} 2>&1 | tee "$OUT/train.log"
 echo "training rc ${PIPESTATUS[0]} at $(( $(date +%s) - T0 )) s"
 
 $PY - "$W/run" "$OUT" <<'EOF'
@@ -127,7 +132,7 @@ import os, sys
 import numpy as np
 import torch
 run, out = sys.argv[1:]
-for ph in ("ft", "ft_e2e"):
+for ph in ("ft", "ft_e2e", "e2e_more"):
     p = os.path.join(run, f"ckpt_{ph}.pt")
     if not os.path.exists(p):
         print(ph, "no checkpoint")
