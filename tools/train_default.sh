@@ -77,7 +77,7 @@ build/supermat convert --force --kind supermat --unet "$WORK/run/release/superma
     --precision f16 --work-size 128 --out models/supermat_default.safetensors
 [ "${STAGE4:-1}" = 1 ] || { build/supermat info models/supermat_default.safetensors; exit 0; }
 V3="$WORK/supermat_v3.safetensors"
-cp models/supermat_default.safetensors "$V3"
+[ -f "$V3" ] || cp models/supermat_default.safetensors "$V3"   # the third version, kept for a resumed run
 
 gen() {  # gen OUT SEED COUNT extra args...
   local out="$1" seed="$2" count="$3"; shift 3
@@ -95,21 +95,23 @@ gen "$WORK/data128d" $((SEED + 3)) 5000 --mode-probs 0.7,0.1,0.1,0.1 --albedo-fl
 gen "$WORK/data128p" $((SEED + 12)) 5000 --mode-probs $MODES --photo 0.5
 gen "$WORK/data128s13" $((SEED + 13)) 4175 --mode-probs $MODES --photo 0.5
 gen "$WORK/data128s14" $((SEED + 14)) 2075 --mode-probs $MODES --photo 0.5
-T="$PY tools/train_default.py --hdri-dir $WORK/hdri --seed $SEED --threads $THREADS --amp $AMP"
+T=("$PY" tools/train_default.py --hdri-dir "$WORK/hdri" --seed "$SEED" --threads "$THREADS" --amp "$AMP")
 
 echo "== colour VAE (3103 of 3352 steps) and the UNet on its latents (1860 steps)"
-$T --data "$WORK/data128c,$WORK/data128d,$WORK/data128p" --out "$WORK/run4a" --init-from "$V3" \
-    --phases vae_colour,ft,export --vae-colour-steps 3352 --until vae_colour=3103 --ft-steps 1860
+D3="$WORK/data128c,$WORK/data128d,$WORK/data128p"
+"${T[@]}" --data "$D3" --out "$WORK/run4a" --init-from "$V3" --phases vae_colour --amp off \
+    --vae-colour-steps 3352 --until vae_colour=3103          # float32, as measured
+"${T[@]}" --data "$D3" --out "$WORK/run4a" --init-from "$V3" --phases ft,export --ft-steps 1860
 convert "$WORK/run4a" "$WORK/supermat_v4a.safetensors"
 
 echo "== latent 242 steps (batch 64, lr 3e-4), end to end 730 of 797 steps (batch 32, lr 2e-4, colour permutations)"
-$T --data "$WORK/data128s13" --out "$WORK/run4b" --init-from "$WORK/supermat_v4a.safetensors" \
+"${T[@]}" --data "$WORK/data128s13" --out "$WORK/run4b" --init-from "$WORK/supermat_v4a.safetensors" \
     --phases ft,ft_e2e,export --ft-steps 242 --ft-lr 3e-4 --latent-batch 64 \
     --e2e-steps 797 --until ft_e2e=730 --e2e-lr 2e-4 --e2e-batch 32 --e2e-permute 1
 convert "$WORK/run4b" "$WORK/supermat_v4b.safetensors"
 
 echo "== end to end 354 more steps (lr 1e-4) on new renders"
-$T --data "$WORK/data128s14" --out "$WORK/run4c" --init-from "$WORK/supermat_v4b.safetensors" \
+"${T[@]}" --data "$WORK/data128s14" --out "$WORK/run4c" --init-from "$WORK/supermat_v4b.safetensors" \
     --phases e2e_more,export --e2e-more-steps 354 --e2e-more-lr 1e-4 --e2e-batch 32 --e2e-permute 1
 convert "$WORK/run4c" models/supermat_default.safetensors
 build/supermat info models/supermat_default.safetensors
