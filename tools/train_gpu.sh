@@ -14,7 +14,7 @@
 #   (HDRI/*.hdr.smenv.npz: the .hdr files travel as empty stand-ins older than their caches, which
 #   smrender.EnvLight then reads instead), 6.4 MB.  Add /.gpu/ to .git/info/exclude.  Where the lent
 #   machine takes at most 64 MiB of working tree, move tests/data (59 MB) aside for the call.  PHOTO_HDR=1 packs
-#   the training maps themselves (+14 MB), which the device's renders need for PHOTO > 0.
+#   the training maps themselves (+12 MB: 18.3 MB in all), which the device's renders need for PHOTO > 0.
 # device: budgets in seconds GEN_S (renders, default 160), FT_S (latent phase, 30), E2E_S (end to end, 220);
 #   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  INIT: the model
 #   file to start from (default the shipped one; e.g. a candidate with another VAE, carried in .gpu/); SEED (11)
@@ -27,6 +27,10 @@
 #   step of batch 32 271 ms, not profiled (the batch assembly took 66 ms of a step on 2 CPU threads here, and
 #   the re-render loss waited on the GPU 32 times a step: both are done on the device at once since); 485 s in
 #   all, with 30-40 s to start the machine.  Results: README ("A GPU round").
+# Measured (2026-11-26, H100, 16 cores, INIT = the colour-VAE model, PHOTO=0.5): 4 175 renders in 175 s; a latent
+#   step of batch 64 203 ms, an end-to-end step of batch 32 263 ms; 488 s for renders, 242 latent and 730
+#   end-to-end steps; a second call (PHASES=e2e_more,export) 2 075 renders and 354 steps in 273 s.  Batches built
+#   on the device did not make the end-to-end step faster (263 against 271 ms): it is bound elsewhere, unprofiled.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 mode="${1:-}"
