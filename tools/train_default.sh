@@ -52,33 +52,6 @@ fi
 mkdir -p "$WORK/hdri"
 git --git-dir="$MIRROR_DIR/pmndrs+drei-assets/repo" archive HEAD hdri | tar -x -C "$WORK"
 
-echo "== data ($COUNT samples, 128x128)"
-$PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/data128" --count "$COUNT" --size 128 \
-    --seed "$SEED" --jobs "$THREADS"
-
-echo "== training"
-# shellcheck disable=SC2086
-$PY tools/train_default.py --data "$WORK/data128" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
-    --threads "$THREADS" ${TRAIN_ARGS:-}
-
-echo "== data, second set ($COUNT2 samples, seed $((SEED + 1)), fewer metals: material modes 0.62 / 0.12 / 0.13 / 0.13)"
-$PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/data128b" --count "$COUNT2" --size 128 \
-    --seed "$((SEED + 1))" --jobs "$THREADS" --mode-probs 0.62,0.12,0.13,0.13
-
-echo "== fine-tuning on it (latent 2000 steps, end to end 100)"
-$PY tools/train_default.py --data "$WORK/data128b" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
-    --threads "$THREADS" --amp "$AMP" --phases ft,ft_e2e,export
-
-echo "== conversion"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
-cmake --build build -j"$THREADS" --target supermat
-mkdir -p models
-build/supermat convert --force --kind supermat --unet "$WORK/run/release/supermat.pth" --base "$WORK/run/release/base" \
-    --precision f16 --work-size 128 --out models/supermat_default.safetensors
-[ "${STAGE4:-1}" = 1 ] || { build/supermat info models/supermat_default.safetensors; exit 0; }
-V3="$WORK/supermat_v3.safetensors"
-[ -f "$V3" ] || cp models/supermat_default.safetensors "$V3"   # the third version, kept for a resumed run
-
 gen() {  # gen OUT SEED COUNT extra args...
   local out="$1" seed="$2" count="$3"; shift 3
   $PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$out" --count "$count" --size 128 --seed "$seed" \
@@ -88,8 +61,33 @@ convert() {  # convert RUN OUT
   build/supermat convert --force --kind supermat --unet "$1/release/supermat.pth" --base "$1/release/base" \
       --precision f16 --work-size 128 --out "$2"
 }
+MODES=0.62,0.12,0.13,0.13   # material modes of the sets with fewer metals (gen_data.py --mode-probs)
+
+echo "== data ($COUNT samples, 128x128)"
+gen "$WORK/data128" "$SEED" "$COUNT"
+
+echo "== training"
+# shellcheck disable=SC2086
+$PY tools/train_default.py --data "$WORK/data128" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
+    --threads "$THREADS" ${TRAIN_ARGS:-}
+
+echo "== data, second set ($COUNT2 samples, seed $((SEED + 1)), fewer metals: material modes 0.62 / 0.12 / 0.13 / 0.13)"
+gen "$WORK/data128b" $((SEED + 1)) "$COUNT2" --mode-probs $MODES
+
+echo "== fine-tuning on it (latent 2000 steps, end to end 100)"
+$PY tools/train_default.py --data "$WORK/data128b" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
+    --threads "$THREADS" --amp "$AMP" --phases ft,ft_e2e,export
+
+echo "== conversion"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
+cmake --build build -j"$THREADS" --target supermat
+mkdir -p models
+convert "$WORK/run" models/supermat_default.safetensors
+[ "${STAGE4:-1}" = 1 ] || { build/supermat info models/supermat_default.safetensors; exit 0; }
+V3="$WORK/supermat_v3.safetensors"
+[ -f "$V3" ] || cp models/supermat_default.safetensors "$V3"   # the third version, kept for a resumed run
+
 echo "== fourth version: data (seeds 2, 3, 12 for the colour VAE and its UNet; 13, 14 end to end)"
-MODES=0.62,0.12,0.13,0.13
 gen "$WORK/data128c" $((SEED + 2)) 6000 --mode-probs $MODES
 gen "$WORK/data128d" $((SEED + 3)) 5000 --mode-probs 0.7,0.1,0.1,0.1 --albedo-floor 0.12 --anodised 0.1
 gen "$WORK/data128p" $((SEED + 12)) 5000 --mode-probs $MODES --photo 0.5

@@ -21,7 +21,7 @@
 #   and PHOTO (0: gen_data --photo) for the renders; PHASES (ft,ft_e2e,export); TRAIN_EXTRA: more arguments
 #   for train_default.py (a later --seconds replaces the one above: e.g. PHASES=e2e_more,export TRAIN_EXTRA=
 #   "--seconds e2e_more=120 --e2e-more-steps 100000 --e2e-more-lr 1e-4" continues a model end to end).  Gives back
-#   the UNet after the latent phase (unet_ft.npz) and after the end-to-end phase (unet_ft_e2e.npz), float16
+#   the UNet after each phase that ran (unet_ft.npz, unet_ft_e2e.npz, unet_e2e_more.npz), float16
 #   (the release rounds to it anyway), the logs and the export report.
 # Measured (2026-11-26, H200, 16 cores): 4 600 renders in 194 s; a latent step of batch 64 162 ms, an end-to-end
 #   step of batch 32 271 ms, not profiled (the batch assembly took 66 ms of a step on 2 CPU threads here, and
