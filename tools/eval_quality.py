@@ -3,9 +3,9 @@
 
 What it does
   1. loads each glTF 2.0 asset (.gltf + .bin + PNG/JPEG textures): every TRIANGLES (also strip / fan)
-     primitive reachable from the default scene, node transforms applied, with its pbrMetallicRoughness
-     material (base colour factor x texture, sRGB -> linear; roughness / metallic factors x the G / B
-     channels of metallicRoughnessTexture).  Normal, occlusion and emissive maps, vertex colours, alpha
+     primitive reachable from the default scene (or from the node FILE.gltf#NODE names), node transforms
+     applied, with its pbrMetallicRoughness material (base colour factor x texture, sRGB -> linear;
+     roughness / metallic factors x the G / B channels of metallicRoughnessTexture).  Normal, occlusion and emissive maps, vertex colours, alpha
      modes and KHR_texture_transform are ignored;
   2. per view (view 0: the asset's own front, +Y up, facing +Z; then seeded random rotations) centres the
      rotated mesh's projected bounding box, scales its larger side to 0.85 of the orthographic frame and
@@ -190,7 +190,10 @@ class Mesh:
     mr_tex; textures are Texture or None)."""
 
     def __init__(self, path):
-        self.name = os.path.splitext(os.path.basename(path))[0]
+        node_name = None
+        if "#" in path and not os.path.exists(path):            # FILE.gltf#NODE: that node's subtree alone
+            path, node_name = path.rsplit("#", 1)
+        self.name = node_name or os.path.splitext(os.path.basename(path))[0]
         self.dir = os.path.dirname(os.path.abspath(path))
         with open(path) as f:
             self.gltf = json.load(f)
@@ -200,8 +203,13 @@ class Mesh:
         self.materials = [self._material(m) for m in g.get("materials", [])]
         self.materials.append(self._material({}))              # the glTF default material
         P, N, UV, mat = [], [], [], []
-        scene = g["scenes"][g.get("scene", 0)]
-        stack = [(n, np.eye(4)) for n in scene["nodes"]]
+        if node_name is None:
+            roots = g["scenes"][g.get("scene", 0)]["nodes"]
+        else:                                                   # its own transform kept, its parents' not
+            roots = [i for i, n in enumerate(g.get("nodes", [])) if n.get("name") == node_name]
+            if len(roots) != 1:
+                raise ValueError(f"{path}: {len(roots)} nodes named {node_name!r} (one expected)")
+        stack = [(n, np.eye(4)) for n in roots]
         while stack:
             ni, parent = stack.pop()
             node = g["nodes"][ni]
@@ -231,7 +239,7 @@ class Mesh:
                     UV.append(np.zeros(tri.shape + (2,)))
                 mat.append(np.full(len(tri), prim.get("material", len(self.materials) - 1), np.int64))
         if not P:
-            raise ValueError(f"{path}: no triangles in the default scene")
+            raise ValueError(f"{path}: no triangles in " + (f"node {node_name!r}" if node_name else "the default scene"))
         self.P, self.N, self.UV = np.concatenate(P), np.concatenate(N), np.concatenate(UV)
         self.mat = np.concatenate(mat)
 
@@ -744,7 +752,9 @@ def model_option(s):
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--assets", nargs="+", required=True, help=".gltf files")
+    ap.add_argument("--assets", nargs="+", required=True,
+                    help=".gltf files; FILE.gltf#NODE: only the node of that name and its children (e.g. "
+                         "BoomBoxWithAxes.gltf#BoomBox, without the axes), the asset then named NODE")
     ap.add_argument("--model", action="append", type=model_option, default=[], metavar="NAME=FILE",
                     help="a supermat model to measure (repeatable)")
     ap.add_argument("--baselines", type=lambda s: [b for b in s.split(",") if b],
@@ -800,7 +810,10 @@ def main():
     args.levers_modes = args.levers_modes or "all"
 
     t0 = time.time()
-    meshes = [Mesh(p) for p in args.assets]
+    try:
+        meshes = [Mesh(p) for p in args.assets]
+    except (OSError, ValueError, KeyError) as e:
+        sys.exit(f"error: {e}")
     print(f"loaded {len(meshes)} assets ({time.time() - t0:.1f} s): "
           + ", ".join(f"{m.name} {len(m.P)} triangles" for m in meshes), file=sys.stderr)
     if args.write_slice:
