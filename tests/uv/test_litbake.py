@@ -1,0 +1,237 @@
+#!/usr/bin/env python3
+"""ctest uv_litbake: tools/litbake.py against an independent float64 reference.
+
+usage: test_litbake.py SUPERMAT_MESH OUT_DIR
+
+1. a quad facing +Z, one material (16x16 base colour and metallic-roughness textures, seeded), baked at
+   16x16 (one output texel per texture texel) under a constant environment of radiance 1, exposure 1:
+   every texel covered; the truth textures equal the asset's (8-bit, +-1); the lit texel equals
+   (1 - F0)(1 - metallic) albedo + F0 A + B, with A, B the GGX (Smith k = a/2, Schlick) directional albedo at
+   normal incidence integrated here in float64 (not smrender's table);
+2. two quads, one facing +Y and one facing -Y, under a sky-only map (radiance 1 above the horizon, 0 below):
+   the upward one as under the constant map, the downward one black (the world's up axis and the map's
+   orientation agree);
+3. `supermat mesh --passthrough` takes the lit glTF and bakes the lit texture back (the output is a
+   glTF the pipeline reads, buffers copied beside it);
+4. failures: an existing output without --force, a missing map, two materials, no UVs: exit 1, a message.
+"""
+import base64
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+
+import numpy as np
+from PIL import Image
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+LITBAKE = os.path.join(HERE, "..", "..", "tools", "litbake.py")
+fails = 0
+
+
+def check(ok, what):
+    global fails
+    print(("ok   " if ok else "FAIL ") + what)
+    fails += 0 if ok else 1
+
+
+def write_hdr(path, img):
+    """Flat (not run-length encoded) Radiance RGBE."""
+    h, w, _ = img.shape
+    m = img.max(-1)
+    e = np.where(m > 1e-32, np.floor(np.log2(np.maximum(m, 1e-32))) + 1, 0)
+    sc = np.where(m > 1e-32, 256.0 / np.exp2(e), 0)
+    rgbe = np.zeros((h, w, 4), np.uint8)
+    rgbe[..., :3] = np.clip(np.floor(img * sc[..., None]), 0, 255)
+    rgbe[..., 3] = np.where(m > 1e-32, e + 128, 0)
+    with open(path, "wb") as f:
+        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {h} +X {w}\n".encode() + rgbe.tobytes())
+
+
+def write_gltf(path, quads, materials=1, uvs=True):
+    """quads: list of (4 corners (4x3), normal (3,), 4 UVs (4x2)); an external .bin, PNG textures."""
+    pos, nrm, uv, idx = [], [], [], []
+    for q, (corners, n, quv) in enumerate(quads):
+        pos += list(corners)
+        nrm += [n] * 4
+        uv += list(quv)
+        idx += [4 * q + i for i in (0, 1, 2, 0, 2, 3)]
+    pos, nrm, uv = (np.asarray(a, np.float32) for a in (pos, nrm, uv))
+    idx = np.asarray(idx, np.uint16)
+    blobs = [pos.tobytes(), nrm.tobytes(), uv.tobytes(), idx.tobytes()]
+    views, off = [], 0
+    for b in blobs:
+        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(b)})
+        off += (len(b) + 3) // 4 * 4
+    data = b"".join(b + b"\0" * ((4 - len(b) % 4) % 4) for b in blobs)
+    name = os.path.splitext(os.path.basename(path))[0]
+    with open(os.path.join(os.path.dirname(path), name + ".bin"), "wb") as f:
+        f.write(data)
+    acc = [{"bufferView": 0, "componentType": 5126, "count": len(pos), "type": "VEC3",
+            "min": pos.min(0).tolist(), "max": pos.max(0).tolist()},
+           {"bufferView": 1, "componentType": 5126, "count": len(pos), "type": "VEC3"},
+           {"bufferView": 2, "componentType": 5126, "count": len(pos), "type": "VEC2"},
+           {"bufferView": 3, "componentType": 5123, "count": len(idx), "type": "SCALAR"}]
+    attrs = {"POSITION": 0, "NORMAL": 1}
+    if uvs:
+        attrs["TEXCOORD_0"] = 2
+    mat = {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 1}},
+           "normalTexture": {"index": 1}}
+    prims = [{"attributes": attrs, "indices": 3, "material": 0}]
+    if materials == 2:
+        prims.append({"attributes": attrs, "indices": 3, "material": 1})
+    g = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+         "meshes": [{"primitives": prims}], "materials": [mat] * materials,
+         "buffers": [{"uri": name + ".bin", "byteLength": len(data)}], "bufferViews": views, "accessors": acc,
+         "images": [{"uri": "base.png"}, {"uri": "mr.png"}], "textures": [{"source": 0}, {"source": 1}],
+         "extensionsUsed": ["KHR_materials_emissive_strength"]}
+    with open(path, "w") as f:
+        json.dump(g, f)
+
+
+def srgb_decode(s):
+    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
+
+
+def srgb_encode(x):
+    x = np.clip(x, 0, 1)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def split_sum_normal(rough):
+    """A, B of the split sum at n . v = 1 for each roughness (clamped at 0.02 as smrender does), float64
+    quadrature over the angle of the light from the normal (the integrand is symmetric about it)."""
+    th = (np.arange(400000) + 0.5) * (np.pi / 2) / 400000
+    dth = (np.pi / 2) / 400000
+    nl = np.cos(th)
+    nh = vh = np.cos(th / 2)
+    fc = (1 - vh) ** 5
+    out = []
+    for r in np.clip(rough, 0.02, 1.0):
+        a = r * r
+        k = a / 2
+        d = a * a / (np.pi * (nh * nh * (a * a - 1) + 1) ** 2)
+        g1 = nl / (nl * (1 - k) + k)
+        base = d * g1 / 4 * 2 * np.pi * np.sin(th) * dth   # f / F x cos x solid angle (G1(n.v = 1) = 1)
+        out.append(((base * (1 - fc)).sum(), (base * fc).sum()))
+    return np.array(out)
+
+
+def run(args, expect):
+    r = subprocess.run([sys.executable, LITBAKE] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       universal_newlines=True)
+    if r.returncode != expect:
+        print(r.stdout + r.stderr)
+    return r
+
+
+def main():
+    mesh_exe, out = sys.argv[1], sys.argv[2]
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(os.path.join(out, "asset"))
+    rng = np.random.default_rng(7)
+    base8 = rng.integers(20, 205, (16, 16, 3)).astype(np.uint8)          # albedo <= 0.8: no clipping at 1
+    mr8 = np.zeros((16, 16, 3), np.uint8)
+    mr8[..., 1] = rng.integers(77, 256, (16, 16))                          # roughness 0.3 .. 1
+    mr8[..., 2] = np.where(rng.random((16, 16)) < 0.3, 255, 0)            # metallic, binary
+    Image.fromarray(base8).save(os.path.join(out, "asset", "base.png"))
+    Image.fromarray(mr8).save(os.path.join(out, "asset", "mr.png"))
+    quad_z = ([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (0, 0, 1), [(0, 1), (1, 1), (1, 0), (0, 0)])
+    write_gltf(os.path.join(out, "asset", "quad.gltf"), [quad_z])
+    const = os.path.join(out, "const.hdr")
+    write_hdr(const, np.ones((32, 64, 3), np.float32))
+    sky = np.zeros((32, 64, 3), np.float32)
+    sky[:16] = 1.0
+    write_hdr(os.path.join(out, "sky.hdr"), sky)
+
+    # 1. constant environment: the closed form with float64 split-sum terms
+    bake = os.path.join(out, "bake")
+    r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16", "--exposure", "1",
+             "--gutter", "0"], 0)
+    check(r.returncode == 0, "litbake quad under a constant map: exit 0")
+    rd = lambda n: np.asarray(Image.open(os.path.join(bake, "quad_" + n)))  # noqa: E731
+    check(bool((rd("mask.png") == 255).all()), "every texel covered")
+    check(int(np.abs(rd("truth_albedo.png").astype(int) - base8).max()) <= 1, "truth albedo = the base colour texture (+-1)")
+    check(int(np.abs(rd("truth_roughness.png").astype(int) - mr8[..., 1]).max()) <= 1, "truth roughness = G (+-1)")
+    check(int(np.abs(rd("truth_metallic.png").astype(int) - mr8[..., 2]).max()) <= 1, "truth metallic = B (+-1)")
+    alb = srgb_decode(base8 / 255.0)
+    rough, met = mr8[..., 1] / 255.0, mr8[..., 2:3] / 255.0
+    ab = split_sum_normal(rough.ravel()).reshape(16, 16, 2)
+    f0 = 0.04 * (1 - met) + alb * met
+    ref = (1 - f0) * (1 - met) * alb + f0 * ab[..., :1] + ab[..., 1:]
+    lit = rd("lit_baseColor.png") / 255.0
+    err = np.abs(lit - srgb_encode(ref))
+    print(f"     lit vs float64 closed form: max {err.max() * 255:.2f} / 255, mean {err.mean() * 255:.2f} / 255 (sRGB)")
+    # smrender's split-sum table: 32 x 32 bins (its n . v = 1 is the bin at 0.984), 1024 samples a bin
+    check(err.max() <= 4 / 255 and err.mean() <= 1 / 255, "lit texels = closed form within 4/255 (mean 1/255)")
+
+    # 2. sky only: the upward quad as under the constant map, the downward one black
+    up = ([(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], (0, 1, 0), [(0, 1), (0.5, 1), (0.5, 0), (0, 0)])
+    down = ([(-1, -2, -1), (1, -2, -1), (1, -2, 1), (-1, -2, 1)], (0, -1, 0), [(0.5, 1), (1, 1), (1, 0), (0.5, 0)])
+    write_gltf(os.path.join(out, "asset", "updown.gltf"), [up, down])
+    bake2 = os.path.join(out, "bake2")
+    r = run([os.path.join(out, "asset", "updown.gltf"), bake2, "--hdri", os.path.join(out, "sky.hdr"), "--size", "32",
+             "--exposure", "1", "--gutter", "0"], 0)
+    check(r.returncode == 0, "litbake up / down quads under a sky-only map: exit 0")
+    lit2 = np.asarray(Image.open(os.path.join(bake2, "updown_lit_baseColor.png"))) / 255.0
+    # texture texels (16) at 32x32 output: each output texel reads one source texel's neighbourhood (mip 0,
+    # bilinear at the output texel centre); the reference, from the truth the tool wrote, is per texel
+    alb2 = srgb_decode(np.asarray(Image.open(os.path.join(bake2, "updown_truth_albedo.png"))) / 255.0)
+    r2 = np.asarray(Image.open(os.path.join(bake2, "updown_truth_roughness.png"))) / 255.0
+    m2 = np.asarray(Image.open(os.path.join(bake2, "updown_truth_metallic.png")))[..., None] / 255.0
+    ab2 = split_sum_normal(r2[:, :16].ravel()).reshape(32, 16, 2)
+    f02 = 0.04 * (1 - m2[:, :16]) + alb2[:, :16] * m2[:, :16]
+    ref_up = (1 - f02) * (1 - m2[:, :16]) * alb2[:, :16] + f02 * ab2[..., :1] + ab2[..., 1:]
+    # the irradiance near the pole (the map's first row, 5.6 degrees off +Y) misses a sliver of the sky
+    e_up = np.abs(lit2[:, 1:15] - srgb_encode(ref_up)[:, 1:15])
+    print(f"     upward quad vs closed form: max {e_up.max() * 255:.2f} / 255, mean {e_up.mean() * 255:.2f} / 255")
+    check(e_up.max() <= 4 / 255 and e_up.mean() <= 1 / 255, "upward quad = the constant-map closed form (max 4/255, mean 1/255)")
+    check(float(lit2[:, 17:31].max()) <= 2 / 255, f"downward quad black (max {lit2[:, 17:31].max() * 255:.0f} / 255)")
+
+    # 3. the lit glTF through the mesh pipeline (no networks): its base colour is the lit bake
+    baked = os.path.join(out, "mesh")
+    os.makedirs(baked)
+    r = subprocess.run([mesh_exe, "--passthrough", os.path.join(bake, "quad_lit.gltf"), os.path.join(baked, "q.gltf"),
+                        "--size", "16", "--views-size", "256"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       universal_newlines=True)
+    check(r.returncode == 0, "supermat mesh --passthrough reads the lit glTF: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr))
+    with open(os.path.join(bake, "quad_lit.gltf")) as f:
+        g = json.load(f)
+    check(len(g["materials"]) == 1 and "metallicRoughnessTexture" not in g["materials"][0]["pbrMetallicRoughness"]
+          and "normalTexture" not in g["materials"][0] and "extensionsUsed" not in g
+          and os.path.exists(os.path.join(bake, "quad.bin")), "lit glTF: one material, the lit texture alone, buffer copied")
+    if r.returncode == 0:
+        back = np.asarray(Image.open(os.path.join(baked, "q_baseColor.png")).convert("RGB")) / 255.0
+        e = np.abs(back - lit)[2:14, 2:14]
+        e_alb = np.abs(back - base8 / 255.0)[2:14, 2:14]
+        print(f"     passthrough bake vs the lit texture (inner texels): max {e.max() * 255:.1f} / 255, mean "
+              f"{e.mean() * 255:.2f} / 255 (vs the true albedo: mean {e_alb.mean() * 255:.1f} / 255)")
+        check(e.max() <= 12 / 255 and e.mean() <= 4 / 255 and e.mean() < e_alb.mean() / 4,
+              "passthrough bake reproduces the lit texture (inner texels: max 12/255, mean 4/255; "
+              "under a quarter of its distance to the true albedo)")
+
+    # 4. failures
+    r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16"], 1)
+    check(r.returncode == 1 and "exists" in r.stderr, "an existing output without --force: exit 1")
+    r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16", "--force"], 0)
+    check(r.returncode == 0, "--force replaces it")
+    check(not any(n.endswith(".tmp") for n in os.listdir(bake)), "no .tmp file left")
+    r = run([os.path.join(out, "asset", "quad.gltf"), os.path.join(out, "x"), "--hdri", os.path.join(out, "no.hdr")], 1)
+    check(r.returncode == 1 and "error:" in r.stderr and not os.path.exists(os.path.join(out, "x")),
+          "a missing map: exit 1, nothing written")
+    write_gltf(os.path.join(out, "asset", "two.gltf"), [quad_z], materials=2)
+    r = run([os.path.join(out, "asset", "two.gltf"), os.path.join(out, "x"), "--hdri", const], 1)
+    check(r.returncode == 1 and "materials" in r.stderr, "two materials: exit 1")
+    write_gltf(os.path.join(out, "asset", "nouv.gltf"), [quad_z], uvs=False)
+    r = run([os.path.join(out, "asset", "nouv.gltf"), os.path.join(out, "x"), "--hdri", const], 1)
+    check(r.returncode == 1 and "UV" in r.stderr, "no UVs: exit 1")
+    r = run([os.path.join(out, "asset", "quad.gltf"), os.path.join(out, "x"), "--hdri", const, "--size", "3"], 2)
+    check(r.returncode == 2, "--size 3: usage error")
+    print(f"litbake: {fails} failed")
+    return 1 if fails else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
