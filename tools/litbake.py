@@ -8,7 +8,8 @@ those maps as the truth to measure a bake against:
   1. loads the asset with tools/eval_quality.py's loader (every triangle of the default scene, or of the
      node FILE.gltf#NODE names; node transforms applied; one material for all of it, TEXCOORD_0 its UVs);
   2. rasterises the triangles in UV space onto SIZE x SIZE texels (texel centres; where UV charts overlap
-     the first triangle wins; UVs outside [0, 1] are not baked);
+     the first triangle wins; a triangle whose centroid lies in another UV tile, e.g. v in [1, 2], is moved
+     into [0, 1] by whole tiles, as a repeating texture reads it; one crossing a tile's edge is cut there);
   3. at each covered texel: the world position's interpolated normal, the material's base colour
      (factor x texture, linear), roughness and metallic (factors x the G / B channels), each texture read
      with the mip level of one output texel;
@@ -62,7 +63,8 @@ def uv_gbuffer(mesh, size):
     duv1, duv2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     if not np.any(np.abs(duv1[:, 0] * duv2[:, 1] - duv2[:, 0] * duv1[:, 1]) > 1e-12):
         raise ValueError(f"{mesh.name}: no UV layout (TEXCOORD_0 missing or of zero area)")
-    tri, bary = evq.rasterize(uv * size, np.zeros(uv.shape[:2]), size)
+    tile = np.floor(uv.mean(1, keepdims=True))                 # a triangle in UV tile (i, j) is baked into
+    tri, bary = evq.rasterize((uv - tile) * size, np.zeros(uv.shape[:2]), size)   # [0, 1]: repeating textures
     hit = tri >= 0
     if not hit.any():
         raise ValueError(f"{mesh.name}: no texel centre inside a UV triangle at {size}x{size}")
@@ -123,7 +125,7 @@ def lit_gltf(mesh_path, node, base_png, out_dir):
         g["scenes"] = [{"nodes": idx}]
         g["scene"] = 0
     g["images"] = [{"uri": urllib.parse.quote(base_png)}]
-    g["samplers"] = [{"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}]
+    g["samplers"] = [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]   # repeat: see 2.
     g["textures"] = [{"sampler": 0, "source": 0}]
     g["materials"] = [{"name": "lit_bake", "pbrMetallicRoughness": {
         "baseColorTexture": {"index": 0, "texCoord": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0}}]

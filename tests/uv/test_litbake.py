@@ -167,6 +167,16 @@ def main():
     # smrender's split-sum table: 32 x 32 bins (its n . v = 1 is the bin at 0.984), 1024 samples a bin
     check(err.max() <= 4 / 255 and err.mean() <= 1 / 255, "lit texels = closed form within 4/255 (mean 1/255)")
 
+    # a repeating texture's other UV tile (v in [1, 2]) bakes into the same texels
+    quad_t = (quad_z[0], quad_z[1], [(u, v + 1) for u, v in quad_z[2]])
+    write_gltf(os.path.join(out, "asset", "tile.gltf"), [quad_t])
+    r = run([os.path.join(out, "asset", "tile.gltf"), os.path.join(out, "tile"), "--hdri", const, "--size", "16",
+             "--exposure", "1", "--gutter", "0"], 0)
+    same = r.returncode == 0 and all(
+        np.array_equal(np.asarray(Image.open(os.path.join(out, "tile", "tile_" + n))), rd(n))
+        for n in ("lit_baseColor.png", "truth_albedo.png", "mask.png"))
+    check(same, "UVs one tile up (v in [1, 2]) bake the same texels")
+
     # 2. sky only: the upward quad as under the constant map, the downward one black
     up = ([(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], (0, 1, 0), [(0, 1), (0.5, 1), (0.5, 0), (0, 0)])
     down = ([(-1, -2, -1), (1, -2, -1), (1, -2, 1), (-1, -2, 1)], (0, -1, 0), [(0.5, 1), (1, 1), (1, 0), (0.5, 0)])
