@@ -167,7 +167,8 @@ def main():
     ap.add_argument("--size", type=int, default=1024, help="texture size (default 1024)")
     ap.add_argument("--exposure", default="auto", help="auto, or a factor (1: radiance 1 is white)")
     ap.add_argument("--key", type=float, default=0.18, help="auto exposure: the median luminance's target")
-    ap.add_argument("--gutter", type=int, default=4, help="texels spread beyond each chart (default 4)")
+    ap.add_argument("--gutter", type=int, default=16,
+                    help="texels spread beyond each chart (default 16: mip levels up to 4 stay on the surface)")
     ap.add_argument("--force", action="store_true", help="replace existing output files")
     args = ap.parse_args()
     if not 8 <= args.size <= 16384:

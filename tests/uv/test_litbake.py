@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """ctest uv_litbake: tools/litbake.py against an independent float64 reference.
 
-usage: test_litbake.py SUPERMAT_MESH OUT_DIR
+usage: test_litbake.py SUPERMAT_MESH OUT_DIR [TINY_MV TINY_UV SUPERMAT]
 
 1. a quad facing +Z, one material (16x16 base colour and metallic-roughness textures, seeded), baked at
    16x16 (one output texel per texture texel) under a constant environment of radiance 1, exposure 1:
@@ -13,7 +13,9 @@ usage: test_litbake.py SUPERMAT_MESH OUT_DIR
    orientation agree);
 3. `supermat mesh --passthrough` takes the lit glTF and bakes the lit texture back (the output is a
    glTF the pipeline reads, buffers copied beside it);
-4. failures: an existing output without --force, a missing map, two materials, no UVs: exit 1, a message.
+4. failures: an existing output without --force, a missing map, two materials, no UVs: exit 1, a message;
+5. with the tiny models: tools/eval_bake.py on the quad (the truth as a bake, the lit baseline's numbers
+   recomputed here, a bake with the tiny random models).
 """
 import base64
 import json
@@ -221,6 +223,38 @@ def main():
         check(e.max() <= 12 / 255 and e.mean() <= 4 / 255 and e.mean() < e_alb.mean() / 4,
               "passthrough bake reproduces the lit texture (inner texels: max 12/255, mean 4/255; "
               "under a quarter of its distance to the true albedo)")
+
+    # 5. tools/eval_bake.py on the quad: the truth as a bake scores the cap and relights within 40 dB of the
+    #    original (the views of the original and of a bake line up), the lit baseline's numbers are those of
+    #    the files it wrote, and a bake with the tiny random models runs through
+    if len(sys.argv) > 4:
+        js = os.path.join(out, "eval_bake.json")
+        cmd = [sys.executable, os.path.join(HERE, "..", "..", "tools", "eval_bake.py"), "--assets",
+               os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
+               "--size", "16", "--views-size", "64", "--views", "2", "--relight-size", "64", "--baselines",
+               "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
+               "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
+        r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        check(r.returncode == 0, "eval_bake: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-2000:]))
+        if r.returncode == 0:
+            with open(js) as f:
+                res = {row["predictor"]: row for row in json.load(f)["rows"]}
+            t = res["truth"]
+            print(f"     eval_bake truth: relight {t['relight_psnr']:.1f} dB, SSIM {t['relight_ssim']:.4f}")
+            check(t["albedo_psnr"] == 100 and t["rough_psnr"] == 100 and t["metal_psnr"] == 100
+                  and t["relight_psnr"] >= 40, "eval_bake: the truth as a bake: 100 dB maps, relit >= 40 dB")
+            d = os.path.join(out, "eval_bake", "quad", "input")
+            m = np.asarray(Image.open(os.path.join(d, "quad_mask.png"))) > 0
+            lit8 = np.asarray(Image.open(os.path.join(d, "quad_lit_baseColor.png"))) / 255.0
+            alb8 = np.asarray(Image.open(os.path.join(d, "quad_truth_albedo.png"))) / 255.0
+            met8 = np.asarray(Image.open(os.path.join(d, "quad_truth_metallic.png"))) / 255.0
+            own = 10 * np.log10(1 / np.mean((lit8 - alb8)[m] ** 2))
+            own_m = 10 * np.log10(1 / np.mean(met8[m] ** 2))
+            check(abs(res["lit"]["albedo_psnr"] - own) < 1e-6 and abs(res["lit"]["metal_psnr"] - own_m) < 1e-6,
+                  f"eval_bake: lit albedo {res['lit']['albedo_psnr']:.3f} / metallic {res['lit']['metal_psnr']:.3f} dB = "
+                  f"this test's own {own:.3f} / {own_m:.3f}")
+            check(all(np.isfinite(res["tiny"][k]) for k in ("albedo_psnr", "rough_psnr", "metal_psnr", "relight_psnr")),
+                  "eval_bake: the tiny models' bake measured")
 
     # 4. failures
     r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16"], 1)
