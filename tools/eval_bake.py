@@ -13,11 +13,12 @@ For each asset (FILE.gltf, or FILE.gltf#NODE for one node's subtree):
                     PSNR says how far the texture resampling alone moves the renders)
        NAME=MV,ALB,RM  `supermat mesh` with those three model files (SuperMatMV, albedo and
                     roughness/metallic UV refine), --bake NAME=MV,ALB,RM, repeatable
-  3. measures, on the chart texels (the mask): masked PSNR and SSIM of the albedo (sRGB 8-bit), PSNR of the
-     roughness and the metallic texture (linear 8-bit); and the novel-view relighting check: --views views
+  3. measures, on the chart texels (the mask): masked PSNR and SSIM of the albedo (sRGB 8-bit), of the
+     roughness and of the metallic texture (linear 8-bit); and the novel-view relighting check: --views views
      of the baked asset and of the original (seeded rotations), shaded under a second held-out map
      (--env-relight, turned at random about +Y) with the exposure auto-chosen for the original, tone
-     mapped, PSNR and SSIM over the object.
+     mapped, PSNR and SSIM over the object; and each bake's seconds and peak memory (`supermat mesh`'s own
+     report).
 Normal maps, occlusion and emission are ignored throughout (as in eval_quality.py).
 
   /usr/bin/python3 tools/eval_bake.py --assets WaterBottle.gltf BoomBoxWithAxes.gltf#BoomBox \\
@@ -29,6 +30,7 @@ prints a Markdown table per asset and over all, --json FILE also writes it.  Nee
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -42,7 +44,8 @@ import smrender as smr  # noqa: E402
 import eval_quality as evq  # noqa: E402
 import litbake  # noqa: E402
 
-METRICS = ("albedo_psnr", "albedo_ssim", "rough_psnr", "metal_psnr", "relight_psnr", "relight_ssim")
+METRICS = ("albedo_psnr", "albedo_ssim", "rough_psnr", "rough_ssim", "metal_psnr", "metal_ssim", "relight_psnr",
+           "relight_ssim")
 
 
 def read8(path, mode):
@@ -51,6 +54,12 @@ def read8(path, mode):
 
 def psnr8(a, b, mask):
     return evq.masked_psnr(a.astype(np.float64) / 255.0, b.astype(np.float64) / 255.0, mask)
+
+
+def line(o):
+    """A table row's numbers: PSNR / SSIM per metric, seconds, peak memory (MB; 0 where nothing ran)."""
+    return " | ".join(f"{o[m]:.4f}" if m.endswith("ssim") else f"{o[m]:.2f}" for m in METRICS) + \
+        f" | {o['seconds']:.1f} | {o['peak_mb'] or '-'} |"
 
 
 def relight_views(orig, baked, params, size, env):
@@ -170,6 +179,7 @@ def main():
                 mr = read8(os.path.join(out, name + "_metallicRoughness.png"), "RGB")
                 rough8, metal8 = mr[..., 1], mr[..., 2]
             t_bake = time.time() - t0
+            mb = re.search(r"peak memory (\d+) MB", r.stdout) if kind not in ("lit", "truth") else None
             baked = evq.Mesh(gltf)
             if kind == "lit":                                   # constant roughness / metallic, as above
                 for m in baked.materials:
@@ -187,7 +197,11 @@ def main():
             row = dict(asset=name, predictor=kind, seconds=t_bake,
                        albedo_psnr=psnr8(albedo, truth["albedo"], mask),
                        albedo_ssim=evq.masked_ssim(albedo / 255.0, truth["albedo"] / 255.0, mask),
-                       rough_psnr=psnr8(rough8, truth["rough"], mask), metal_psnr=psnr8(metal8, truth["metal"], mask),
+                       rough_psnr=psnr8(rough8, truth["rough"], mask),
+                       rough_ssim=evq.masked_ssim(rough8 / 255.0, truth["rough"] / 255.0, mask),
+                       metal_psnr=psnr8(metal8, truth["metal"], mask),
+                       metal_ssim=evq.masked_ssim(metal8 / 255.0, truth["metal"] / 255.0, mask),
+                       peak_mb=int(mb.group(1)) if mb else 0,
                        relight_psnr=float(rl[0]), relight_ssim=float(rl[1]))
             rows.append(row)
             preds.append(kind)
@@ -196,20 +210,18 @@ def main():
     order = list(dict.fromkeys(r["predictor"] for r in rows))
     print(f"## overall ({len(args.assets)} assets, {args.size}² textures, lit-baked under {args.env_bake}, "
           f"relit under {args.env_relight}, {args.views} views of {args.relight_size}²)\n")
-    head = ("| predictor | albedo PSNR | albedo SSIM | roughness PSNR | metallic PSNR | relight PSNR | relight SSIM "
-            "| bake s |\n|---|---|---|---|---|---|---|---|")
+    head = ("| predictor | albedo PSNR | albedo SSIM | roughness PSNR | roughness SSIM | metallic PSNR | metallic SSIM "
+            "| relight PSNR | relight SSIM | bake s | peak MB |\n|---|---|---|---|---|---|---|---|---|---|---|")
     print(head)
     overall = {}
     for p in order:
         sel = [r for r in rows if r["predictor"] == p]
         overall[p] = {m: float(np.mean([r[m] for r in sel])) for m in METRICS + ("seconds",)}
-        o = overall[p]
-        print(f"| {p} | {o['albedo_psnr']:.2f} | {o['albedo_ssim']:.4f} | {o['rough_psnr']:.2f} | {o['metal_psnr']:.2f} "
-              f"| {o['relight_psnr']:.2f} | {o['relight_ssim']:.4f} | {o['seconds']:.1f} |")
+        overall[p]["peak_mb"] = max(r["peak_mb"] for r in sel)
+        print("| " + p + " | " + line(overall[p]))
     print("\n## per asset\n\n" + head.replace("| predictor |", "| asset / predictor |"))
     for r in rows:
-        print(f"| {r['asset']} / {r['predictor']} | {r['albedo_psnr']:.2f} | {r['albedo_ssim']:.4f} | {r['rough_psnr']:.2f} "
-              f"| {r['metal_psnr']:.2f} | {r['relight_psnr']:.2f} | {r['relight_ssim']:.4f} | {r['seconds']:.1f} |")
+        print(f"| {r['asset']} / {r['predictor']} | " + line(r))
     if args.json:
         with open(args.json + ".tmp", "w") as f:
             json.dump(dict(config=dict(vars(args)), overall=overall, rows=rows), f, indent=1)
