@@ -18,6 +18,11 @@ interrupted run resumes):
   metal   uint8 HxW    ground truth metallic, linear
   normal  f16 HxWx3    unit normal (camera space: the camera looks down -Z), for re-render losses
   env     int          index into the sorted training map names (meta.json), env_rot [3x3], exposure, wb
+With --views 6 (training data for SuperMatMV) a sample is one object in the six official views: the arrays
+above gain a view axis after the sample axis (rgba [6xHxWx4], ..., normals in each view's camera frame),
+plus cams [6x4x4], the camera-to-world matrices supermat_uv.h uses (read from it); the object is moved
+into supermat_uv.h's view frame (bounding box centred, largest half extent 1, world Z up, views covering
+[-1.1, 1.1]) and lit once for all six (map and sun fixed in the world, one exposure and white balance).
 Objects: 1-3 of superquadric / ellipsoid / torus / rounded box / capsule / displaced blob, smoothly
 united, randomly rotated, orthographic camera, 2x2 supersampling.  Materials in object space: fBm,
 Voronoi cells, stripes, checks, decals, worn edges (exposed metal under paint), roughness over
@@ -450,6 +455,25 @@ def eval_material(m, q, curv):
 # ----------------------------------------------------------------------------------------------------------
 # one sample
 # ----------------------------------------------------------------------------------------------------------
+def surface(obj, mats, p):
+    """Normals and material maps at surface points p (world): no random draws."""
+    n = normals(obj, p)
+    # curvature proxy: how much the SDF bends around p (mean of 6 offsets), positive on convex edges
+    hh = 0.02
+    lap = sum(obj.sdf(p + np.eye(3, dtype=np.float32)[i] * s * hh) for i in range(3) for s in (-1, 1)) / 6
+    curv = np.clip(lap / hh * 4, -1, 1).astype(np.float32)
+    parts = np.stack(obj.sdf_parts(p), -1).argmin(-1)
+    q = obj.local(p)
+    alb = np.zeros((p.shape[0], 3), np.float32)
+    rough = np.zeros(p.shape[0], np.float32)
+    metal = np.zeros(p.shape[0], np.float32)
+    for k, m in enumerate(mats):
+        sel = parts == k
+        if sel.any():
+            alb[sel], rough[sel], metal[sel] = eval_material(m, q[sel], curv[sel])
+    return n, alb, rough, metal
+
+
 def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None):
     obj = Obj(rng)
     mats = [make_material(rng, mode_p, floor, anodised, photo, photos) for _ in obj.shapes]
@@ -464,20 +488,7 @@ def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANOD
     hit, t = trace(obj, o, d)
     idx = np.nonzero(hit)[0]
     p = o[idx] + d[idx] * t[idx, None]
-    n = normals(obj, p)
-    # curvature proxy: how much the SDF bends around p (mean of 6 offsets), positive on convex edges
-    hh = 0.02
-    lap = sum(obj.sdf(p + np.eye(3, dtype=np.float32)[i] * s * hh) for i in range(3) for s in (-1, 1)) / 6
-    curv = np.clip(lap / hh * 4, -1, 1).astype(np.float32)
-    parts = np.stack(obj.sdf_parts(p), -1).argmin(-1)
-    q = obj.local(p)
-    alb = np.zeros((idx.size, 3), np.float32)
-    rough = np.zeros(idx.size, np.float32)
-    metal = np.zeros(idx.size, np.float32)
-    for k, m in enumerate(mats):
-        sel = parts == k
-        if sel.any():
-            alb[sel], rough[sel], metal[sel] = eval_material(m, q[sel], curv[sel])
+    n, alb, rough, metal = surface(obj, mats, p)
     gb = {"cov": hit.reshape(S, S).astype(np.float32)}
     for key, val, ch in (("n", n, 3), ("p", p, 3), ("albedo", alb, 3), ("rough", rough, 1), ("metal", metal, 1)):
         a = np.zeros((S * S, ch), np.float32)
@@ -524,6 +535,138 @@ def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANOD
             "exposure": np.float32(expo), "wb": wb}
 
 
+# ----------------------------------------------------------------------------------------------------------
+# the six official views (SuperMatMV): supermat_uv.h's cameras and view frame
+# ----------------------------------------------------------------------------------------------------------
+ORTHO_HALF_WIDTH = 1.1                      # supermat_uv.h: the views cover [-1.1, 1.1] of the view frame
+Z_UP_TO_MAP = np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]], np.float32)   # world (Z up) -> map (Y up)
+
+
+def official_cameras():
+    """The six camera-to-world matrices (4x4, float64) as supermat_uv.h holds them (read from that file,
+    so that the data and the runtime never disagree): columns X, Y, Z (the camera looks down -Z, +Y up)
+    and the translation."""
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "supermat_uv.h")
+    with open(path) as f:
+        text = f.read()
+    body = text[text.index("supermat_uv__cam[SUPERMAT_UV_VIEWS][16] = {"):]
+    body = body[body.index("{") + 1:body.index("};")]
+    rows = [r for r in body.replace("\n", " ").split("}") if "{" in r]
+    cams = np.array([[float(v) for v in r[r.index("{") + 1:].split(",") if v.strip()] for r in rows])
+    if cams.shape != (6, 16):
+        raise SystemExit(f"gen_data: {path}: cannot read the six cameras ({cams.shape})")
+    return cams.reshape(6, 4, 4)
+
+
+def view_frame(obj, passes=((64, 1.3), (128, 1.05))):
+    """Move and scale the object into supermat_uv.h's view frame: its bounding box centred, its largest
+    half extent 1.  The box comes from silhouettes traced along -Z and -Y (the SDF has no vertices), each
+    side widened by half a pixel: within 1.05 / 128 of the true extent after the second pass."""
+    for n, half in passes:
+        xs = (np.arange(n, dtype=np.float32) + 0.5) / n * 2 * half - half
+        A, B = np.meshgrid(xs, xs)
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for axis in (2, 1):
+            other = [a for a in range(3) if a != axis]
+            o = np.zeros((n * n, 3), np.float32)
+            o[:, other[0]], o[:, other[1]], o[:, axis] = A.ravel(), B.ravel(), 3.0
+            d = np.zeros((n * n, 3), np.float32)
+            d[:, axis] = -1
+            hit, _ = trace(obj, o, d, steps=64, eps=1e-3)
+            if not hit.any():
+                return False
+            for k in other:
+                lo[k] = min(lo[k], o[hit, k].min() - half / n)
+                hi[k] = max(hi[k], o[hit, k].max() + half / n)
+        c = (lo + hi) / 2
+        f = 1.0 / max(float((hi - lo).max()) / 2, 1e-3)
+        obj.center = ((obj.center - c) * f).astype(np.float32)
+        obj.scale *= f
+    return True
+
+
+def render_views(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None,
+                 keep_pos=False):
+    """One object in the six official views under one world-fixed lighting (the map, its rotation about
+    the world's up axis, a sun and its shadows, one exposure and white balance for all six): the arrays
+    of render_sample with a leading view axis, normals in each view's camera frame, and `cams` (6x4x4,
+    the camera-to-world matrices).  The object: render_sample's draws, then the view frame (above)."""
+    obj = Obj(rng)
+    mats = [make_material(rng, mode_p, floor, anodised, photo, photos) for _ in obj.shapes]
+    if rng.random() < 0.3:
+        mats = [mats[0]] * len(mats)
+    if not view_frame(obj):
+        return None
+    cams = official_cameras()
+    ei = int(rng.integers(len(envs)))
+    env_rot = R.rotation_y(rng.uniform(0, 2 * np.pi)) @ (R.rotation_y(0) if rng.random() < 0.7 else _tilt(rng))
+    rot_world = (env_rot @ Z_UP_TO_MAP).astype(np.float32)
+    sun = None
+    if rng.random() < 0.3:
+        ld = rng.normal(size=3)
+        ld[2] = abs(ld[2]) + 0.3                               # from above (world Z up)
+        sun = dict(dir=(ld / np.linalg.norm(ld)).astype(np.float32),
+                   rgb=np.array([1.0, 0.95, 0.85], np.float32) * float(R.luminance(envs[ei].irr).mean())
+                   * rng.uniform(1.0, 4.0))
+    S = size * ss
+    xs = ((np.arange(S, dtype=np.float32) + 0.5) / S * 2 - 1) * ORTHO_HALF_WIDTH
+    Xc, Yc = (a.ravel() for a in np.meshgrid(xs, -xs))
+    views = []
+    for cam in cams:
+        Rc = cam[:3, :3].astype(np.float32)                      # columns: the camera's X, Y, Z in the world
+        T = cam[:3, 3].astype(np.float32)
+        o = T + Xc[:, None] * Rc[:, 0] + Yc[:, None] * Rc[:, 1] + 3.0 * Rc[:, 2]
+        d = np.tile(-Rc[:, 2], (S * S, 1))
+        hit, t = trace(obj, o, d, tmax=8.0)
+        idx = np.nonzero(hit)[0]
+        p = o[idx] + d[idx] * t[idx, None]
+        n, alb, rough, metal = surface(obj, mats, p)
+        gb = {"cov": hit.reshape(S, S).astype(np.float32)}
+        for key, val, ch in (("n", n @ Rc, 3), ("p", p, 3), ("albedo", alb, 3), ("rough", rough, 1),
+                             ("metal", metal, 1)):
+            a = np.zeros((S * S, ch), np.float32)
+            a[idx] = val.reshape(idx.size, ch)
+            gb[key] = a.reshape(S, S, ch) if ch == 3 else a.reshape(S, S)
+        sun_v = None
+        if sun is not None:
+            vis = np.zeros(S * S, np.float32)
+            vis[idx] = soft_shadow(obj, p + n * 2e-3, sun["dir"])
+            sun_v = dict(dir=sun["dir"] @ Rc, rgb=sun["rgb"], vis=vis.reshape(S, S))
+        lin = R.shade(gb, envs[ei], rot_world @ Rc, sun_v)
+        cov = R.box_down(gb["cov"], ss)
+        w = np.maximum(cov, 1e-8)
+
+        def down(a, gb=gb, w=w):
+            if a.ndim == 2:
+                return R.box_down(a * gb["cov"], ss) / w
+            return R.box_down(a * gb["cov"][..., None], ss) / w[..., None]
+        views.append(dict(lin=down(lin), cov=cov, gb=gb, down=down))
+    key = rng.uniform(0.16, 0.32)
+    lin_all = np.concatenate([v["lin"] for v in views], 0)
+    cov_all = np.concatenate([v["cov"] for v in views], 0)
+    expo = R.auto_exposure(lin_all, cov_all, key) * float(2 ** rng.normal(0, 0.3))
+    wt = rng.uniform(-0.08, 0.08)
+    wb = np.array([1 + wt, 1 + rng.uniform(-0.03, 0.03), 1 - wt], np.float32)
+    wb /= wb.mean()
+    q8 = lambda x: np.clip(np.round(x * 255), 0, 255).astype(np.uint8)  # noqa: E731
+    out = {k: [] for k in ("rgba", "albedo", "rough", "metal", "normal") + (("pos",) if keep_pos else ())}
+    for v in views:
+        alpha, down, gb = v["cov"], v["down"], v["gb"]
+        rgb = R.tonemap(v["lin"], expo, wb)
+        out["rgba"].append(q8(np.concatenate([np.where(alpha[..., None] > 0, rgb, 0), alpha[..., None]], -1)))
+        out["albedo"].append(q8(R.srgb_encode(down(gb["albedo"])) * (alpha[..., None] > 0)))
+        out["rough"].append(q8(down(gb["rough"]) * (alpha > 0)))
+        out["metal"].append(q8(down(gb["metal"]) * (alpha > 0)))
+        nrm = down(gb["n"])
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-8)
+        out["normal"].append((nrm * (alpha[..., None] > 0)).astype(np.float16))
+        if keep_pos:
+            out["pos"].append(down(gb["p"]))
+    out = {k: np.stack(a) for k, a in out.items()}
+    out.update(cams=cams.astype(np.float32), env=ei, env_rot=env_rot, exposure=np.float32(expo), wb=wb)
+    return out
+
+
 def _tilt(rng):
     a = rng.uniform(-0.3, 0.3)
     c, s = np.cos(a), np.sin(a)
@@ -551,9 +694,10 @@ def make_shard(args, shard):
     for i in range(first, min(first + args.shard, args.count)):
         rng = np.random.default_rng([args.seed, i])
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
-            s = render_sample(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
-                              anodised=args.anodised, photo=args.photo, photos=photos)
-            if s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
+            render = render_views if args.views == 6 else render_sample
+            s = render(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
+                       anodised=args.anodised, photo=args.photo, photos=photos)
+            if s is not None and s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
     out = {k: np.stack([s[k] for s in samples]) for k in samples[0]}
@@ -605,6 +749,9 @@ def main():
                          "(PBR charts put dielectric albedo at 30-240 of 255 sRGB; 0.12 = 31)")
     ap.add_argument("--anodised", type=float, default=0.25,
                     help="probability that a metal is a random coloured (anodised) one (default 0.25)")
+    ap.add_argument("--views", type=int, default=1, choices=(1, 6),
+                    help="6: each sample is one object in the six official SuperMatMV views (supermat_uv.h's "
+                         "cameras and view frame, Z up), lit alike; arrays gain a view axis, plus cams [6x4x4]")
     ap.add_argument("--photo", type=float, default=0.0,
                     help="probability that a material's albedo is a photographic crop of a training environment map "
                          "(hue-turned and resaturated at random; default 0: the procedural palettes only)")
@@ -616,13 +763,15 @@ def main():
         raise SystemExit("gen_data: --mode-probs wants four probabilities that sum to 1")
     os.makedirs(args.out, exist_ok=True)
     if args.examples:
+        if args.views != 1:
+            raise SystemExit("gen_data: --examples writes single-view pictures (no --views 6)")
         write_examples(args)
         return
     paths = env_paths(args.hdri_dir)
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
     meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
-            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo,
+            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo, "views": args.views,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)

@@ -1,0 +1,142 @@
+#!/usr/bin/env python3
+"""ctest gen_views: tools/gen_data.py --views 6 (SuperMatMV training data) against supermat_uv.h's geometry.
+
+usage: test_gen_views.py OUT_DIR
+
+The surface points of each view (kept by render_views(keep_pos=True)) are projected into every other view with
+supermat_uv.h's own orthographic projection, written out again here (pixel = ((X.(q - T)) / 1.1 + 1) W / 2,
+row = (1 - (Y.(q - T)) / 1.1) H / 2); where the other view sees the same point (its position within 0.05), the
+true albedo and the world normal must agree: a camera, axis or pixel convention that differs from the
+runtime's breaks that.  Also: the object fills supermat_uv.h's view frame (bounding box centred within 0.04,
+largest half extent 0.93..1.02 from the pixels' positions), the views are lit alike (one exposure), the same
+seed gives the same arrays, and the command line writes shards with a view axis and the cameras.
+Lighting: a synthetic sky map written here (no map from elsewhere is needed).
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, "..", "..")
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import gen_data as G  # noqa: E402
+import smrender as R  # noqa: E402
+
+fails = 0
+
+
+def check(ok, what):
+    global fails
+    print(("ok   " if ok else "FAIL ") + what)
+    fails += 0 if ok else 1
+
+
+def write_hdr(path, img):
+    h, w, _ = img.shape
+    m = img.max(-1)
+    e = np.where(m > 1e-32, np.floor(np.log2(np.maximum(m, 1e-32))) + 1, 0)
+    sc = np.where(m > 1e-32, 256.0 / np.exp2(e), 0)
+    rgbe = np.zeros((h, w, 4), np.uint8)
+    rgbe[..., :3] = np.clip(np.floor(img * sc[..., None]), 0, 255)
+    rgbe[..., 3] = np.where(m > 1e-32, e + 128, 0)
+    with open(path, "wb") as f:
+        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {h} +X {w}\n".encode() + rgbe.tobytes())
+
+
+def cameras_from_header():
+    """supermat_uv.h's matrices, parsed here independently of gen_data.official_cameras."""
+    text = open(os.path.join(ROOT, "supermat_uv.h")).read()
+    start = text.index("supermat_uv__cam[SUPERMAT_UV_VIEWS][16]")
+    block = text[text.index("{", start) + 1:text.index("};", start)]
+    nums = [float(t) for t in block.replace("{", " ").replace("}", " ").replace(",", " ").split()]
+    return np.array(nums).reshape(6, 4, 4)
+
+
+def main():
+    out = sys.argv[1]
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(os.path.join(out, "hdri"))
+    sky = np.full((64, 128, 3), 0.05, np.float32)
+    sky[:32] = np.linspace(0.3, 2.0, 32)[:, None, None] * np.array([0.8, 0.9, 1.0], np.float32)
+    sky[4:10, 40:50] = 40.0                                   # a sun-like spot: lighting that is not uniform
+    write_hdr(os.path.join(out, "hdri", "test_sky.hdr"), sky)
+    envs = [R.EnvLight(p) for p in G.env_paths(os.path.join(out, "hdri"))]
+
+    cams = G.official_cameras()
+    check(np.array_equal(cams, cameras_from_header()), "the six cameras are supermat_uv.h's")
+    size, hw = 64, 1.1
+    matched, alb_err, ang = 0, [], []
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for seed in range(3):
+        s = G.render_views(np.random.default_rng([11, seed]), envs, size, keep_pos=True)
+        check(s is not None and s["rgba"].shape == (6, size, size, 4) and s["cams"].shape == (6, 4, 4),
+              f"seed {seed}: six views of {size}x{size}")
+        full = s["rgba"][..., 3] == 255
+        for v in range(6):
+            P = s["pos"][v][full[v]]
+            lo, hi = np.minimum(lo, P.min(0)), np.maximum(hi, P.max(0))
+        wn = [s["normal"][v].astype(np.float64) @ cams[v][:3, :3].T for v in range(6)]   # camera -> world
+        for a in range(6):
+            ya, xa = np.nonzero(full[a])
+            q = s["pos"][a][ya, xa].astype(np.float64)
+            for b in range(6):
+                if a == b:
+                    continue
+                X, Y, Z, T = cams[b][:3, 0], cams[b][:3, 1], cams[b][:3, 2], cams[b][:3, 3]
+                r = q - T
+                fx = ((r @ X) / hw + 1) * 0.5 * size
+                fy = (1 - (r @ Y) / hw) * 0.5 * size
+                ix, iy = np.floor(fx).astype(int), np.floor(fy).astype(int)
+                ok = (ix >= 0) & (ix < size) & (iy >= 0) & (iy < size)
+                ix, iy, sel = ix[ok], iy[ok], np.nonzero(ok)[0]
+                vis = full[b][iy, ix] & (np.linalg.norm(s["pos"][b][iy, ix] - q[sel], axis=1) < 0.05)
+                # only points the other view sees face-on enough (grazing views mix neighbouring texels)
+                vis &= s["normal"][b][iy, ix, 2].astype(np.float64) > 0.3
+                vis &= s["normal"][a][ya[sel], xa[sel], 2].astype(np.float64) > 0.3
+                if not vis.any():
+                    continue
+                i = sel[vis]
+                matched += int(vis.sum())
+                alb_err.append(np.abs(s["albedo"][a][ya[i], xa[i]].astype(np.float64)
+                                      - s["albedo"][b][iy[vis], ix[vis]]).mean(1))
+                na, nb = wn[a][ya[i], xa[i]], wn[b][iy[vis], ix[vis]]
+                ang.append(np.degrees(np.arccos(np.clip((na * nb).sum(1) / np.linalg.norm(na, axis=1)
+                                                        / np.linalg.norm(nb, axis=1), -1, 1))))
+    alb_err, ang = np.concatenate(alb_err), np.concatenate(ang)
+    print(f"     {matched} points seen by two views: albedo |diff| median {np.median(alb_err):.1f} / 255, "
+          f"mean {alb_err.mean():.1f}; world normals median {np.median(ang):.1f} deg, mean {ang.mean():.1f}")
+    check(matched >= 10000, f"at least 10000 points seen in two views ({matched}; a flipped row convention leaves ~1000)")
+    check(np.median(alb_err) <= 3 and alb_err.mean() <= 12,
+          "the same point's true albedo in two views: median <= 3/255, mean <= 12/255")
+    check(np.median(ang) <= 5 and ang.mean() <= 10, "the same point's world normal in two views: median <= 5, mean <= 10 deg")
+    c, half = (lo + hi) / 2, (hi - lo) / 2
+    print(f"     positions over all views: centre {np.round(c, 3)}, largest half extent {half.max():.3f}")
+    check(np.abs(c).max() <= 0.04 and 0.93 <= half.max() <= 1.02, "the object in supermat_uv.h's view frame")
+
+    s1 = G.render_views(np.random.default_rng([11, 0]), envs, 32)
+    s2 = G.render_views(np.random.default_rng([11, 0]), envs, 32)
+    check(all(np.array_equal(np.asarray(s1[k]), np.asarray(s2[k])) for k in s1), "the same seed, the same arrays")
+    check(np.ndim(s1["exposure"]) == 0, "one exposure for the six views")
+
+    d = os.path.join(out, "data")
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "gen_data.py"), "--hdri-dir", os.path.join(out, "hdri"),
+                        "--out", d, "--count", "3", "--size", "32", "--shard", "2", "--jobs", "1", "--views", "6"],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    check(r.returncode == 0, "gen_data.py --views 6: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-1500:]))
+    if r.returncode == 0:
+        z0, z1 = np.load(os.path.join(d, "shard_0000.npz")), np.load(os.path.join(d, "shard_0001.npz"))
+        check(z0["rgba"].shape == (2, 6, 32, 32, 4) and z1["rgba"].shape == (1, 6, 32, 32, 4)
+              and z0["cams"].shape == (2, 6, 4, 4) and np.allclose(z0["cams"][1], cams.astype(np.float32)),
+              "shards: samples x 6 views, the cameras with them")
+        with open(os.path.join(d, "meta.json")) as f:
+            check(json.load(f)["views"] == 6, "meta.json says views 6")
+    print(f"gen_views: {fails} failed")
+    return 1 if fails else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
