@@ -5,8 +5,8 @@ What it does
   1. loads each glTF 2.0 asset (.gltf + .bin + PNG/JPEG textures): every TRIANGLES (also strip / fan)
      primitive reachable from the default scene (or from the node FILE.gltf#NODE names), node transforms
      applied, with its pbrMetallicRoughness material (base colour factor x texture, sRGB -> linear;
-     roughness / metallic factors x the G / B channels of metallicRoughnessTexture).  Normal, occlusion and emissive maps, vertex colours, alpha
-     modes and KHR_texture_transform are ignored;
+     roughness / metallic factors x the G / B channels of metallicRoughnessTexture).  Normal, occlusion
+     and emissive maps, vertex colours, alpha modes and KHR_texture_transform are ignored;
   2. per view (view 0: the asset's own front, +Y up, facing +Z; then seeded random rotations) centres the
      rotated mesh's projected bounding box, scales its larger side to 0.85 of the orthographic frame and
      rasterises a G-buffer at 2x the output size (numpy z-buffer; trilinear mip-mapped texture lookups,
@@ -239,7 +239,8 @@ class Mesh:
                     UV.append(np.zeros(tri.shape + (2,)))
                 mat.append(np.full(len(tri), prim.get("material", len(self.materials) - 1), np.int64))
         if not P:
-            raise ValueError(f"{path}: no triangles in " + (f"node {node_name!r}" if node_name else "the default scene"))
+            where = f"node {node_name!r}" if node_name else "the default scene"
+            raise ValueError(f"{path}: no triangles in {where}")
         self.P, self.N, self.UV = np.concatenate(P), np.concatenate(N), np.concatenate(UV)
         self.mat = np.concatenate(mat)
 

@@ -86,7 +86,7 @@ def main():
             for b in range(6):
                 if a == b:
                     continue
-                X, Y, Z, T = cams[b][:3, 0], cams[b][:3, 1], cams[b][:3, 2], cams[b][:3, 3]
+                X, Y, T = cams[b][:3, 0], cams[b][:3, 1], cams[b][:3, 3]
                 r = q - T
                 fx = ((r @ X) / hw + 1) * 0.5 * size
                 fy = (1 - (r @ Y) / hw) * 0.5 * size

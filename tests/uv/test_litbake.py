@@ -17,11 +17,9 @@ usage: test_litbake.py SUPERMAT_MESH OUT_DIR [TINY_MV TINY_UV SUPERMAT]
 5. with the tiny models: tools/eval_bake.py on the quad (the truth as a bake, the lit baseline's numbers
    recomputed here, a bake with the tiny random models).
 """
-import base64
 import json
 import os
 import shutil
-import struct
 import subprocess
 import sys
 
