@@ -5,6 +5,7 @@
 #
 #   here:   HARNESS_DEPS=<deps> HDRI=<hdri dir> bash tools/train_gpu.sh pack      -> .gpu/payload.tar.gz
 #   there:  OUT=<folder> bash tools/train_gpu.sh device                            -> OUT/unet_*.npz, logs
+#   there:  OUT=<folder> bash tools/train_gpu.sh device-mv                         -> OUT/unet_mv.npz (SuperMatMV)
 #   back:   bash tools/train_gpu.sh import OUT/unet_ft_e2e.npz RUN ft_e2e                 -> RUN/ckpt_ft_e2e.pt
 #           then train_default.py --data D --out RUN --init-from models/supermat_default.safetensors
 #           --phases export, and `supermat convert` as in train_default.sh
@@ -31,6 +32,8 @@
 #   step of batch 64 203 ms, an end-to-end step of batch 32 263 ms; 488 s for renders, 242 latent and 730
 #   end-to-end steps; a second call (PHASES=e2e_more,export) 2 075 renders and 354 steps in 273 s.  Batches built
 #   on the device did not make the end-to-end step faster (263 against 271 ms): it is bound elsewhere, unprofiled.
+# device-mv measured (2026-11-26, H100, 16 cores; GEN_S=120 MV_S=150): 488 six-view objects in 128 s, 533 steps
+#   of 8 objects x 6 views (255 ms a step), 292 s in all (README, "A first multi-view model").
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 mode="${1:-}"
@@ -72,7 +75,58 @@ print(f"{npz} -> {run}/ckpt_{ph}.pt ({len(sd)} tensors)")
 EOF
     exit 0
 fi
-[ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|import" >&2; exit 2; }
+if [ "$mode" = device-mv ]; then
+    # six-view renders on the device's cores, then tools/train_mv.py from INIT (the shipped single-view model);
+    # gives back the multi-view UNet as float16 npz (OUT/unet_mv.npz: the f32 .pth is over the lent machine's
+    # size limit for returned files), its report and logs.  Import here: `train_gpu.sh import-mv NPZ RELEASE`.
+    : "${OUT:?}"
+    T0=$(date +%s)
+    W="${W:-/tmp/smgpu}"
+    rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
+    export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
+    PY="${PY:-python3}"
+    $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
+    nvidia-smi -L > "$OUT/env.txt" 2>&1
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 timeout -s INT "${GEN_S:-120}" $PY tools/gen_data.py --hdri-dir "$W/w/hdri" \
+        --out "$W/mv" --count 100000 --size 128 --shard 8 --seed "${SEED:-21}" --jobs "$(nproc)" --views 6 \
+        --photo "${PHOTO:-0.5}" --mode-probs 0.62,0.12,0.13,0.13 > "$W/gen.log" 2>&1
+    pkill -f tools/gen_data.py; sleep 1
+    echo "renders: $(ls "$W/mv" | grep -c '^shard_') shards of 8 objects at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
+    timeout "${TRAIN_TIMEOUT:-230}" $PY tools/train_mv.py --data "$W/mv" --out "$W/run" \
+        --init-from "${INIT:-models/supermat_default.safetensors}" --hdri-dir "$W/w/hdri" --device cuda --amp bf16 \
+        --threads 8 --steps 100000 --batch "${MV_BATCH:-8}" --lr "${MV_LR:-1e-4}" --seconds "mv=${MV_S:-150}" \
+        --ckpt-every 30 > "$OUT/train_mv.log" 2>&1
+    echo "training rc $? at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
+    $PY - "$W/run" "$OUT" <<'EOF2'
+import os, sys
+import numpy as np
+import torch
+run, out = sys.argv[1:]
+st = torch.load(os.path.join(run, "ckpt_mv.pt"), map_location="cpu", weights_only=False)
+np.savez(os.path.join(out, "unet_mv.npz"), **{k: v.half().numpy() for k, v in st["models"]["unet"].items()})
+print("mv step", st["step"], "of", st.get("total"))
+EOF2
+    cp "$W/run/release/report_mv.json" "$W/run/log_mv.txt" "$OUT/" 2>/dev/null
+    echo "device: $(( $(date +%s) - T0 )) s"
+    exit 0
+fi
+if [ "$mode" = import-mv ]; then
+    # NPZ (device-mv's unet_mv.npz) -> RELEASE/supermat_mv.pth; RELEASE/base: a train_mv.py run's release/base
+    # (or train_default.py's: the same text encoder, scheduler and VAE); then `supermat convert --kind supermat-mv`
+    [ $# -eq 3 ] || { echo "usage: train_gpu.sh import-mv NPZ RELEASE" >&2; exit 2; }
+    /usr/bin/python3 - "$2" "$3" <<'EOF2' || exit 1
+import os, sys
+import numpy as np
+import torch
+npz, rel = sys.argv[1:]
+z = np.load(npz)
+torch.save({k: torch.from_numpy(z[k].astype(np.float32)) for k in z.files}, os.path.join(rel, "supermat_mv.pth.tmp"))
+os.replace(os.path.join(rel, "supermat_mv.pth.tmp"), os.path.join(rel, "supermat_mv.pth"))
+print(f"{npz} -> {rel}/supermat_mv.pth ({len(z.files)} tensors)")
+EOF2
+    exit 0
+fi
+[ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|device-mv|import|import-mv" >&2; exit 2; }
 : "${OUT:?}"
 T0=$(date +%s)
 W="${W:-/tmp/smgpu}"
