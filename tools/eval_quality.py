@@ -362,6 +362,12 @@ def gbuffer(mesh, rot, res):
     N = mesh.N @ rot.T.astype(np.float64)
     lo, hi = P.reshape(-1, 3).min(0), P.reshape(-1, 3).max(0)
     P = (P - (lo + hi) / 2) * (2 * FRAME_FILL / max(hi[0] - lo[0], hi[1] - lo[1]))
+    return gbuffer_framed(mesh, P, N, res)
+
+
+def gbuffer_framed(mesh, P, N, res):
+    """The G-buffer of corners P and normals N (F x 3 x 3) already in the frame: x right and y up in
+    [-1, 1], z towards the viewer (larger = nearer)."""
     xy = np.stack([(P[..., 0] + 1) * 0.5 * res, (1 - P[..., 1]) * 0.5 * res], -1)
     tri, bary = rasterize(xy, P[..., 2], res)
     hit = tri >= 0

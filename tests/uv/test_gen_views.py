@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """ctest gen_views: tools/gen_data.py --views 6 (SuperMatMV training data) against supermat_uv.h's geometry.
 
-usage: test_gen_views.py OUT_DIR
+usage: test_gen_views.py OUT_DIR [SUPERMAT_MESH]
 
 The surface points of each view (kept by render_views(keep_pos=True)) are projected into every other view with
 supermat_uv.h's own orthographic projection, written out again here (pixel = ((X.(q - T)) / 1.1 + 1) W / 2,
@@ -9,7 +9,8 @@ row = (1 - (Y.(q - T)) / 1.1) H / 2); where the other view sees the same point (
 true albedo and the world normal must agree: a camera, axis or pixel convention that differs from the
 runtime's breaks that.  Also: the object fills supermat_uv.h's view frame (bounding box centred within 0.04,
 largest half extent 0.93..1.02 from the pixels' positions), the views are lit alike (one exposure), the same
-seed gives the same arrays, and the command line writes shards with a view axis and the cameras.
+seed gives the same arrays, and the command line writes shards with a view axis and the cameras.  With
+SUPERMAT_MESH: tools/eval_views.py's six views of an asymmetric glTF have the silhouettes of `supermat mesh`'s.
 Lighting: a synthetic sky map written here (no map from elsewhere is needed).
 """
 import json
@@ -134,6 +135,45 @@ def main():
               "shards: samples x 6 views, the cameras with them")
         with open(os.path.join(d, "meta.json")) as f:
             check(json.load(f)["views"] == 6, "meta.json says views 6")
+    # tools/eval_views.py renders an asset in the six views as `supermat mesh` does (its --debug-dir views): an
+    # asymmetric glTF (a box with a smaller box on its +X / +Y / +Z corner), silhouettes compared per view
+    if len(sys.argv) > 2:
+        import eval_quality as evq
+        import eval_views as EV
+        from PIL import Image
+        sys.path.insert(0, HERE)
+        from test_litbake import write_gltf
+        adir = os.path.join(out, "asset")
+        os.makedirs(adir, exist_ok=True)
+        Image.fromarray(np.full((4, 4, 3), 180, np.uint8)).save(os.path.join(adir, "base.png"))
+        Image.fromarray(np.full((4, 4, 3), 128, np.uint8)).save(os.path.join(adir, "mr.png"))
+
+        def box(lo, hi):
+            (x0, y0, z0), (x1, y1, z1) = lo, hi
+            uv = [(0, 1), (1, 1), (1, 0), (0, 0)]
+            return [([(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)], (0, 0, 1), uv),
+                    ([(x1, y0, z0), (x0, y0, z0), (x0, y1, z0), (x1, y1, z0)], (0, 0, -1), uv),
+                    ([(x1, y0, z1), (x1, y0, z0), (x1, y1, z0), (x1, y1, z1)], (1, 0, 0), uv),
+                    ([(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)], (-1, 0, 0), uv),
+                    ([(x0, y1, z1), (x1, y1, z1), (x1, y1, z0), (x0, y1, z0)], (0, 1, 0), uv),
+                    ([(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)], (0, -1, 0), uv)]
+        write_gltf(os.path.join(adir, "boxes.gltf"), box((-1, -0.6, -0.4), (0.6, 0.5, 0.5)) + box((0.3, 0.2, 0.2), (1.0, 1.1, 0.9)))
+        dbg = os.path.join(out, "mesh_views")
+        os.makedirs(dbg, exist_ok=True)
+        r = subprocess.run([sys.argv[2], "--passthrough", "--force", "--debug-dir", dbg, "--views-size", "96", "--size", "64",
+                            os.path.join(adir, "boxes.gltf"), os.path.join(dbg, "o.gltf")],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        check(r.returncode == 0, "supermat mesh --debug-dir on the boxes: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr))
+        if r.returncode == 0:
+            rgba, _, _ = EV.six_views(evq.Mesh(os.path.join(adir, "boxes.gltf")), 96, envs[0], 0.0, 0.2)
+            ious = []
+            for v in range(6):
+                a = rgba[v][..., 3] >= 128
+                b = np.asarray(Image.open(os.path.join(dbg, f"view_{v}.png")))[..., 3] >= 128
+                ious.append((a & b).sum() / max((a | b).sum(), 1))
+            print("     eval_views vs supermat mesh silhouettes, IoU per view: " + " ".join(f"{i:.3f}" for i in ious))
+            check(min(ious) >= 0.95, "eval_views renders the six views as supermat mesh does (IoU >= 0.95 each)")
+
     print(f"gen_views: {fails} failed")
     return 1 if fails else 0
 
