@@ -13,6 +13,8 @@ For each asset (FILE.gltf, or FILE.gltf#NODE for one node's subtree):
                     PSNR says how far the texture resampling alone moves the renders)
        NAME=MV,ALB,RM  `supermat mesh` with those three model files (SuperMatMV, albedo and
                     roughness/metallic UV refine), --bake NAME=MV,ALB,RM, repeatable
+       NAME=MV      `supermat mesh --no-refine`: the multi-view model alone (the paper's ablation without
+                    the refine networks)
   3. measures, on the chart texels (the mask): masked PSNR and SSIM of the albedo (sRGB 8-bit), of the
      roughness and of the metallic texture (linear 8-bit); and the novel-view relighting check: --views views
      of the baked asset and of the original (seeded rotations), shaded under a second held-out map
@@ -87,7 +89,7 @@ def main():
     ap.add_argument("--env-bake", default=evq.HELD_OUT_ENVS[0], help="the map of the lit bake")
     ap.add_argument("--env-relight", default=evq.HELD_OUT_ENVS[1], help="the map of the relighting check")
     ap.add_argument("--bake", action="append", default=[], metavar="NAME=MV,ALB,RM",
-                    help="a predictor: supermat mesh with these three model files (repeatable)")
+                    help="a predictor: supermat mesh with these three model files, or NAME=MV: --no-refine (repeatable)")
     ap.add_argument("--baselines", default="lit,passthrough", help="comma list of lit, passthrough, truth")
     ap.add_argument("--size", type=int, default=1024, help="texture size (default 1024)")
     ap.add_argument("--views-size", type=int, default=512, help="supermat mesh --views-size (default 512)")
@@ -103,8 +105,8 @@ def main():
     for b in args.bake:
         name, _, files = b.partition("=")
         files = files.split(",")
-        if not name or len(files) != 3 or name in ("lit", "passthrough", "truth"):
-            ap.error(f"--bake NAME=MV,ALB,RM, not {b!r}")
+        if not name or len(files) not in (1, 3) or name in ("lit", "passthrough", "truth"):
+            ap.error(f"--bake NAME=MV,ALB,RM or NAME=MV, not {b!r}")
         for f in files:
             if not os.path.isfile(f):
                 ap.error(f"--bake {name}: no model file {f}")
@@ -169,8 +171,9 @@ def main():
                 if kind == "passthrough":
                     cmd.append("--passthrough")
                 else:
-                    mv, alb, rm = dict(bakes)[kind]
-                    cmd += ["--mv-model", mv, "--albedo-refine", alb, "--rm-refine", rm]
+                    files = dict(bakes)[kind]
+                    cmd += ["--mv-model", files[0]]
+                    cmd += ["--albedo-refine", files[1], "--rm-refine", files[2]] if len(files) == 3 else ["--no-refine"]
                 r = subprocess.run(cmd + [lit_gltf, gltf], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    universal_newlines=True)
                 if r.returncode != 0:

@@ -231,6 +231,7 @@ def main():
                os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
                "--size", "16", "--views-size", "64", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
+               "--bake", f"tiny_mv={sys.argv[3]}",
                "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 0, "eval_bake: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-2000:]))
@@ -253,6 +254,18 @@ def main():
                   f"this test's own {own:.3f} / {own_m:.3f}")
             check(all(np.isfinite(res["tiny"][k]) for k in ("albedo_psnr", "rough_psnr", "metal_psnr", "relight_psnr")),
                   "eval_bake: the tiny models' bake measured")
+            # --no-refine: the multi-view model's back-projection alone, which the refine networks then change
+            nr = res["tiny_mv"]
+            check(all(np.isfinite(nr[k]) for k in ("albedo_psnr", "rough_psnr", "metal_psnr"))
+                  and abs(nr["albedo_psnr"] - res["tiny"]["albedo_psnr"]) > 1e-3,
+                  f"eval_bake NAME=MV (supermat mesh --no-refine): measured, {nr['albedo_psnr']:.2f} dB against "
+                  f"{res['tiny']['albedo_psnr']:.2f} with the refine models")
+        r = subprocess.run([mesh_exe, "--no-refine", "--passthrough", "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, universal_newlines=True)
+        check(r.returncode == 2 and "--no-refine" in r.stderr, "supermat mesh --no-refine --passthrough: usage error")
+        r = subprocess.run([mesh_exe, "--mv-model", sys.argv[3], "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, universal_newlines=True)
+        check(r.returncode == 2, "supermat mesh --mv-model without refine models or --no-refine: usage error")
 
     # 4. failures
     r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16"], 1)

@@ -490,6 +490,9 @@ int usage() {
                  "       [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
+                 "  --no-refine     the multi-view model alone (no refine flags): its back-projected maps,\n"
+                 "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
+                 "                  the paper's ablation without refinement)\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
                  "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
                  "  --max-memory SIZE  refuse models + bake needing more than SIZE (512M, 4G), before allocating\n");
@@ -633,7 +636,7 @@ extern "C" void supermat_cli_mesh_keep_models(int keep) {
 
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
-    int passthrough = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
+    int passthrough = 0, no_refine = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     g_max_memory = 0;
     for (int i = 1; i < argc; i++) {
@@ -660,6 +663,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             if (w == "cos") weight = SUPERMAT_UV_WEIGHT_COS_POWER;
             else if (w != "average") return usage();
         } else if (a == "--passthrough") passthrough = 1;
+        else if (a == "--no-refine") no_refine = 1;
         else if (a == "--force" || a == "--skip-existing") {
             int want = a == "--force" ? 1 : 2;
             if (policy && policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
@@ -677,8 +681,12 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
         return 1;
     }
-    if (!passthrough && (!mv_path || !bc_path || !rm_path)) {
-        std::fprintf(stderr, "supermat mesh: give --mv-model, --albedo-refine and --rm-refine (or --passthrough)\n");
+    if (no_refine && (passthrough || bc_path || rm_path)) {
+        std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --albedo-refine, --rm-refine or --passthrough)\n");
+        return 2;
+    }
+    if (!passthrough && (!mv_path || (!no_refine && (!bc_path || !rm_path)))) {
+        std::fprintf(stderr, "supermat mesh: give --mv-model, --albedo-refine and --rm-refine (or --mv-model and --no-refine, or --passthrough)\n");
         return 2;
     }
     auto t0 = std::chrono::steady_clock::now();
@@ -869,8 +877,8 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     /* ---- models ---- */
     supermat_model *mv = nullptr, *bc = nullptr, *rm = nullptr;
     if (!passthrough) {
-        bool same = std::string(bc_path) == rm_path; /* one model serves both when given the same file */
-        if (!load_model(mv_path, &mv) || !load_model(bc_path, &bc) || (!same && !load_model(rm_path, &rm))) {
+        bool same = !no_refine && std::string(bc_path) == rm_path; /* one model serves both when given the same file */
+        if (!load_model(mv_path, &mv) || (!no_refine && (!load_model(bc_path, &bc) || (!same && !load_model(rm_path, &rm))))) {
             if (!g_keep_models) release_models();
             return 1;
         }
