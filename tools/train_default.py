@@ -1065,6 +1065,27 @@ def phase_export(args, data):
           f"{report['vae_params']} parameters", flush=True)
 
 
+def configure(args):
+    """What --threads, --device, --seconds, --until and --amp set for the whole run (also tools/train_mv.py's)."""
+    global DEV, AMP
+    torch.set_num_threads(args.threads)
+    DEV = torch.device(args.device)
+    for item in filter(None, args.seconds.split(",")):
+        k, _, v = item.partition("=")
+        SECONDS[k] = float(v)
+    for item in filter(None, args.until.split(",")):
+        k, _, v = item.partition("=")
+        UNTIL[k] = int(v)
+    if DEV.type == "cuda":
+        torch.backends.cuda.matmul.allow_tf32 = True
+        torch.backends.cudnn.allow_tf32 = True
+        torch.backends.cudnn.benchmark = True
+    AMP = args.amp == "bf16"
+    if AMP:
+        F.group_norm = _group_norm_f32
+        F.layer_norm = _layer_norm_f32
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="a gen_data.py folder, or several, comma separated")
@@ -1131,23 +1152,7 @@ def main():
     ap.add_argument("--alb-permute", type=int, default=1, help="permute the colour channels of half the samples")
     ap.add_argument("--init-from", metavar="MODEL", help="start from a released default model (see init_from)")
     args = ap.parse_args()
-    torch.set_num_threads(args.threads)
-    global DEV, AMP
-    DEV = torch.device(args.device)
-    for item in filter(None, args.seconds.split(",")):
-        k, _, v = item.partition("=")
-        SECONDS[k] = float(v)
-    for item in filter(None, args.until.split(",")):
-        k, _, v = item.partition("=")
-        UNTIL[k] = int(v)
-    if DEV.type == "cuda":
-        torch.backends.cuda.matmul.allow_tf32 = True
-        torch.backends.cudnn.allow_tf32 = True
-        torch.backends.cudnn.benchmark = True
-    AMP = args.amp == "bf16"
-    if AMP:
-        F.group_norm = _group_norm_f32
-        F.layer_norm = _layer_norm_f32
+    configure(args)
     os.makedirs(args.out, exist_ok=True)
     data = Data(args.data)
     if args.hdri_dir is None:

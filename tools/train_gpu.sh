@@ -75,17 +75,22 @@ print(f"{npz} -> {run}/ckpt_{ph}.pt ({len(sd)} tensors)")
 EOF
     exit 0
 fi
-if [ "$mode" = device-mv ]; then
-    # six-view renders on the device's cores, then tools/train_mv.py from INIT (the shipped single-view model);
-    # gives back the multi-view UNet as float16 npz (OUT/unet_mv.npz: the f32 .pth is over the lent machine's
-    # size limit for returned files), its report and logs.  Import here: `train_gpu.sh import-mv NPZ RELEASE`.
+# the device modes: the payload unpacked into W (default /tmp/smgpu), its harness on the paths, T0 and PY set
+unpack() {
     : "${OUT:?}"
     T0=$(date +%s)
     W="${W:-/tmp/smgpu}"
     rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
     export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
     PY="${PY:-python3}"
+    # a real safetensors there: diffusers then imports more of it than the harness' stand-in has
     $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
+}
+if [ "$mode" = device-mv ]; then
+    # six-view renders on the device's cores, then tools/train_mv.py from INIT (the shipped single-view model);
+    # gives back the multi-view UNet as float16 npz (OUT/unet_mv.npz: the f32 .pth is over the lent machine's
+    # size limit for returned files), its report and logs.  Import here: `train_gpu.sh import-mv NPZ RELEASE`.
+    unpack
     nvidia-smi -L > "$OUT/env.txt" 2>&1
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 timeout -s INT "${GEN_S:-120}" $PY tools/gen_data.py --hdri-dir "$W/w/hdri" \
         --out "$W/mv" --count 100000 --size 128 --shard 8 --seed "${SEED:-21}" --jobs "$(nproc)" --views 6 \
@@ -127,14 +132,7 @@ EOF2
     exit 0
 fi
 [ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|device-mv|import|import-mv" >&2; exit 2; }
-: "${OUT:?}"
-T0=$(date +%s)
-W="${W:-/tmp/smgpu}"
-rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
-export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
-PY="${PY:-python3}"
-# a real safetensors there: diffusers then imports more of it than the harness' stand-in has
-$PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
+unpack
 DEVICE="${DEVICE:-cuda}"
 JOBS="${JOBS:-$(nproc)}"
 { nvidia-smi -L; $PY -c 'import torch, numpy; print("torch", torch.__version__, "numpy", numpy.__version__, "cuda", torch.cuda.is_available())'; nproc; } 2>&1 | tee "$OUT/env.txt"

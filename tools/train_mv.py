@@ -35,7 +35,6 @@ sys.path.insert(0, HERE)
 import train_default as T  # noqa: E402  (the harness' imports: diffusers, the official SuperMat code)
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-import torch.nn.functional as F  # noqa: E402
 from src.adapters import SuperMatAdapterWrapper  # noqa: E402
 from src.models.model_utils import set_supermat_mv_self_attention  # noqa: E402
 
@@ -213,19 +212,8 @@ def main():
     ap.add_argument("--until", default="", metavar="PHASE=STEP,...")
     ap.add_argument("--ckpt-every", type=float, default=120.0)
     args = ap.parse_args()
-    torch.set_num_threads(args.threads)
+    T.configure(args)
     torch.manual_seed(args.seed)
-    T.DEV = torch.device(args.device)
-    for item in filter(None, args.seconds.split(",")):
-        k, _, v = item.partition("=")
-        T.SECONDS[k] = float(v)
-    for item in filter(None, args.until.split(",")):
-        k, _, v = item.partition("=")
-        T.UNTIL[k] = int(v)
-    T.AMP = args.amp == "bf16"
-    if T.AMP:
-        F.group_norm = T._group_norm_f32
-        F.layer_norm = T._layer_norm_f32
     os.makedirs(args.out, exist_ok=True)
     data = MVData(args.data)
     if args.hdri_dir is None:

@@ -24,8 +24,10 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..", "..")
 sys.path.insert(0, os.path.join(ROOT, "tools"))
+sys.path.insert(0, HERE)
 import gen_data as G  # noqa: E402
 import smrender as R  # noqa: E402
+from test_litbake import write_gltf, write_hdr  # noqa: E402
 
 fails = 0
 
@@ -34,18 +36,6 @@ def check(ok, what):
     global fails
     print(("ok   " if ok else "FAIL ") + what)
     fails += 0 if ok else 1
-
-
-def write_hdr(path, img):
-    h, w, _ = img.shape
-    m = img.max(-1)
-    e = np.where(m > 1e-32, np.floor(np.log2(np.maximum(m, 1e-32))) + 1, 0)
-    sc = np.where(m > 1e-32, 256.0 / np.exp2(e), 0)
-    rgbe = np.zeros((h, w, 4), np.uint8)
-    rgbe[..., :3] = np.clip(np.floor(img * sc[..., None]), 0, 255)
-    rgbe[..., 3] = np.where(m > 1e-32, e + 128, 0)
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {h} +X {w}\n".encode() + rgbe.tobytes())
 
 
 def cameras_from_header():
@@ -141,8 +131,6 @@ def main():
         import eval_quality as evq
         import eval_views as EV
         from PIL import Image
-        sys.path.insert(0, HERE)
-        from test_litbake import write_gltf
         adir = os.path.join(out, "asset")
         os.makedirs(adir, exist_ok=True)
         Image.fromarray(np.full((4, 4, 3), 180, np.uint8)).save(os.path.join(adir, "base.png"))
