@@ -211,7 +211,9 @@ typedef struct supermat_uv_bake_desc {
     int uv_origin_bottom_left;   /* 0: glTF UVs; 1: OpenGL UVs (v = 0 at the last row) */
     supermat_uv_position_frame position_frame;
     int passthrough;             /* no networks: albedo = rendered colour, roughness 0.5, metallic 0 */
-    const supermat_model *mv_model;            /* kind supermat-mv (required unless passthrough) */
+    const supermat_model *mv_model;            /* kind supermat-mv (required unless passthrough), or a
+                                                  single-view supermat model: run view by view, no
+                                                  cross-view attention (the paper's ablation) */
     const supermat_model *albedo_refine_model; /* kind uv-refine, NULL = no albedo refinement */
     const supermat_model *rm_refine_model;     /* kind uv-refine, NULL = no RM refinement */
     int keep_observed;           /* refined maps only fill unseen texels (default: refined everywhere) */
@@ -1009,7 +1011,8 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
         supermat_model_info info;
         if (!d->mv_model) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "mv_model is NULL (give a SuperMatMV model, or set passthrough)");
         supermat_model_get_info(d->mv_model, &info);
-        if (info.kind != SUPERMAT_KIND_SUPERMAT_MV) return supermat_uv__fail(err, SUPERMAT_ERROR_UNSUPPORTED, "mv_model is not a supermat-mv model");
+        if (info.kind != SUPERMAT_KIND_SUPERMAT_MV && info.kind != SUPERMAT_KIND_SUPERMAT)
+            return supermat_uv__fail(err, SUPERMAT_ERROR_UNSUPPORTED, "mv_model is neither a supermat-mv nor a single-view supermat model");
         if (d->albedo_refine_model) {
             supermat_model_get_info(d->albedo_refine_model, &info);
             if (info.kind != SUPERMAT_KIND_UV_REFINE) return supermat_uv__fail(err, SUPERMAT_ERROR_UNSUPPORTED, "albedo_refine_model is not a uv-refine model");
@@ -1222,9 +1225,13 @@ static supermat_result supermat_uv__run_mv(supermat_uv__ctx *C) {
     supermat_image in[SUPERMAT_UV_VIEWS], alb[SUPERMAT_UV_VIEWS], orm[SUPERMAT_UV_VIEWS];
     float cams[SUPERMAT_UV_VIEWS * 16];
     supermat_result r;
-    int v;
+    int v, single;
     size_t k, n = (size_t)C->W * C->H;
-    r = supermat_uv__session(C, C->d.mv_model, C->W, C->H, SUPERMAT_UV_VIEWS, &s);
+    supermat_model_info info;
+    memset(&info, 0, sizeof info);
+    supermat_model_get_info(C->d.mv_model, &info);
+    single = info.kind == SUPERMAT_KIND_SUPERMAT; /* a single-view model: view by view, no cross-view attention */
+    r = supermat_uv__session(C, C->d.mv_model, C->W, C->H, single ? 1 : SUPERMAT_UV_VIEWS, &s);
     if (r || C->measure) return r;
     supermat_uv_cameras(cams);
     memset(&rd, 0, sizeof rd);
@@ -1234,9 +1241,20 @@ static supermat_result supermat_uv__run_mv(supermat_uv__ctx *C) {
         alb[v].pixels = C->view[v].albedo; alb[v].channels = 3; alb[v].format = SUPERMAT_FORMAT_F32;
         orm[v].pixels = C->view[v].rm; orm[v].channels = 3; orm[v].format = SUPERMAT_FORMAT_F32;
     }
-    rd.input_views = in; rd.cameras = cams; rd.albedo_views = alb; rd.orm_views = orm;
     rd.progress = supermat_uv__net_progress; rd.progress_user = C;
-    r = supermat_run(s, &rd, C->err);
+    if (single) {
+        float base = C->prog_base, span = C->prog_span;
+        C->prog_span = span / SUPERMAT_UV_VIEWS;
+        for (v = 0, r = SUPERMAT_SUCCESS; v < SUPERMAT_UV_VIEWS && !r; v++) {
+            C->prog_base = base + span * (float)v / SUPERMAT_UV_VIEWS;
+            rd.input = in[v]; rd.albedo = alb[v]; rd.orm = orm[v];
+            r = supermat_run(s, &rd, C->err);
+        }
+        C->prog_base = base; C->prog_span = span;
+    } else {
+        rd.input_views = in; rd.cameras = cams; rd.albedo_views = alb; rd.orm_views = orm;
+        r = supermat_run(s, &rd, C->err);
+    }
     supermat_session_destroy(s);
     if (r) return C->cancelled ? supermat_uv__fail(C->err, SUPERMAT_ERROR_CANCELLED, "cancelled by the progress callback") : r;
     for (v = 0; v < SUPERMAT_UV_VIEWS; v++)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """ctest uv_litbake: tools/litbake.py against an independent float64 reference.
 
-usage: test_litbake.py SUPERMAT_MESH OUT_DIR [TINY_MV TINY_UV SUPERMAT]
+usage: test_litbake.py SUPERMAT_MESH OUT_DIR [TINY_MV TINY_UV SUPERMAT [TINY]]
 
 1. a quad facing +Z, one material (16x16 base colour and metallic-roughness textures, seeded), baked at
    16x16 (one output texel per texture texel) under a constant environment of radiance 1, exposure 1:
@@ -15,7 +15,9 @@ usage: test_litbake.py SUPERMAT_MESH OUT_DIR [TINY_MV TINY_UV SUPERMAT]
    glTF the pipeline reads, buffers copied beside it);
 4. failures: an existing output without --force, a missing map, two materials, no UVs: exit 1, a message;
 5. with the tiny models: tools/eval_bake.py on the quad (the truth as a bake, the lit baseline's numbers
-   recomputed here, a bake with the tiny random models).
+   recomputed here, a bake with the tiny random models); with TINY, the single-view model view by view
+   (eval_bake NAME=SV) and `supermat mesh` without model flags (the default model, $SUPERMAT_MODEL here:
+   the same bytes as --mv-model TINY --no-refine; a missing one: exit 1).
 """
 import json
 import os
@@ -231,7 +233,7 @@ def main():
                os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
                "--size", "16", "--views-size", "64", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
-               "--bake", f"tiny_mv={sys.argv[3]}",
+               "--bake", f"tiny_mv={sys.argv[3]}"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
                "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 0, "eval_bake: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-2000:]))
@@ -260,6 +262,40 @@ def main():
                   and abs(nr["albedo_psnr"] - res["tiny"]["albedo_psnr"]) > 1e-3,
                   f"eval_bake NAME=MV (supermat mesh --no-refine): measured, {nr['albedo_psnr']:.2f} dB against "
                   f"{res['tiny']['albedo_psnr']:.2f} with the refine models")
+        if len(sys.argv) > 6 and r.returncode == 0:
+            # a single-view model as --mv-model: run view by view (the paper's ablation)
+            sv = res["tiny_sv"]
+            check(all(np.isfinite(sv[k]) for k in ("albedo_psnr", "rough_psnr", "metal_psnr"))
+                  and abs(sv["albedo_psnr"] - nr["albedo_psnr"]) > 1e-3,
+                  f"eval_bake NAME=SV (a single-view model, view by view): measured, {sv['albedo_psnr']:.2f} dB against "
+                  f"{nr['albedo_psnr']:.2f} with the multi-view model")
+            # no model flags: the default model (here $SUPERMAT_MODEL = the tiny one), view by view, no refinement:
+            # the same bytes as --mv-model TINY --no-refine
+            lit = os.path.join(out, "eval_bake", "quad", "input", "quad_lit.gltf")
+            small = ["--size", "16", "--views-size", "64"]
+            d_flags, d_none = os.path.join(out, "sv_flags"), os.path.join(out, "sv_default")
+            for d in (d_flags, d_none):
+                shutil.rmtree(d, ignore_errors=True)
+                os.makedirs(d)
+            env = dict(os.environ, SUPERMAT_MODEL=sys.argv[6])
+            r1 = subprocess.run([sys.argv[5], "mesh", "--mv-model", sys.argv[6], "--no-refine", lit,
+                                 os.path.join(d_flags, "q.gltf")] + small, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                universal_newlines=True)
+            r2 = subprocess.run([sys.argv[5], "mesh", lit, os.path.join(d_none, "q.gltf")] + small, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            names = sorted(os.listdir(d_flags))
+            same = r1.returncode == 0 and r2.returncode == 0 and names == sorted(os.listdir(d_none)) and len(names) >= 3 and all(
+                open(os.path.join(d_flags, n), "rb").read() == open(os.path.join(d_none, n), "rb").read() for n in names)
+            check(same, f"supermat mesh without model flags = --mv-model $SUPERMAT_MODEL --no-refine, byte for byte ({names}): "
+                        f"{r1.stderr[-300:]} {r2.stderr[-300:]}")
+            env = dict(os.environ, SUPERMAT_MODEL=os.path.join(out, "no_such_model.safetensors"))
+            r3 = subprocess.run([sys.argv[5], "mesh", lit, os.path.join(d_none, "x.gltf")] + small, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            check(r3.returncode == 1 and "SUPERMAT_MODEL" in r3.stderr and not os.path.exists(os.path.join(d_none, "x.gltf")),
+                  "no model flags, $SUPERMAT_MODEL names a missing file: exit 1, a message, nothing written")
+            r4 = subprocess.run([sys.argv[5], "mesh", "--albedo-refine", sys.argv[4], lit, os.path.join(d_none, "y.gltf")],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            check(r4.returncode == 2 and "--mv-model" in r4.stderr, "--albedo-refine without --mv-model: usage error")
         r = subprocess.run([mesh_exe, "--no-refine", "--passthrough", "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 2 and "--no-refine" in r.stderr, "supermat mesh --no-refine --passthrough: usage error")

@@ -5,7 +5,10 @@
    output pixel written), the progress callback cancels at every call in turn (CANCELLED, nothing leaked,
    outputs untouched), and the bake afterwards gives the same bytes as before.
 
-   usage: test_uv_c [TINY_MV TINY_UV] */
+   Given TINY too: the single-view model as mv_model (view by view), its predictions bit for bit those of
+   supermat_run on each view alone, and the same sweeps.
+
+   usage: test_uv_c [TINY_MV TINY_UV [TINY]] */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200112L
 #endif
@@ -148,6 +151,68 @@ static void sweeps(supermat_uv_bake_desc bd, const char *what) {
     CHECK(r == SUPERMAT_SUCCESS && !memcmp(alb, ref_a, sizeof alb) && !memcmp(mr, ref_m, sizeof mr), msg);
     printf("%s sweeps: %ld allocations, each failing -> OUT_OF_MEMORY; %ld progress calls, each cancelling -> CANCELLED; "
            "nothing leaked or written, the same bytes after\n", what, oom, total);
+}
+
+/* the debug images of a single-view bake: each view's picture and the per-view predictions */
+enum { SV_VIEW = 16 };
+static float sv_view[SUPERMAT_UV_VIEWS][SV_VIEW * SV_VIEW * 4], sv_alb[SUPERMAT_UV_VIEWS][SV_VIEW * SV_VIEW * 3],
+    sv_rm[SUPERMAT_UV_VIEWS][SV_VIEW * SV_VIEW * 3];
+static int sv_seen;
+static void sv_debug(void *user, supermat_uv_debug_kind kind, int index, const float *data, int w, int h, int ch) {
+    (void)user;
+    if (index < 0 || index >= SUPERMAT_UV_VIEWS || w != SV_VIEW || h != SV_VIEW) return;
+    if (kind == SUPERMAT_UV_DEBUG_VIEW && ch == 4) { memcpy(sv_view[index], data, sizeof sv_view[0]); sv_seen |= 1 << index; }
+    if (kind == SUPERMAT_UV_DEBUG_PRED_ALBEDO && ch == 3) { memcpy(sv_alb[index], data, sizeof sv_alb[0]); sv_seen |= 1 << (8 + index); }
+    if (kind == SUPERMAT_UV_DEBUG_PRED_RM && ch == 3) { memcpy(sv_rm[index], data, sizeof sv_rm[0]); sv_seen |= 1 << (16 + index); }
+}
+
+/* A single-view model as mv_model: the bake runs it view by view. Each view's predictions must be,
+   bit for bit, what supermat_run gives for that view's picture alone; then the sweeps. */
+static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv) {
+    static unsigned char alb[32 * 32 * 4], mr[32 * 32 * 3];
+    static float a[SV_VIEW * SV_VIEW * 3], o[SV_VIEW * SV_VIEW * 3];
+    supermat_uv_output out;
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_error err;
+    supermat_result r;
+    int v, differ = 0, fg = 0;
+    size_t k;
+    char msg[600];
+    bd.passthrough = 0; bd.view_size = SV_VIEW; bd.texture_width = bd.texture_height = 32;
+    bd.mv_model = sv; bd.albedo_refine_model = NULL; bd.rm_refine_model = NULL;
+    bd.debug = sv_debug; sv_seen = 0;
+    memset(&out, 0, sizeof out);
+    out.base_color.pixels = alb; out.base_color.channels = 4;
+    out.metallic_roughness.pixels = mr; out.metallic_roughness.channels = 3;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    snprintf(msg, sizeof msg, "single-view model as mv_model: %s (%s)", supermat_result_string(r), err.message);
+    CHECK(r == SUPERMAT_SUCCESS && sv_seen == 0x3F3F3F, msg);
+    memset(&sd, 0, sizeof sd);
+    sd.model = sv; sd.width = SV_VIEW; sd.height = SV_VIEW; sd.views = 1; sd.threads = 1;
+    CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, err.message);
+    for (v = 0; s && v < SUPERMAT_UV_VIEWS; v++) {
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = sv_view[v]; rd.input.width = rd.input.height = SV_VIEW; rd.input.channels = 4; rd.input.format = SUPERMAT_FORMAT_F32;
+        rd.albedo.pixels = a; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
+        rd.orm.pixels = o; rd.orm.channels = 3; rd.orm.format = SUPERMAT_FORMAT_F32;
+        r = supermat_run(s, &rd, &err);
+        CHECK(r == SUPERMAT_SUCCESS, err.message);
+        for (k = 0; k < (size_t)SV_VIEW * SV_VIEW; k++) {
+            fg += sv_view[v][k * 4 + 3] > 0.0f;
+            differ += memcmp(&a[k * 3], &sv_alb[v][k * 3], 3 * sizeof(float)) != 0 || o[k * 3 + 1] != sv_rm[v][k * 3 + 1] ||
+                      o[k * 3 + 2] != sv_rm[v][k * 3 + 2] || sv_rm[v][k * 3] != 0.0f;
+        }
+    }
+    supermat_session_destroy(s);
+    snprintf(msg, sizeof msg, "single-view bake: %d of %d view pixels differ from supermat_run on the view alone (%d foreground)", differ,
+             SUPERMAT_UV_VIEWS * SV_VIEW * SV_VIEW, fg);
+    CHECK(differ == 0 && fg > 0, msg);
+    printf("%s\n", msg);
+    bd.debug = NULL;
+    bd.texture_width = bd.texture_height = 0;
+    sweeps(bd, "single-view model, view by view");
 }
 
 static unsigned char *read_all(const char *path, size_t *n) {
@@ -311,6 +376,25 @@ int main(int argc, char **argv) {
             bd.passthrough = 0; bd.view_size = 16;
             bd.mv_model = mv; bd.albedo_refine_model = uvm; bd.rm_refine_model = uvm;
             sweeps(bd, "networks (multi-view + UV refine)");
+        }
+        if (mv && uvm) { /* wrong kinds as mv_model: a UV-refine model */
+            bd.mv_model = uvm;
+            r = supermat_uv_bake(&bd, &out, NULL, &err);
+            CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && strstr(err.message, "mv_model"), "a uv-refine model as mv_model: UNSUPPORTED");
+            bd.mv_model = mv;
+        }
+        if (argc >= 4 && mv && uvm) { /* TINY: the single-view model, view by view */
+            size_t nsv = 0;
+            unsigned char *fsv = read_all(argv[3], &nsv);
+            supermat_model *sv = NULL;
+            CHECK(fsv != NULL, "read the tiny single-view model");
+            if (fsv) {
+                md.data = fsv; md.size = nsv;
+                CHECK(supermat_model_create(&md, &sv, &err) == SUPERMAT_SUCCESS, err.message);
+            }
+            if (sv) single_view(bd, sv);
+            supermat_model_destroy(sv);
+            free(fsv);
         }
         supermat_model_destroy(mv);
         supermat_model_destroy(uvm);

@@ -486,11 +486,14 @@ void remove_tree(const std::string &root) {
 
 int usage() {
     std::fprintf(stderr,
-                 "usage: supermat mesh --mv-model F --albedo-refine F --rm-refine F IN.gltf OUT.gltf\n"
+                 "usage: supermat mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine)] IN.gltf OUT.gltf\n"
                  "       [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]\n"
+                 "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
+                 "                  view, no cross-view attention: the paper's ablation)\n"
+                 "  no model flags  the default model (as `supermat image`), view by view, with --no-refine\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
-                 "  --no-refine     the multi-view model alone (no refine flags): its back-projected maps,\n"
+                 "  --no-refine     the view model alone (no refine flags): its back-projected maps,\n"
                  "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
                  "                  the paper's ablation without refinement)\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
@@ -634,6 +637,10 @@ extern "C" void supermat_cli_mesh_keep_models(int keep) {
     if (!keep) release_models();
 }
 
+/* tools/cli/model.c: the default model's path (what `supermat image` runs without --model); 0 after a
+   message when there is none */
+extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **from);
+
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int passthrough = 0, no_refine = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
@@ -685,8 +692,22 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
     }
-    if (!passthrough && (!mv_path || (!no_refine && (!bc_path || !rm_path)))) {
-        std::fprintf(stderr, "supermat mesh: give --mv-model, --albedo-refine and --rm-refine (or --mv-model and --no-refine, or --passthrough)\n");
+    if (!passthrough && !mv_path && (bc_path || rm_path)) {
+        std::fprintf(stderr, "supermat mesh: --albedo-refine and --rm-refine need --mv-model\n");
+        return 2;
+    }
+    static char default_path[4096];
+    if (!passthrough && !mv_path) { /* no model flags: the default single-view model, view by view, no refinement */
+        const char *from = nullptr;
+        if (!supermat_cli_default_model(default_path, sizeof default_path, &from)) return 1; /* it said why */
+        mv_path = default_path;
+        no_refine = 1;
+        if (isatty(STDERR_FILENO))
+            std::fprintf(stderr, "models: the default single-view model %s (%s), view by view, no refinement "
+                                 "(no trained multi-view or UV-refine default exists yet)\n", default_path, from);
+    }
+    if (!passthrough && !no_refine && (!bc_path || !rm_path)) {
+        std::fprintf(stderr, "supermat mesh: give --albedo-refine and --rm-refine with --mv-model (or --no-refine)\n");
         return 2;
     }
     auto t0 = std::chrono::steady_clock::now();
@@ -1155,5 +1176,17 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
 }
 
 #ifdef SUPERMAT_MESH_MAIN
+/* standalone: no installed or source-tree default model; $SUPERMAT_MODEL when set */
+extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **from) {
+    const char *env = std::getenv("SUPERMAT_MODEL");
+    if (!env || !env[0] || std::strlen(env) >= cap) {
+        std::fprintf(stderr, "supermat mesh: no model flags and no default model here (this standalone build knows only "
+                             "$SUPERMAT_MODEL): give --mv-model, or use `supermat mesh`\n");
+        return 0;
+    }
+    std::strcpy(path, env);
+    *from = "$SUPERMAT_MODEL";
+    return 1;
+}
 int main(int argc, char **argv) { return supermat_cli_mesh(argc, argv); }
 #endif

@@ -125,6 +125,18 @@ static int cli_model_path(const char *cmd, const char *given, int allow_default,
     return CLI_FAIL;
 }
 
+/* For tools/cli/mesh.cpp (another translation unit): the default model's path, as `supermat image` finds
+   it without --model; 0 after cli_model_path's message when there is none. */
+int supermat_cli_default_model(char *path, size_t cap, const char **from);
+int supermat_cli_default_model(char *path, size_t cap, const char **from) {
+    cli_model_ref ref;
+    if (cli_model_path("mesh", NULL, 1, &ref) != CLI_OK) return 0;
+    if (strlen(ref.path) >= cap) { cli_error("the default model's path is longer than %d bytes", (int)cap - 1); return 0; }
+    strcpy(path, ref.path);
+    *from = ref.from;
+    return 1;
+}
+
 /* The network size of image, views and refine. The official scripts resize every picture to a square
    (512x512, UV maps 1024x1024; Pillow bilinear, aspect squashed) before the network: the CLI does the
    same by default through the library's work_width/height (maps come back at the picture's size), at the
