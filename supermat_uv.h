@@ -206,6 +206,11 @@ typedef struct supermat_uv_bake_desc {
     int output_count;            /* output textures (one per material); 0 = 1 */
     int texture_width, texture_height; /* output size: 0 = 1024; multiples of 8 */
     int view_size;               /* rendered views: 0 = 512 (the networks' size); a multiple of 8 */
+    int view_work_size;          /* the view model's network size: the views are resampled to it and the maps
+                                    back (supermat_session_desc.work_width/height); 0 = the view size. The
+                                    size the model was made for (a file's pipeline.work_size: 512 official,
+                                    128 the default model) */
+    int refine_work_size;        /* likewise for the UV-refine models (official: 1024); 0 = the texture size */
     int supersample;             /* samples per pixel per axis: 0 = 4 (16 samples), 1 .. 8 */
     float ortho_half_width;      /* half the view width in the view frame: 0 = 1.1 */
     int uv_origin_bottom_left;   /* 0: glTF UVs; 1: OpenGL UVs (v = 0 at the last row) */
@@ -994,6 +999,10 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "texture size %dx%d: multiples of 8 from 8 to 16384", d->texture_width, d->texture_height);
     if (d->view_size < 8 || d->view_size % 8 || d->view_size > 8192)
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "view size %d: a multiple of 8 from 8 to 8192", d->view_size);
+    if (d->view_work_size < 0 || d->view_work_size % 8 || d->view_work_size > 16384 || d->refine_work_size < 0 ||
+        d->refine_work_size % 8 || d->refine_work_size > 16384)
+        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "view_work_size %d / refine_work_size %d: 0 or a multiple of 8 up to 16384",
+                                 d->view_work_size, d->refine_work_size);
     if (d->supersample < 1 || d->supersample > 8 || (long)d->view_size * d->supersample > 16384)
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "supersample %d: 1 to 8 (and view size x supersample <= 16384)", d->supersample);
     if (!(d->ortho_half_width > 0.0f && d->ortho_half_width < 1e6f))
@@ -1201,10 +1210,11 @@ static supermat_result supermat_uv__load_mesh(supermat_uv__ctx *C) {
 
 /* >>uv-networks */
 static supermat_result supermat_uv__session(supermat_uv__ctx *C, const supermat_model *m, int w, int h, int views,
-                                            supermat_session **s) {
+                                            int work, supermat_session **s) {
     supermat_session_desc sd;
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = w; sd.height = h; sd.views = views;
+    if (work && (work != w || work != h)) sd.work_width = sd.work_height = work;
     sd.threads = C->thr.parallel_for ? 0 : 1;
     sd.threading = C->thr;
     sd.allocator = C->al;
@@ -1231,7 +1241,7 @@ static supermat_result supermat_uv__run_mv(supermat_uv__ctx *C) {
     memset(&info, 0, sizeof info);
     supermat_model_get_info(C->d.mv_model, &info);
     single = info.kind == SUPERMAT_KIND_SUPERMAT; /* a single-view model: view by view, no cross-view attention */
-    r = supermat_uv__session(C, C->d.mv_model, C->W, C->H, single ? 1 : SUPERMAT_UV_VIEWS, &s);
+    r = supermat_uv__session(C, C->d.mv_model, C->W, C->H, single ? 1 : SUPERMAT_UV_VIEWS, C->d.view_work_size, &s);
     if (r || C->measure) return r;
     supermat_uv_cameras(cams);
     memset(&rd, 0, sizeof rd);
@@ -1269,7 +1279,7 @@ static supermat_result supermat_uv__refine(supermat_uv__ctx *C, const supermat_m
     supermat_run_desc rd;
     supermat_result r;
     int w = C->d.texture_width, h = C->d.texture_height;
-    r = supermat_uv__session(C, m, w, h, 1, &s);
+    r = supermat_uv__session(C, m, w, h, 1, C->d.refine_work_size, &s);
     if (r || C->measure) return r;
     memset(&rd, 0, sizeof rd);
     rd.input.pixels = (void *)partial; rd.input.width = w; rd.input.height = h; rd.input.channels = 3; rd.input.format = SUPERMAT_FORMAT_F32;

@@ -319,7 +319,7 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
             sed "s/cube_texture.png/tex_$k.png/; s/cube.bin/geo_$k.bin/" "$CUBE" > "mm/asset_$k.gltf"
             cp "$cdir/cube_texture.png" "mm/tex_$k.png"; cp "$cdir/cube.bin" "mm/geo_$k.bin"
         done
-        NET=(--mv-model "$TINY_MV" --albedo-refine "$TINY_UV" --rm-refine "$TINY_UV" --size 64 --views-size 64 --threads 1)
+        NET=(--mv-model "$TINY_MV" --albedo-refine "$TINY_UV" --rm-refine "$TINY_UV" --size 64 --views-size 64 --work-size native --threads 1)
         "$BIN" mesh "${NET[@]}" mm/asset_2.gltf mmref.gltf >/dev/null 2>&1 || bad "reference mesh run with models"
         "$BIN" batch mesh "${NET[@]}" --out mmout mm > /dev/null 2> log2; rc=$?
         check "batch mesh with models: exit 0 (got $rc)" [ $rc -eq 0 ]
@@ -328,7 +328,7 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
         check "batch mesh with models: metallicRoughness as supermat mesh bakes it" cmp -s mmref_metallicRoughness.png mmout/asset_2_metallicRoughness.png
         "$BIN" pack --model "$TINY_MV" --out mv.packed.safetensors >/dev/null && "$BIN" pack --model "$TINY_UV" --out uv.packed.safetensors >/dev/null || bad "pack the tiny models"
         "$BIN" batch mesh --mv-model mv.packed.safetensors --albedo-refine uv.packed.safetensors --rm-refine uv.packed.safetensors \
-            --size 64 --views-size 64 --threads 1 --jobs 2 --out mmpk mm > /dev/null 2> log3; rc=$?
+            --size 64 --views-size 64 --work-size native --threads 1 --jobs 2 --out mmpk mm > /dev/null 2> log3; rc=$?
         check "batch mesh, pre-packed models, 2 workers: exit 0 (got $rc)" [ $rc -eq 0 ]
         check "batch mesh, pre-packed models: used in place" grep -q "pre-packed: panels used in place" log3
         check "batch mesh, 2 workers: each loads the two models once ($(grep -c 'supermat mesh: loaded' log3) loads)" [ "$(grep -c 'supermat mesh: loaded' log3)" -eq 4 ]

@@ -231,7 +231,7 @@ def main():
         js = os.path.join(out, "eval_bake.json")
         cmd = [sys.executable, os.path.join(HERE, "..", "..", "tools", "eval_bake.py"), "--assets",
                os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
-               "--size", "16", "--views-size", "64", "--views", "2", "--relight-size", "64", "--baselines",
+               "--size", "16", "--views-size", "64", "--work-size", "native", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
                "--bake", f"tiny_mv={sys.argv[3]}"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
                "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
@@ -272,7 +272,7 @@ def main():
             # no model flags: the default model (here $SUPERMAT_MODEL = the tiny one), view by view, no refinement:
             # the same bytes as --mv-model TINY --no-refine
             lit = os.path.join(out, "eval_bake", "quad", "input", "quad_lit.gltf")
-            small = ["--size", "16", "--views-size", "64"]
+            small = ["--size", "16", "--views-size", "64", "--work-size", "64"]
             d_flags, d_none = os.path.join(out, "sv_flags"), os.path.join(out, "sv_default")
             for d in (d_flags, d_none):
                 shutil.rmtree(d, ignore_errors=True)
@@ -288,6 +288,22 @@ def main():
                 open(os.path.join(d_flags, n), "rb").read() == open(os.path.join(d_none, n), "rb").read() for n in names)
             check(same, f"supermat mesh without model flags = --mv-model $SUPERMAT_MODEL --no-refine, byte for byte ({names}): "
                         f"{r1.stderr[-300:]} {r2.stderr[-300:]}")
+            # --work-size: the network's size (default: the file's pipeline.work_size); another size, other maps
+            outs = []
+            for ws in ("native", "32"):
+                d = os.path.join(out, "sv_ws_" + ws)
+                shutil.rmtree(d, ignore_errors=True)
+                os.makedirs(d)
+                rw = subprocess.run([sys.argv[5], "mesh", "--mv-model", sys.argv[6], "--no-refine", lit,
+                                     os.path.join(d, "q.gltf")] + small + ["--work-size", ws], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    universal_newlines=True)
+                outs.append(open(os.path.join(d, "q_baseColor.png"), "rb").read() if rw.returncode == 0 else None)
+            check(outs[0] is not None and outs[1] is not None and outs[0] != outs[1],
+                  "supermat mesh --work-size native / 32: both bake, different maps")
+            rw = subprocess.run([sys.argv[5], "mesh", "--work-size", "12", lit, os.path.join(out, "z.gltf")],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            check(rw.returncode == 2 and "--work-size" in rw.stderr and not os.path.exists(os.path.join(out, "z.gltf")),
+                  "--work-size 12: usage error")
             env = dict(os.environ, SUPERMAT_MODEL=os.path.join(out, "no_such_model.safetensors"))
             r3 = subprocess.run([sys.argv[5], "mesh", lit, os.path.join(d_none, "x.gltf")] + small, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)

@@ -234,7 +234,7 @@ int main(int argc, char **argv) {
     /* ---- the full path with the tiny models ---- */
     if (argc > 4) {
         cmd = exe + " --mv-model " + argv[3] + " --albedo-refine " + argv[4] + " --rm-refine " + argv[4] +
-              " --size 128 --views-size 64 " + dir + "/cube.gltf " + dir + "/out/cube_full.gltf";
+              " --size 128 --views-size 64 --work-size native " + dir + "/cube.gltf " + dir + "/out/cube_full.gltf";
         rc = std::system(cmd.c_str());
         CHECK(rc == 0, "%s failed (%d)", cmd.c_str(), rc);
         CHECK(out_textures(dir + "/out/cube_full.gltf", &bc, &mr) && read_image(bc, outp, w, h, c) && w == 128,

@@ -168,7 +168,7 @@ static void sv_debug(void *user, supermat_uv_debug_kind kind, int index, const f
 
 /* A single-view model as mv_model: the bake runs it view by view. Each view's predictions must be,
    bit for bit, what supermat_run gives for that view's picture alone; then the sweeps. */
-static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv) {
+static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv, int work) {
     static unsigned char alb[32 * 32 * 4], mr[32 * 32 * 3];
     static float a[SV_VIEW * SV_VIEW * 3], o[SV_VIEW * SV_VIEW * 3];
     supermat_uv_output out;
@@ -183,6 +183,7 @@ static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv) {
     bd.passthrough = 0; bd.view_size = SV_VIEW; bd.texture_width = bd.texture_height = 32;
     bd.mv_model = sv; bd.albedo_refine_model = NULL; bd.rm_refine_model = NULL;
     bd.debug = sv_debug; sv_seen = 0;
+    bd.view_work_size = work; /* the network at work x work (0 = the view size), the maps resampled back */
     memset(&out, 0, sizeof out);
     out.base_color.pixels = alb; out.base_color.channels = 4;
     out.metallic_roughness.pixels = mr; out.metallic_roughness.channels = 3;
@@ -191,6 +192,7 @@ static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv) {
     CHECK(r == SUPERMAT_SUCCESS && sv_seen == 0x3F3F3F, msg);
     memset(&sd, 0, sizeof sd);
     sd.model = sv; sd.width = SV_VIEW; sd.height = SV_VIEW; sd.views = 1; sd.threads = 1;
+    sd.work_width = sd.work_height = work;
     CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, err.message);
     for (v = 0; s && v < SUPERMAT_UV_VIEWS; v++) {
         memset(&rd, 0, sizeof rd);
@@ -206,13 +208,20 @@ static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv) {
         }
     }
     supermat_session_destroy(s);
-    snprintf(msg, sizeof msg, "single-view bake: %d of %d view pixels differ from supermat_run on the view alone (%d foreground)", differ,
-             SUPERMAT_UV_VIEWS * SV_VIEW * SV_VIEW, fg);
+    snprintf(msg, sizeof msg, "single-view bake, network at %d: %d of %d view pixels differ from supermat_run on the view alone (%d foreground)",
+             work ? work : SV_VIEW, differ, SUPERMAT_UV_VIEWS * SV_VIEW * SV_VIEW, fg);
     CHECK(differ == 0 && fg > 0, msg);
     printf("%s\n", msg);
     bd.debug = NULL;
     bd.texture_width = bd.texture_height = 0;
+    if (work) return;
     sweeps(bd, "single-view model, view by view");
+    bd.view_work_size = 12; /* not a multiple of 8 */
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "view_work_size"), "view_work_size 12: INVALID_ARGUMENT");
+    bd.view_work_size = 0; bd.refine_work_size = -8;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "refine_work_size"), "refine_work_size -8: INVALID_ARGUMENT");
 }
 
 static unsigned char *read_all(const char *path, size_t *n) {
@@ -392,7 +401,7 @@ int main(int argc, char **argv) {
                 md.data = fsv; md.size = nsv;
                 CHECK(supermat_model_create(&md, &sv, &err) == SUPERMAT_SUCCESS, err.message);
             }
-            if (sv) single_view(bd, sv);
+            if (sv) { single_view(bd, sv, 0); single_view(bd, sv, 8); single_view(bd, sv, 32); }
             supermat_model_destroy(sv);
             free(fsv);
         }

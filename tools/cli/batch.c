@@ -437,7 +437,7 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
 
 static const char cli_usage_batch[] =
     "usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
-    "       supermat batch mesh (--mv-model F (--albedo-refine F --rm-refine F | --no-refine) | --passthrough) --out DIR\n"
+    "       supermat batch mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine) | --passthrough] --out DIR\n"
     "                           [mesh options] [batch options] INPUT...\n"
     "       supermat batch --merge --out DIR [INPUT...]\n"
     "\n"
@@ -468,7 +468,7 @@ static const char cli_usage_batch[] =
     "\n"
     "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
     "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
-    "--mv-model, --albedo-refine, --rm-refine, --no-refine, --passthrough, --size, --views-size, --threads, --gutter,\n"
+    "--mv-model, --albedo-refine, --rm-refine, --no-refine, --passthrough, --size, --views-size, --work-size, --threads, --gutter,\n"
     "--edge-reject, --weight, --supersample go to `supermat mesh`; each process loads the models once.\n"
     "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
     "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
@@ -696,7 +696,7 @@ static int cli_batch(int argc, char **argv) {
         const char *a = argv[i];
         if (cli_batch_mesh_mode) { /* the options of `supermat mesh`, passed on */
             static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--size", "--views-size", "--threads",
-                                                     "--gutter", "--edge-reject", "--weight", "--supersample"};
+                                                     "--work-size", "--gutter", "--edge-reject", "--weight", "--supersample"};
             size_t q;
             int hit = 0;
             if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine")) { fwd[nfwd++] = argv[i]; continue; }
@@ -709,7 +709,7 @@ static int cli_batch(int argc, char **argv) {
                 }
             if (hit) continue;
             if (!strcmp(a, "--model") || !strcmp(a, "--outputs") || !strcmp(a, "--float") || !strcmp(a, "--native") ||
-                !strcmp(a, "--work-size") || !strcmp(a, "--kernel") || !strcmp(a, "--weights") || !strcmp(a, "--compute") || !strcmp(a, "--conv")) {
+                !strcmp(a, "--kernel") || !strcmp(a, "--weights") || !strcmp(a, "--compute") || !strcmp(a, "--conv")) {
                 free(inputs); free(fwd);
                 return cli_usage_error(cmd, "'%s' is an option of `batch image`, not of `batch mesh`", a);
             }

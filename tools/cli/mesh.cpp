@@ -498,6 +498,9 @@ int usage() {
                  "                  the paper's ablation without refinement)\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
                  "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
+                 "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
+                 "                  maps back (default: the size each model file records, as `supermat image`:\n"
+                 "                  128 for the default model; native = the view / texture size)\n"
                  "  --max-memory SIZE  refuse models + bake needing more than SIZE (512M, 4G), before allocating\n");
     return 2;
 }
@@ -600,6 +603,16 @@ bool load_model(const char *path, supermat_model **m) {
     return true;
 }
 
+/* the network size a loaded model's file records (pipeline.work_size: 512 from `supermat convert`, 128 for the
+   default model trained at 128x128; 0 = none), as `supermat image` uses it; dflt for a file that records none */
+int model_work_size(const char *path, int dflt) {
+    auto it = g_models.find(path);
+    char v[32];
+    if (it == g_models.end() || supermat_safetensors_metadata(it->second.map, it->second.size, "pipeline.work_size", v, sizeof v) != 0)
+        return dflt;
+    int n = std::atoi(v);
+    return n >= 8 && n % 8 == 0 && n <= 16384 ? n : 0;
+}
 
 /* the first instance of each mesh, depth first from the roots: its world matrix. Each node is walked once:
    glTF's nodes form a forest, and a file whose nodes share children (a DAG of depth 64 has 2^64 paths) must
@@ -643,6 +656,7 @@ extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **f
 
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
+    int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     int passthrough = 0, no_refine = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     g_max_memory = 0;
@@ -659,6 +673,14 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else if (a == "--gutter" && more) gutter = std::atoi(argv[++i]);
         else if (a == "--edge-reject" && more) edge_reject = std::atoi(argv[++i]);
         else if (a == "--supersample" && more) supersample = std::atoi(argv[++i]);
+        else if (a == "--work-size" && more) {
+            std::string w = argv[++i];
+            work_opt = w == "native" ? 0 : std::atoi(w.c_str());
+            if (w != "native" && (work_opt < 8 || work_opt % 8 || work_opt > 16384)) {
+                std::fprintf(stderr, "supermat mesh: --work-size: 'native' or a multiple of 8 from 8 to 16384, not '%s'\n", argv[i]);
+                return 2;
+            }
+        }
         else if (a == "--max-memory" && more) {
             if (!parse_size(argv[++i], &g_max_memory)) {
                 std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", argv[i]);
@@ -939,6 +961,10 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     bd.parts = parts.data(); bd.part_count = (int)parts.size(); bd.output_count = nout;
     bd.texture_width = bd.texture_height = size;
     bd.view_size = views;
+    if (!passthrough) { /* the networks run at the size their files record (as `supermat image`), or --work-size */
+        bd.view_work_size = work_opt >= 0 ? work_opt : model_work_size(mv_path, 512);
+        if (bc || rm) bd.refine_work_size = work_opt >= 0 ? work_opt : model_work_size(bc ? bc_path : rm_path, 1024);
+    }
     bd.supersample = supersample;
     bd.passthrough = passthrough;
     bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm ? rm : bc;
