@@ -474,7 +474,18 @@ def surface(obj, mats, p):
     return n, alb, rough, metal
 
 
-def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None):
+def shade_facing(gb, env, rot):
+    """A G-buffer lit as tools/litbake.py lights a texture: every pixel as seen along its own normal
+    (view-independent; no sun), what `supermat mesh` shows its networks of a lit-baked mesh."""
+    import litbake  # noqa: E402  (scipy, only for this mode)
+    out = np.zeros(gb["cov"].shape + (3,), np.float32)
+    m = gb["cov"] > 0
+    out[m] = litbake.shade_facing(gb["n"][m].astype(np.float32), gb["albedo"][m], gb["rough"][m], gb["metal"][m], env, rot)
+    return out
+
+
+def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None,
+                  facing=False):
     obj = Obj(rng)
     mats = [make_material(rng, mode_p, floor, anodised, photo, photos) for _ in obj.shapes]
     if rng.random() < 0.3:  # one material for the whole group
@@ -503,11 +514,12 @@ def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANOD
         ld[2] = abs(ld[2]) + 0.3
         ld = (ld / np.linalg.norm(ld)).astype(np.float32)
         vis = np.zeros(S * S, np.float32)
-        vis[idx] = soft_shadow(obj, p + n * 2e-3, ld)
+        if not facing:   # (the draws stay: a facing set has the same objects, materials and maps)
+            vis[idx] = soft_shadow(obj, p + n * 2e-3, ld)
         amb = float(R.luminance(envs[ei].irr).mean())
         sun = {"dir": ld, "rgb": np.array([1.0, 0.95, 0.85], np.float32) * amb * rng.uniform(1.0, 4.0),
                "vis": vis.reshape(S, S)}
-    lin = R.shade(gb, envs[ei], env_rot, sun)
+    lin = shade_facing(gb, envs[ei], env_rot) if facing else R.shade(gb, envs[ei], env_rot, sun)
     # supersample down: colour weighted by coverage (straight alpha), truth likewise
     cov = R.box_down(gb["cov"], ss)
     w = np.maximum(cov, 1e-8)
@@ -586,7 +598,7 @@ def view_frame(obj, passes=((64, 1.3), (128, 1.05))):
 
 
 def render_views(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None,
-                 keep_pos=False):
+                 keep_pos=False, facing=False):
     """One object in the six official views under one world-fixed lighting (the map, its rotation about
     the world's up axis, a sun and its shadows, one exposure and white balance for all six): the arrays
     of render_sample with a leading view axis, normals in each view's camera frame, and `cams` (6x4x4,
@@ -628,11 +640,11 @@ def render_views(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODI
             a[idx] = val.reshape(idx.size, ch)
             gb[key] = a.reshape(S, S, ch) if ch == 3 else a.reshape(S, S)
         sun_v = None
-        if sun is not None:
+        if sun is not None and not facing:
             vis = np.zeros(S * S, np.float32)
             vis[idx] = soft_shadow(obj, p + n * 2e-3, sun["dir"])
             sun_v = dict(dir=sun["dir"] @ Rc, rgb=sun["rgb"], vis=vis.reshape(S, S))
-        lin = R.shade(gb, envs[ei], rot_world @ Rc, sun_v)
+        lin = shade_facing(gb, envs[ei], rot_world @ Rc) if facing else R.shade(gb, envs[ei], rot_world @ Rc, sun_v)
         cov = R.box_down(gb["cov"], ss)
         w = np.maximum(cov, 1e-8)
 
@@ -696,7 +708,7 @@ def make_shard(args, shard):
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
             render = render_views if args.views == 6 else render_sample
             s = render(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
-                       anodised=args.anodised, photo=args.photo, photos=photos)
+                       anodised=args.anodised, photo=args.photo, photos=photos, facing=args.shading == "facing")
             if s is not None and s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
@@ -752,6 +764,10 @@ def main():
     ap.add_argument("--views", type=int, default=1, choices=(1, 6),
                     help="6: each sample is one object in the six official SuperMatMV views (supermat_uv.h's "
                          "cameras and view frame, Z up), lit alike; arrays gain a view axis, plus cams [6x4x4]")
+    ap.add_argument("--shading", default="camera", choices=("camera", "facing"),
+                    help="camera: rendered as a camera sees it (view-dependent reflections, a sun); facing: every "
+                         "point as seen along its own normal, as tools/litbake.py bakes a texture, which `supermat "
+                         "mesh` then shows its networks (the lit-baked inputs the mesh pipeline expects)")
     ap.add_argument("--photo", type=float, default=0.0,
                     help="probability that a material's albedo is a photographic crop of a training environment map "
                          "(hue-turned and resaturated at random; default 0: the procedural palettes only)")
@@ -771,7 +787,7 @@ def main():
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
     meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
-            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo, "views": args.views,
+            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo, "views": args.views, "shading": args.shading,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)

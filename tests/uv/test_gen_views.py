@@ -9,7 +9,8 @@ row = (1 - (Y.(q - T)) / 1.1) H / 2); where the other view sees the same point (
 true albedo and the world normal must agree: a camera, axis or pixel convention that differs from the
 runtime's breaks that.  Also: the object fills supermat_uv.h's view frame (bounding box centred within 0.04,
 largest half extent 0.93..1.02 from the pixels' positions), the views are lit alike (one exposure), the same
-seed gives the same arrays, and the command line writes shards with a view axis and the cameras.  With
+seed gives the same arrays, and the command line writes shards with a view axis and the cameras.  --shading
+facing (the lit-baked look): the closed form under a constant map, the same objects as the camera shading.  With
 SUPERMAT_MESH: tools/eval_views.py's six views of an asymmetric glTF have the silhouettes of `supermat mesh`'s.
 Lighting: a synthetic sky map written here (no map from elsewhere is needed).
 """
@@ -27,7 +28,7 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 sys.path.insert(0, HERE)
 import gen_data as G  # noqa: E402
 import smrender as R  # noqa: E402
-from test_litbake import write_gltf, write_hdr  # noqa: E402
+from test_litbake import split_sum_normal, srgb_decode, srgb_encode, write_gltf, write_hdr  # noqa: E402
 
 fails = 0
 
@@ -125,6 +126,43 @@ def main():
               "shards: samples x 6 views, the cameras with them")
         with open(os.path.join(d, "meta.json")) as f:
             check(json.load(f)["views"] == 6, "meta.json says views 6")
+    # --shading facing (what `supermat mesh` shows its networks of a lit-baked mesh): under a constant map of
+    # radiance 1 every pixel is the closed form of tools/litbake.py's test, (1 - F0)(1 - metallic) albedo + F0 A + B
+    # with float64 split-sum terms at n . v = 1, exposed and tone mapped with the sample's own exposure and white
+    # balance; the same draws give the same objects as the camera shading, whose reflections differ
+    os.makedirs(os.path.join(out, "hdri_const"), exist_ok=True)
+    write_hdr(os.path.join(out, "hdri_const", "const.hdr"), np.ones((32, 64, 3), np.float32))
+    envc = [R.EnvLight(os.path.join(out, "hdri_const", "const.hdr"))]
+    errs = {True: [], False: []}
+    ab_cache = {}
+    for seed in range(4):
+        sf = G.render_sample(np.random.default_rng([12, seed]), envc, 64, facing=True)
+        sc = G.render_sample(np.random.default_rng([12, seed]), envc, 64)
+        check(all(np.array_equal(sf[k], sc[k]) for k in ("albedo", "rough", "metal", "normal")),
+              f"seed {seed}: facing and camera shading, the same object and materials")
+        full = sf["rgba"][..., 3] == 255
+        inner = full.copy()   # away from the silhouette (the supersampled edge pixels mix with the background)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                inner &= np.roll(np.roll(full, dy, 0), dx, 1)
+        alb = srgb_decode(sf["albedo"][inner] / 255.0)
+        rough, met = sf["rough"][inner] / 255.0, (sf["metal"][inner] / 255.0)[:, None]
+        for r8 in np.unique(sf["rough"][inner]):
+            if r8 not in ab_cache:
+                ab_cache[r8] = split_sum_normal(np.array([r8 / 255.0]))[0]
+        ab = np.array([ab_cache[r8] for r8 in sf["rough"][inner]])
+        f0 = 0.04 * (1 - met) + alb * met
+        lin = (1 - f0) * (1 - met) * alb + f0 * ab[:, :1] + ab[:, 1:2]
+        for facing, smp in ((True, sf), (False, sc)):   # each under its own exposure and white balance
+            want = srgb_encode(lin * float(smp["exposure"]) * smp["wb"]) * 255
+            errs[facing].append(np.abs(smp["rgba"][inner][:, :3] - want).max(1))
+    ef, ec = np.concatenate(errs[True]), np.concatenate(errs[False])
+    print(f"     facing shading vs the closed form ({ef.size} inner pixels): median {np.median(ef):.2f} / 255, "
+          f"90th percentile {np.percentile(ef, 90):.2f}, max {ef.max():.1f}; camera shading: median {np.median(ec):.2f}, "
+          f"90th {np.percentile(ec, 90):.2f}")
+    check(ef.size >= 2000 and np.median(ef) <= 1.5 and np.percentile(ef, 90) <= 4,
+          "facing shading = the closed form under a constant map (median <= 1.5/255, 90th percentile <= 4/255)")
+    check(np.percentile(ec, 90) > 2 * np.percentile(ef, 90) + 2, "camera shading differs from it (view-dependent terms)")
     # tools/eval_views.py renders an asset in the six views as `supermat mesh` does (its --debug-dir views): an
     # asymmetric glTF (a box with a smaller box on its +X / +Y / +Z corner), silhouettes compared per view
     if len(sys.argv) > 2:
