@@ -477,10 +477,9 @@ def surface(obj, mats, p):
 def shade_facing(gb, env, rot):
     """A G-buffer lit as tools/litbake.py lights a texture: every pixel as seen along its own normal
     (view-independent; no sun), what `supermat mesh` shows its networks of a lit-baked mesh."""
-    import litbake  # noqa: E402  (scipy, only for this mode)
     out = np.zeros(gb["cov"].shape + (3,), np.float32)
     m = gb["cov"] > 0
-    out[m] = litbake.shade_facing(gb["n"][m].astype(np.float32), gb["albedo"][m], gb["rough"][m], gb["metal"][m], env, rot)
+    out[m] = R.shade_facing(gb["n"][m].astype(np.float32), gb["albedo"][m], gb["rough"][m], gb["metal"][m], env, rot)
     return out
 
 

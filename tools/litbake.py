@@ -90,17 +90,7 @@ def uv_gbuffer(mesh, size):
                 rough=np.clip(rough, 0, 1), metal=np.clip(metal, 0, 1))
 
 
-def shade_facing(n, albedo, rough, metal, env, rot):
-    """Linear radiance towards a viewer along the normal (n . v = 1), smrender's model (smr.shade's split-sum
-    terms with v = n): diffuse (1 - F0)(1 - metallic) albedo / pi x irradiance + prefiltered radiance along
-    n x (F0 A + B)."""
-    r = np.clip(rough, 0.02, 1.0)
-    met = metal[:, None]
-    f0 = 0.04 * (1 - met) + albedo * met
-    ab = smr.lut_lookup(np.ones_like(r), r)
-    spec = env.specular(n @ rot.T, r) * (f0 * ab[:, :1] + ab[:, 1:2])
-    diff = (1 - f0) * (1 - met) * albedo / np.pi * env.irradiance(n @ rot.T)
-    return diff + spec
+shade_facing = smr.shade_facing   # (in smrender: gen_data.py --shading facing renders with it too)
 
 
 def spread(img, hit, gutter):

@@ -285,6 +285,19 @@ def shade(gb, env, rot=np.eye(3), sun=None):
     return out
 
 
+def shade_facing(n, albedo, rough, metal, env, rot):
+    """Linear radiance towards a viewer along the normal (n . v = 1), smrender's model (smr.shade's split-sum
+    terms with v = n): diffuse (1 - F0)(1 - metallic) albedo / pi x irradiance + prefiltered radiance along
+    n x (F0 A + B)."""
+    r = np.clip(rough, 0.02, 1.0)
+    met = metal[:, None]
+    f0 = 0.04 * (1 - met) + albedo * met
+    ab = lut_lookup(np.ones_like(r), r)
+    spec = env.specular(n @ rot.T, r) * (f0 * ab[:, :1] + ab[:, 1:2])
+    diff = (1 - f0) * (1 - met) * albedo / np.pi * env.irradiance(n @ rot.T)
+    return diff + spec
+
+
 def tonemap(lin, exposure, wb):
     """Renderer 'Standard' view: scale, clip to [0,1], sRGB OETF."""
     return srgb_encode(lin * exposure * np.asarray(wb, np.float32))

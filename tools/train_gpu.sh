@@ -19,7 +19,7 @@
 # device: budgets in seconds GEN_S (renders, default 160), FT_S (latent phase, 30), E2E_S (end to end, 220);
 #   TRAIN_TIMEOUT (default 380) bounds the whole training call; FT_BATCH (64), E2E_BATCH (32).  INIT: the model
 #   file to start from (default the shipped one; e.g. a candidate with another VAE, carried in .gpu/); SEED (11)
-#   and PHOTO (0: gen_data --photo) for the renders; PHASES (ft,ft_e2e,export); TRAIN_EXTRA: more arguments
+#   PHOTO (0: gen_data --photo) and SHADING (camera | facing: gen_data --shading) for the renders; PHASES (ft,ft_e2e,export); TRAIN_EXTRA: more arguments
 #   for train_default.py (a later --seconds replaces the one above: e.g. PHASES=e2e_more,export TRAIN_EXTRA=
 #   "--seconds e2e_more=120 --e2e-more-steps 100000 --e2e-more-lr 1e-4" continues a model end to end).  Gives back
 #   the UNet after each phase that ran (unet_ft.npz, unet_ft_e2e.npz, unet_e2e_more.npz), float16
@@ -94,7 +94,7 @@ if [ "$mode" = device-mv ]; then
     nvidia-smi -L > "$OUT/env.txt" 2>&1
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 timeout -s INT "${GEN_S:-120}" $PY tools/gen_data.py --hdri-dir "$W/w/hdri" \
         --out "$W/mv" --count 100000 --size 128 --shard 8 --seed "${SEED:-21}" --jobs "$(nproc)" --views 6 \
-        --photo "${PHOTO:-0.5}" --mode-probs 0.62,0.12,0.13,0.13 > "$W/gen.log" 2>&1
+        --photo "${PHOTO:-0.5}" --mode-probs 0.62,0.12,0.13,0.13 --shading "${SHADING:-camera}" > "$W/gen.log" 2>&1
     pkill -f tools/gen_data.py; sleep 1
     echo "renders: $(ls "$W/mv" | grep -c '^shard_') shards of 8 objects at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
     timeout "${TRAIN_TIMEOUT:-230}" $PY tools/train_mv.py --data "$W/mv" --out "$W/run" \
@@ -168,7 +168,7 @@ EOF
 echo "== renders: $JOBS jobs for ${GEN_S:-160} s (seed ${SEED:-11}, material modes 0.62 / 0.12 / 0.13 / 0.13, photo ${PHOTO:-0})"
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-160}" \
     $PY tools/gen_data.py --hdri-dir "$W/w/hdri" --out "$W/data" --count 100000 --size 128 --shard 25 \
-    --seed "${SEED:-11}" --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 --photo "${PHOTO:-0}" > "$W/gen.log" 2>&1
+    --seed "${SEED:-11}" --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 --photo "${PHOTO:-0}" --shading "${SHADING:-camera}" > "$W/gen.log" 2>&1
 pkill -f tools/gen_data.py; sleep 1
 n=$(ls "$W/data" | grep -c '^shard_[0-9]*\.npz$')
 echo "renders: $n shards of 25 in $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
