@@ -93,6 +93,8 @@ def main():
     ap.add_argument("--baselines", default="lit,passthrough", help="comma list of lit, passthrough, truth")
     ap.add_argument("--size", type=int, default=1024, help="texture size (default 1024)")
     ap.add_argument("--views-size", type=int, default=512, help="supermat mesh --views-size (default 512)")
+    ap.add_argument("--mesh-args", default="", help="more `supermat mesh` options for every bake, one string "
+                                                       "(e.g. \"--weight cos --edge-reject 2\")")
     ap.add_argument("--work-size", default=None,
                     help="supermat mesh --work-size N|native (default: the size each model file records)")
     ap.add_argument("--views", type=int, default=4, help="relighting views per asset (default 4)")
@@ -169,7 +171,7 @@ def main():
                 os.makedirs(out, exist_ok=True)
                 gltf = os.path.join(out, name + ".gltf")
                 cmd = [args.supermat, "mesh", "--force", "--size", str(args.size), "--views-size", str(args.views_size),
-                       "--threads", str(args.threads)]
+                       "--threads", str(args.threads)] + args.mesh_args.split()
                 if kind == "passthrough":
                     cmd.append("--passthrough")
                 else:
