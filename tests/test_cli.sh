@@ -369,6 +369,16 @@ run sheet --out "$T/sheets/never.png" "$SPHERE,$T/sheets/text.png"
 check "sheet with a file that is not an image exits 1" [ $RC -eq 1 ]
 absent "$T/sheets/never.png"
 absent "$T/sheets/never.png.tmp"
+# FILE:r/:g/:b/:a: one channel as gray: a gray image's :r is the image; a colour image's :g is not
+run sheet --out "$T/sheets/m.png" --cell 32 "$DATA/img/uv/uv_mask.png"
+run sheet --out "$T/sheets/m_r.png" --cell 32 "$DATA/img/uv/uv_mask.png:r"
+check "sheet FILE:r of a gray image = the image" cmp -s "$T/sheets/m.png" "$T/sheets/m_r.png"
+run sheet --out "$T/sheets/c.png" --cell 32 "$DATA/img/uv/uv_bc.png"
+run sheet --out "$T/sheets/c_g.png" --cell 32 "$DATA/img/uv/uv_bc.png:g"
+check "sheet FILE:g of a colour image: exit 0" [ $RC -eq 0 ]
+check "sheet FILE:g of a colour image: another sheet than the image's" [ "$(cmp -s "$T/sheets/c.png" "$T/sheets/c_g.png"; echo $?)" = 1 ]
+run sheet --out "$T/sheets/never.png" "$DATA/img/uv/uv_bc.png:x"
+check "sheet FILE:x (no such channel, no such file) exits 1" [ $RC -eq 1 ]
 run sheet --out "$T/sheets/never.png"
 check "sheet without rows exits 2" [ $RC -eq 2 ]
 run sheet --out "$T/sheets/never.png" --cell 7 "$SPHERE"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job on the default model: build the tool, turn pictures into albedo / roughness / metallic
-# maps under out/, and put each picture and its maps side by side in out/sheet.png.
+# maps under out/, and put each picture and its maps side by side in out/sheet.png; then bake the example
+# mesh examples/mesh/ with `supermat mesh` (out/mesh/, out/mesh_sheet.png).
 #
 #   bash tools/demo.sh
 #
@@ -16,7 +17,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 need=()
-for p in cmake make gcc g++ libstb-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+for p in cmake make gcc g++ libstb-dev libtinygltf-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
   $SUDO apt-get update -qq
@@ -93,3 +94,20 @@ for p in "${pics[@]}"; do
   echo "  out/${s}_albedo.png  out/${s}_roughness.png  out/${s}_metallic.png   (from $p)"
 done
 echo "sheet: out/sheet.png (each row: $labels)"
+
+# the mesh: examples/mesh/lit/example_pbr_lit.gltf, a procedural torus and sphere of ours whose base colour has
+# its lighting baked in (tools/make_example_mesh.py, tools/litbake.py; the true textures beside it), baked by
+# `supermat mesh` with no model flags: the default model on the six views, one by one, no refinement
+mesh_help=$("$SM" mesh --help 2>&1 || true)
+if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
+  mkdir -p out/mesh
+  ex=examples/mesh/lit/example_pbr
+  "$SM" mesh --force --size 256 --debug-dir out/mesh/debug "$ex"_lit.gltf out/mesh/example.gltf
+  "$SM" sheet --force --out out/mesh_sheet.png --cell 160 \
+    --labels "input (front),lit texture,albedo,roughness,metallic,true albedo,true roughness,true metallic" \
+    "out/mesh/debug/view_0.png,${ex}_lit_baseColor.png,out/mesh/example_baseColor.png,out/mesh/example_metallicRoughness.png:g,out/mesh/example_metallicRoughness.png:b,${ex}_truth_albedo.png,${ex}_truth_roughness.png,${ex}_truth_metallic.png" >/dev/null
+  echo "mesh: out/mesh/example.gltf (+ its textures); sheet: out/mesh_sheet.png (the input's front view, its lit"
+  echo "      texture, the baked albedo / roughness / metallic textures, the true ones)"
+else
+  echo "mesh: skipped (this supermat was built without tinygltf: apt install libtinygltf-dev)"
+fi

@@ -14,7 +14,8 @@ static const char cli_usage_sheet[] =
     "\n"
     "Each image is resized to fit an N x N cell keeping its shape (square images fill it; a box\n"
     "filter when shrinking, bilinear when enlarging) and centred in it. Transparent pixels show a\n"
-    "light checkerboard behind them; gray images are shown as gray. Cells are separated by 4-pixel\n"
+    "light checkerboard behind them; gray images are shown as gray. FILE:r, :g, :b or :a shows that one\n"
+    "channel of FILE as gray (e.g. a glTF metallicRoughness texture: roughness :g, metallic :b). Cells are separated by 4-pixel\n"
     "gutters on a white background: the sheet is 4 + C * (N + 4) pixels wide and 4 + R * (N + 4)\n"
     "high for C columns and R rows, plus 8 * S + 4 rows for the labels when --labels is given\n"
     "(S = 1 + N / 256, the text scale: 1 up to N = 255). The PNG is RGB, 8-bit, written as\n"
@@ -181,6 +182,17 @@ static void cli_split_commas(char *s, char **out) {
     }
 }
 
+/* FILE:r / :g / :b / :a (when no file has that very name): one channel, shown as gray. Cuts the suffix off
+   name and returns where (put ':' back there), with *pick the channel; NULL (and *pick -1) for a plain name. */
+static char *cli_sheet_channel(char *name, int *pick) {
+    size_t len = strlen(name);
+    *pick = -1;
+    if (len < 3 || name[len - 2] != ':' || !name[len - 1] || !strchr("rgba", name[len - 1]) || cli_is_file(name)) return NULL;
+    *pick = (int)(strchr("rgba", name[len - 1]) - "rgba");
+    name[len - 2] = 0;
+    return name + len - 2;
+}
+
 static int cli_sheet(int argc, char **argv) {
     const char *cmd = "sheet", *v, *out_path = NULL, *labels_arg = NULL, **row_args;
     int cell = 128, i, m, r, c, nrows = 0, ncols = 0, nlabels = 0, rc = CLI_OK, s, label_h, sw, sh, q;
@@ -265,9 +277,13 @@ static int cli_sheet(int argc, char **argv) {
     /* every image readable before any work */
     for (r = 0; r < nrows; r++)
         for (c = 0; c < row_len[r]; c++) {
-            int w, h, ch;
+            int w, h, ch, pick, ok;
+            char *sel;
             if (!strcmp(cells[r][c], "-")) continue;
-            if (!cli_pic_info(cells[r][c], "image", &w, &h, &ch)) {
+            sel = cli_sheet_channel(cells[r][c], &pick);
+            ok = cli_pic_info(cells[r][c], "image", &w, &h, &ch);
+            if (sel) *sel = ':';
+            if (!ok) {
                 rc = CLI_FAIL;
                 goto done;
             }
@@ -287,9 +303,21 @@ static int cli_sheet(int argc, char **argv) {
         for (c = 0; c < row_len[r] && rc == CLI_OK; c++) {
             int w = 0, h = 0, ch = 0, dw, dh, x0, y0;
             unsigned char *px;
-            if (!strcmp(cells[r][c], "-")) continue;
-            px = cli_load(cells[r][c], &w, &h, &ch, 4);
-            if (!px) { cli_error("cannot read image '%s': %s", cells[r][c], stbi_failure_reason()); rc = CLI_FAIL; break; }
+            char *name = cells[r][c], *sel;
+            int pick;
+            if (!strcmp(name, "-")) continue;
+            sel = cli_sheet_channel(name, &pick);
+            px = cli_load(name, &w, &h, &ch, 4);
+            if (!px) { cli_error("cannot read image '%s': %s", name, stbi_failure_reason()); rc = CLI_FAIL; break; }
+            if (sel) {
+                size_t k, n = (size_t)w * h;
+                *sel = ':';
+                for (k = 0; k < n; k++) {
+                    unsigned char v = px[k * 4 + pick];
+                    px[k * 4] = px[k * 4 + 1] = px[k * 4 + 2] = v;
+                    px[k * 4 + 3] = 255;
+                }
+            }
             if (w >= h) { dw = cell; dh = (int)((double)cell * h / w + 0.5); }
             else { dh = cell; dw = (int)((double)cell * w / h + 0.5); }
             if (dw < 1) dw = 1;
