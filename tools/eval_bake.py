@@ -94,9 +94,7 @@ def main():
     ap.add_argument("--size", type=int, default=1024, help="texture size (default 1024)")
     ap.add_argument("--views-size", type=int, default=512, help="supermat mesh --views-size (default 512)")
     ap.add_argument("--mesh-args", default="", help="more `supermat mesh` options for every bake, one string "
-                                                       "(e.g. \"--weight cos --edge-reject 2\")")
-    ap.add_argument("--work-size", default=None,
-                    help="supermat mesh --work-size N|native (default: the size each model file records)")
+                                                       "(e.g. \"--weight cos --edge-reject 2\", \"--work-size native\")")
     ap.add_argument("--views", type=int, default=4, help="relighting views per asset (default 4)")
     ap.add_argument("--relight-size", type=int, default=256, help="relighting view size (default 256)")
     ap.add_argument("--seed", type=int, default=1)
@@ -176,7 +174,7 @@ def main():
                     cmd.append("--passthrough")
                 else:
                     files = dict(bakes)[kind]
-                    cmd += ["--mv-model", files[0]] + (["--work-size", args.work_size] if args.work_size else [])
+                    cmd += ["--mv-model", files[0]]
                     cmd += ["--albedo-refine", files[1], "--rm-refine", files[2]] if len(files) == 3 else ["--no-refine"]
                 r = subprocess.run(cmd + [lit_gltf, gltf], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    universal_newlines=True)

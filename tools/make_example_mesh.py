@@ -105,8 +105,7 @@ def write_gltf(out, name, size, rng):
     alb, rough, metal = textures(size, rng)
     q8 = lambda x: np.clip(np.round(x * 255), 0, 255).astype(np.uint8)  # noqa: E731
     Image.fromarray(q8(R.srgb_encode(alb))).save(os.path.join(out, name + "_baseColor.png"))
-    Image.fromarray(np.stack([np.full_like(rough, 1.0), rough, metal], -1).__mul__(255).round().clip(0, 255)
-                    .astype(np.uint8)).save(os.path.join(out, name + "_metallicRoughness.png"))
+    Image.fromarray(q8(np.stack([np.ones_like(rough), rough, metal], -1))).save(os.path.join(out, name + "_metallicRoughness.png"))
     g = {"asset": {"version": "2.0", "generator": "supermat tools/make_example_mesh.py"},
          "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "example"}],
          "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,

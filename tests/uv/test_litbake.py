@@ -231,7 +231,7 @@ def main():
         js = os.path.join(out, "eval_bake.json")
         cmd = [sys.executable, os.path.join(HERE, "..", "..", "tools", "eval_bake.py"), "--assets",
                os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
-               "--size", "16", "--views-size", "64", "--work-size", "native", "--views", "2", "--relight-size", "64", "--baselines",
+               "--size", "16", "--views-size", "64", "--mesh-args", "--work-size native", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
                "--bake", f"tiny_mv={sys.argv[3]}"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
                "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
