@@ -3,7 +3,9 @@
 `supermat mesh` with no model flags (the default model from the source tree, view by view, no refinement),
 measured against the example's true textures on its chart texels: a regression guard for the default mesh
 path, its floors set from the first measurement (2026-11-26, 2-core Xeon, AVX-512: albedo 9.32 dB against the
-lit texture's 8.04; roughness 9.71, metallic 3.98).
+lit texture's 8.04; roughness 9.71, metallic 3.98), the albedo floor lowered when `supermat mesh` began keeping
+the input's detail (--detail 1/32 by default, 2026-11-27: 9.16 dB on this 256x256 example, 0.16 below
+--detail off here; +1.37 dB on the five held-out assets, README).
 
 usage: test_example_mesh.py SUPERMAT OUT_DIR
 """
@@ -17,7 +19,7 @@ from PIL import Image
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 EX = os.path.join(HERE, "..", "..", "examples", "mesh", "lit", "example_pbr")
-ALBEDO_FLOOR, ALBEDO_OVER_LIT, ROUGH_FLOOR = 9.0, 1.0, 9.3
+ALBEDO_FLOOR, ALBEDO_OVER_LIT, ROUGH_FLOOR = 8.9, 1.0, 9.3
 
 fails = 0
 

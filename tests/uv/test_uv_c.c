@@ -224,6 +224,108 @@ static void single_view(supermat_uv_bake_desc bd, const supermat_model *sv, int 
     CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "refine_work_size"), "refine_work_size -8: INVALID_ARGUMENT");
 }
 
+/* ---- DETAIL (detail_sigma): the bake's own intermediate images (debug) against a float64 reference of
+   the documented formula, with direct window sums; the input colour against our own bilinear sample ---- */
+enum { DT = 64 };
+static const unsigned char *dt_tex;
+static const float *dt_uvs;
+static float dt_partial[DT * DT * 3], dt_seen[DT * DT], dt_chart[DT * DT], dt_input[DT * DT * 3];
+static int dt_got;
+static void dt_debug(void *user, supermat_uv_debug_kind kind, int index, const float *data, int w, int h, int ch) {
+    (void)user;
+    if (index != 0 || w != DT || h != DT) return;
+    if (kind == SUPERMAT_UV_DEBUG_PARTIAL_ALBEDO && ch == 3) { memcpy(dt_partial, data, sizeof dt_partial); dt_got |= 1; }
+    if (kind == SUPERMAT_UV_DEBUG_SEEN && ch == 1) { memcpy(dt_seen, data, sizeof dt_seen); dt_got |= 2; }
+    if (kind == SUPERMAT_UV_DEBUG_CHART && ch == 1) { memcpy(dt_chart, data, sizeof dt_chart); dt_got |= 4; }
+    if (kind == SUPERMAT_UV_DEBUG_INPUT_COLOR && ch == 3) { memcpy(dt_input, data, sizeof dt_input); dt_got |= 8; }
+}
+static double dt_lin(double s) { s = s < 0 ? 0 : s > 1 ? 1 : s; return s <= 0.04045 ? s / 12.92 : pow((s + 0.055) / 1.055, 2.4); }
+static double dt_srgb(double l) { l = l < 0 ? 0 : l > 1 ? 1 : l; return l <= 0.0031308 ? l * 12.92 : 1.055 * pow(l, 1.0 / 2.4) - 0.055; }
+
+/* bd: a quad bake whose part has a 16x16 RGBA8 texture `tex` (repeat wrap); what: label. Returns the
+   worst 8-bit difference on the chart texels (-1 on failure). */
+static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, float sigma, const char *what) {
+    static unsigned char alb[DT * DT * 4], mr[DT * DT * 3], off[DT * DT * 4];
+    static double g[DT * DT * 6], t[DT * DT * 6];
+    supermat_uv_output out;
+    supermat_error err;
+    supermat_result r;
+    double sum[6] = {0, 0, 0, 0, 0, 0}, worst_in = 0, sg = sigma * DT;
+    int x, y, c, k, pass, worst = 0, chart = 0, unseen = 0, clipped = 0, changed = 0, rad = (int)floor((sqrt(4.0 * sg * sg + 1.0) - 1.0) * 0.5 + 0.5);
+    char msg[400];
+    if (rad < 1) rad = 1;
+    memset(&out, 0, sizeof out);
+    out.base_color.pixels = off; out.base_color.channels = 4;
+    out.metallic_roughness.pixels = mr; out.metallic_roughness.channels = 3;
+    bd.texture_width = bd.texture_height = DT;
+    bd.detail_sigma = 0.0f; bd.debug = NULL;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);   /* the same bake without it, for comparison */
+    CHECK(r == SUPERMAT_SUCCESS, err.message);
+    out.base_color.pixels = alb;
+    bd.detail_sigma = sigma; bd.debug = dt_debug; dt_got = 0;
+    r = supermat_uv_bake(&bd, &out, NULL, &err);
+    snprintf(msg, sizeof msg, "%s: detail bake: %s (%s), debug images %x", what, supermat_result_string(r), err.message, dt_got);
+    CHECK(r == SUPERMAT_SUCCESS && dt_got == 15, msg);
+    if (r || dt_got != 15) return -1;
+    /* the input colour: our bilinear sample of the texture at each chart texel centre (repeat wrap) */
+    for (y = 0; y < DT; y++)
+        for (x = 0; x < DT; x++) {
+            double u = (x + 0.5) / DT * 16 - 0.5, v = (y + 0.5) / DT * 16 - 0.5, fx, fy;
+            int x0 = (int)floor(u), y0 = (int)floor(v);
+            fx = u - x0; fy = v - y0;
+            if (!dt_chart[y * DT + x]) continue;
+            for (c = 0; c < 3; c++) {
+                double a = tex[(((y0 + 16) % 16) * 16 + (x0 + 16) % 16) * 4 + c], b = tex[(((y0 + 16) % 16) * 16 + (x0 + 17) % 16) * 4 + c];
+                double cc = tex[(((y0 + 17) % 16) * 16 + (x0 + 16) % 16) * 4 + c], d = tex[(((y0 + 17) % 16) * 16 + (x0 + 17) % 16) * 4 + c];
+                double e = ((a + (b - a) * fx) * (1 - fy) + (cc + (d - cc) * fx) * fy) / 255.0 - dt_input[(y * DT + x) * 3 + c];
+                if (fabs(e) > worst_in) worst_in = fabs(e);
+            }
+        }
+    snprintf(msg, sizeof msg, "%s: the input colour at the chart texels, worst %.2g from a float64 bilinear sample", what, worst_in);
+    CHECK(worst_in < 1e-5, msg);
+    /* the reference: w = seen (nothing refined here); 3 x (rows, columns) of direct window sums */
+    for (k = 0; k < DT * DT; k++)
+        for (c = 0; c < 3; c++) {
+            int w = dt_seen[k] != 0.0f && dt_chart[k] != 0.0f;
+            g[k * 6 + c] = w ? dt_lin(dt_partial[k * 3 + c]) : 0.0;
+            g[k * 6 + 3 + c] = w ? dt_lin(dt_input[k * 3 + c]) : 0.0;
+            sum[c] += g[k * 6 + c]; sum[3 + c] += g[k * 6 + 3 + c];
+        }
+    for (pass = 0; pass < 6; pass++) {
+        for (y = 0; y < DT; y++)
+            for (x = 0; x < DT; x++)
+                for (c = 0; c < 6; c++) {
+                    double a = 0;
+                    for (k = -rad; k <= rad; k++) {
+                        int xx = pass % 2 ? x : x + k, yy = pass % 2 ? y + k : y;
+                        if (xx >= 0 && xx < DT && yy >= 0 && yy < DT) a += g[(yy * DT + xx) * 6 + c];
+                    }
+                    t[(y * DT + x) * 6 + c] = a;
+                }
+        memcpy(g, t, sizeof g);
+    }
+    for (k = 0; k < DT * DT; k++) {
+        if (!dt_chart[k]) continue;
+        chart++;
+        unseen += dt_seen[k] == 0.0f;
+        for (c = 0; c < 3; c++) {
+            double q = g[k * 6 + 3 + c] > 1e-6 ? g[k * 6 + c] / g[k * 6 + 3 + c] : sum[3 + c] > 0 && sum[c] > 0 ? sum[c] / sum[3 + c] : 1.0;
+            int want, d;
+            if (q < 0.25 || q > 4.0) clipped++;
+            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+            want = (int)(dt_srgb(dt_lin(dt_input[k * 3 + c]) * q) * 255.0 + 0.5);
+            d = abs(want - alb[k * 4 + c]);
+            if (d > worst) worst = d;
+            changed += alb[k * 4 + c] != off[k * 4 + c];
+        }
+    }
+    snprintf(msg, sizeof msg, "%s: sigma %g (r %d): worst %d/255 from the float64 reference over %d chart texels (%d unseen, %d channels clipped, "
+             "%d differ from the bake without detail)", what, (double)sigma, rad, worst, chart, unseen, clipped, changed);
+    CHECK(worst <= 1 && chart > 0 && unseen > 0 && changed > 0, msg);
+    printf("%s\n", msg);
+    return worst;
+}
+
 static unsigned char *read_all(const char *path, size_t *n) {
     FILE *f = fopen(path, "rb");
     unsigned char *b = NULL;
@@ -368,6 +470,33 @@ int main(int argc, char **argv) {
     bd.weight = SUPERMAT_UV_WEIGHT_AVERAGE; bd.cos_power = 0.0f;
     bd.view_size = 8; bd.supersample = 1;
     sweeps(bd, "passthrough");
+    /* DETAIL on a patterned texture: a quarter of the quad's UVs outside [0, 1] (repeat wrap); pixels
+       within 2 of the silhouettes rejected, so the texels along the quad's edges are unseen */
+    {
+        static unsigned char pat[16 * 16 * 4];
+        static const float uvw[8] = {-0.25f, 0.75f, 0.75f, 0.75f, 0.75f, -0.25f, -0.25f, -0.25f};
+        supermat_uv_bake_desc b2 = bd;
+        supermat_uv_part p2 = part;
+        float bad_sigma[3];
+        for (y = 0; y < 16; y++)
+            for (x = 0; x < 16; x++) {
+                unsigned char *q = pat + (y * 16 + x) * 4;
+                q[0] = (unsigned char)(x * 16 + 8); q[1] = (unsigned char)(y * 16 + 8); q[2] = (unsigned char)(((x ^ y) & 1) ? 230 : 20); q[3] = 255;
+            }
+        p2.base_color.pixels = pat; p2.uvs = uvw;
+        b2.parts = &p2; b2.view_size = 32; b2.supersample = 2; b2.edge_reject = 2;
+        detail_check(b2, pat, 0.1f, "passthrough + detail");
+        detail_check(b2, pat, 1.0f / 32.0f, "passthrough + detail");
+        b2.detail_sigma = 0.1f;
+        sweeps(b2, "passthrough + detail");
+        bad_sigma[0] = -0.1f; bad_sigma[1] = 1.5f; bad_sigma[2] = (float)NAN;
+        for (i = 0; i < 3; i++) {
+            b2.detail_sigma = bad_sigma[i];
+            r = supermat_uv_bake(&b2, &out, NULL, &err);
+            CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "detail_sigma"), "a bad detail_sigma: INVALID_ARGUMENT");
+        }
+        dt_tex = pat; dt_uvs = uvw;
+    }
     if (argc >= 3) {
         size_t nmv = 0, nuv = 0;
         unsigned char *fmv = read_all(argv[1], &nmv), *fuv = read_all(argv[2], &nuv);
@@ -402,6 +531,16 @@ int main(int argc, char **argv) {
                 CHECK(supermat_model_create(&md, &sv, &err) == SUPERMAT_SUCCESS, err.message);
             }
             if (sv) { single_view(bd, sv, 0); single_view(bd, sv, 8); single_view(bd, sv, 32); }
+            if (sv) { /* DETAIL with the network's predictions: ratios far from 1, some clipped */
+                supermat_uv_bake_desc b2 = bd;
+                supermat_uv_part p2 = part;
+                p2.base_color.pixels = (void *)dt_tex; p2.uvs = dt_uvs;
+                b2.parts = &p2; b2.view_size = 32; b2.supersample = 2; b2.view_work_size = 8; b2.edge_reject = 2;
+                b2.mv_model = sv; b2.albedo_refine_model = NULL; b2.rm_refine_model = NULL;
+                detail_check(b2, dt_tex, 0.1f, "single-view model + detail");
+                b2.texture_width = b2.texture_height = 0; b2.detail_sigma = 0.1f; b2.view_size = 16;
+                sweeps(b2, "single-view model + detail");
+            }
             supermat_model_destroy(sv);
             free(fsv);
         }

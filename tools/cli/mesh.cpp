@@ -2,7 +2,7 @@
  *
  *   supermat mesh --mv-model F --albedo-refine F --rm-refine F IN.gltf OUT.gltf
  *                 [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
- *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]
+ *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]
  *
  * Reads IN (.gltf or .glb) and bakes every mesh its default scene shows (each at the world transform of
  * the first node instancing it; glTF's Y-up frame becomes supermat_uv.h's Z-up one, (x, y, z) -> (x, -z, y)):
@@ -317,6 +317,7 @@ void debug_cb(void *user, supermat_uv_debug_kind k, int index, const float *data
     case SUPERMAT_UV_DEBUG_POSITION: name = "position"; break;
     case SUPERMAT_UV_DEBUG_REFINED_ALBEDO: name = "refined_albedo"; break;
     case SUPERMAT_UV_DEBUG_REFINED_RM: name = "refined_rm"; break;
+    case SUPERMAT_UV_DEBUG_INPUT_COLOR: name = "input_color"; break;
     default: return;
     }
     std::string f = d->dir + "/" + name;
@@ -488,7 +489,7 @@ int usage() {
     std::fprintf(stderr,
                  "usage: supermat mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine)] IN.gltf OUT.gltf\n"
                  "       [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
-                 "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N]\n"
+                 "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]\n"
                  "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
                  "                  view, no cross-view attention: the paper's ablation)\n"
                  "  no model flags  the default model (as `supermat image`), view by view, with --no-refine\n"
@@ -501,6 +502,9 @@ int usage() {
                  "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
                  "                  maps back (default: the size each model file records, as `supermat image`:\n"
                  "                  128 for the default model; native = the view / texture size)\n"
+                 "  --detail F|off  the albedo keeps the input texture's detail: input x low-pass(albedo) /\n"
+                 "                  low-pass(input), lighting assumed smooth over F x the texture size\n"
+                 "                  (default 1/32 with networks, off with --passthrough; supermat_uv.h DETAIL)\n"
                  "  --max-memory SIZE  refuse models + bake needing more than SIZE (512M, 4G), before allocating\n");
     return 2;
 }
@@ -657,6 +661,7 @@ extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **f
 extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
+    float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
     int passthrough = 0, no_refine = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     g_max_memory = 0;
@@ -678,6 +683,15 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             work_opt = w == "native" ? 0 : std::atoi(w.c_str());
             if (w != "native" && (work_opt < 8 || work_opt % 8 || work_opt > 16384)) {
                 std::fprintf(stderr, "supermat mesh: --work-size: 'native' or a multiple of 8 from 8 to 16384, not '%s'\n", argv[i]);
+                return 2;
+            }
+        }
+        else if (a == "--detail" && more) {
+            std::string w = argv[++i];
+            char *end = nullptr;
+            detail = w == "off" ? 0.0f : std::strtof(w.c_str(), &end);
+            if (w != "off" && (!end || *end || !(detail >= 0.0f && detail <= 1.0f))) {
+                std::fprintf(stderr, "supermat mesh: --detail: 'off' or a fraction of the texture size from 0 to 1, not '%s'\n", argv[i]);
                 return 2;
             }
         }
@@ -966,6 +980,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         if (bc || rm) bd.refine_work_size = work_opt >= 0 ? work_opt : model_work_size(bc ? bc_path : rm_path, 1024);
     }
     bd.supersample = supersample;
+    bd.detail_sigma = detail >= 0.0f ? detail : passthrough ? 0.0f : 1.0f / 32.0f;
     bd.passthrough = passthrough;
     bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm ? rm : bc;
     bd.weight = weight;
