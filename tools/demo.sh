@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job on the default model: build the tool, turn pictures into albedo / roughness / metallic
 # maps under out/, and put each picture and its maps side by side in out/sheet.png; then bake the example
-# mesh examples/mesh/ with `supermat mesh` (out/mesh/, out/mesh_sheet.png).
+# mesh examples/mesh/ with `supermat mesh` (out/mesh/, out/mesh_sheet.png) and render the input, the bake
+# and the truth under a new light (out/mesh_relight.png; tools/relight_demo.py, numpy / Pillow / scipy).
 #
 #   bash tools/demo.sh
 #
@@ -17,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 need=()
-for p in cmake make gcc g++ libstb-dev libtinygltf-dev; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+for p in cmake make gcc g++ libstb-dev libtinygltf-dev python3 python3-numpy python3-pil python3-scipy; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
   $SUDO apt-get update -qq
@@ -108,6 +109,16 @@ if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
     "out/mesh/debug/view_0.png,${ex}_lit_baseColor.png,out/mesh/example_baseColor.png,out/mesh/example_metallicRoughness.png:g,out/mesh/example_metallicRoughness.png:b,${ex}_truth_albedo.png,${ex}_truth_roughness.png,${ex}_truth_metallic.png" >/dev/null
   echo "mesh: out/mesh/example.gltf (+ its textures); sheet: out/mesh_sheet.png (the input's front view, its lit"
   echo "      texture, the baked albedo / roughness / metallic textures, the true ones)"
+  # the input as given, the bake and the truth, rendered under a map the lit texture did not see
+  PY=python3; [ -x /usr/bin/python3 ] && PY=/usr/bin/python3
+  r=out/mesh/relit
+  "$PY" tools/relight_demo.py --hdri examples/mesh/studio_small_03_256.hdr --out "$r" --views 2 \
+    input="$ex"_lit.gltf baked=out/mesh/example.gltf truth=examples/mesh/example_pbr.gltf >/dev/null
+  "$SM" sheet --force --out out/mesh_relight.png --cell 160 \
+    --labels "input as given (new light),baked (new light),truth (new light)" \
+    "$r/input_v0.png,$r/baked_v0.png,$r/truth_v0.png" "$r/input_v1.png,$r/baked_v1.png,$r/truth_v1.png" >/dev/null
+  echo "relit: out/mesh_relight.png (the input mesh as given, the baked one and the truth under studio_small_03,"
+  echo "       two views, one exposure)"
 else
   echo "mesh: skipped (this supermat was built without tinygltf: apt install libtinygltf-dev)"
 fi
