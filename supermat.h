@@ -53,6 +53,8 @@
  *   session_desc.vae_tile   VAE in blended tiles (bounded memory); skip_background: decode only the
  *                           tiles with foreground / UV charts (supermat_session_last_flops tells the work)
  *   session_desc.mv_attention  own-view or strided keys at the highest resolution (SuperMatMV)
+ *   session_desc.detail_sigma  not a speed lever and not official: the albedo keeps the picture's own
+ *                           detail (picture x low-pass(albedo) / low-pass(picture)); for small networks
  *
  * WHAT IT DOES NOT DO
  *   - No file I/O, no image decoding: give it pixels at the size you want processed (the official
@@ -448,6 +450,15 @@ typedef struct supermat_session_desc {
     /* SuperMatMV only: approximate the multi-view attention at the highest resolution. */
     supermat_mv_attention mv_attention;
     int mv_key_stride;           /* SUPERMAT_MV_ATTENTION_STRIDED: keep every n-th key of the other views (1 = all) */
+    /* supermat / supermat-mv, not in the official computation: the albedo keeps the input picture's
+       detail. Per channel in linear light, albedo = I x clamp(G(w A) / G(w I), 1/4, 4), I the input
+       colour (sRGB-encoded as given), A the network's albedo, w the input's alpha (1 without alpha), G
+       three passes of a box filter of width 2r + 1, r = round((sqrt(4 s^2 + 1) - 1) / 2), s =
+       detail_sigma x max(width, height), rows then columns, zero outside the image (where G(w I) < 1e-6:
+       the image's sum(w A) / sum(w I)); pixels of alpha 0 are left as decoded. The lighting is assumed
+       smooth at that scale: the network sets the level and colour, the picture the detail (`supermat
+       image` uses 1/64, chosen on validation assets: README). 0 = off; at most 1. */
+    float detail_sigma;
     size_t max_memory;           /* 0 = no limit; else a session whose plan (supermat_session_memory) needs more
                                     fails with OUT_OF_MEMORY before anything is allocated */
 } supermat_session_desc;
@@ -4871,6 +4882,7 @@ struct supermat_session {
     int ww, wh;                 /* the size the network runs at */
     int tile, overlap, skip_bg; /* VAE tiles (pixels; 0 = whole image), background skipping */
     int mv_att, mv_stride;
+    float detail;               /* detail_sigma */
 };
 
 static void supermat__session_options(supermat_session *S, const supermat_session_desc *d) {
@@ -4879,6 +4891,7 @@ static void supermat__session_options(supermat_session *S, const supermat_sessio
     S->tile = d->vae_tile; S->overlap = d->vae_tile ? (d->vae_overlap ? d->vae_overlap : 32) : 0;
     S->skip_bg = d->skip_background != 0;
     S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
+    S->detail = d->detail_sigma;
 }
 
 static int supermat__views(const supermat_session_desc *d) {
@@ -5071,6 +5084,60 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
 }
 
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
+/* detail_sigma (see supermat_session_desc): one box pass of half-width r over 6 channels, rows (dir 0) or
+   columns (dir 1), zero outside, sums in double; src -> dst */
+static void supermat__detail_box(const float *src, float *dst, int w, int h, int r, int dir) {
+    int len = dir ? h : w, lines = dir ? w : h, l, k, c;
+    size_t step = dir ? (size_t)w * 6 : 6, lstep = dir ? 6 : (size_t)w * 6;
+    for (l = 0; l < lines; l++) {
+        const float *a = src + l * lstep;
+        float *d = dst + l * lstep;
+        double acc[6] = {0, 0, 0, 0, 0, 0};
+        for (k = 0; k < r && k < len; k++)
+            for (c = 0; c < 6; c++) acc[c] += a[k * step + c];
+        for (k = 0; k < len; k++) {
+            if (k + r < len) for (c = 0; c < 6; c++) acc[c] += a[(k + r) * step + c];
+            if (k - r - 1 >= 0) for (c = 0; c < 6; c++) acc[c] -= a[(k - r - 1) * step + c];
+            for (c = 0; c < 6; c++) d[k * step + c] = (float)acc[c];
+        }
+    }
+}
+static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; /* NaN -> 0 */ return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
+static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+
+/* the albedo (raw decode, [-1, 1], w x h x 3) of one view keeps its input picture's detail; g0, g1: w x h x 6 */
+static void supermat__detail(const supermat_image *in, float sigma, float *alb, int w, int h, float *g0, float *g1) {
+    size_t n = (size_t)w * h, i;
+    double s = (double)sigma * (w > h ? w : h), sum[6] = {0, 0, 0, 0, 0, 0}, gr[3];
+    int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass;
+    if (r < 1) r = 1;
+    for (i = 0; i < n; i++) {
+        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+        a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
+        for (c = 0; c < 3; c++) {
+            g0[i * 6 + c] = a > 0.0f ? (float)(a * supermat__lin(alb[i * 3 + c] * 0.5 + 0.5)) : 0.0f;
+            g0[i * 6 + 3 + c] = a > 0.0f ? (float)(a * supermat__lin(supermat__px(in, x, y, c))) : 0.0f;
+            sum[c] += g0[i * 6 + c]; sum[3 + c] += g0[i * 6 + 3 + c];
+        }
+    }
+    for (c = 0; c < 3; c++) gr[c] = sum[c] > 0.0 && sum[3 + c] > 0.0 ? sum[c] / sum[3 + c] : 1.0;
+    for (pass = 0; pass < 3; pass++) {
+        supermat__detail_box(g0, g1, w, h, r, 0);
+        supermat__detail_box(g1, g0, w, h, r, 1);
+    }
+    for (i = 0; i < n; i++) {
+        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+        if (!(a > 0.0f)) continue;
+        for (c = 0; c < 3; c++) {
+            double q = g0[i * 6 + 3 + c] > 1e-6f ? (double)g0[i * 6 + c] / g0[i * 6 + 3 + c] : gr[c];
+            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+            alb[i * 3 + c] = (float)(supermat__srgb(supermat__lin(supermat__px(in, x, y, c)) * q) * 2.0 - 1.0);
+        }
+    }
+}
+
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
                               supermat_flops *fl) {
     const supermat_model *m = S->m;
@@ -5180,6 +5247,13 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     }
     for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
     supermat__put(X, fg);
+    if (S->detail > 0.0f && !uv && dec[0].d) { /* detail_sigma: the albedo keeps its picture's detail */
+        float *g0 = supermat__get(X, (size_t)S->h * S->w * 6), *g1 = supermat__get(X, (size_t)S->h * S->w * 6);
+        if (supermat__live(X))
+            for (i = 0; i < V; i++) supermat__detail(supermat__view_in(rd, i), S->detail, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, g0, g1);
+        supermat__put(X, g1);
+        supermat__put(X, g0);
+    }
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -5216,6 +5290,10 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_attention: only a SuperMatMV model has multi-view attention");
         if (d->mv_attention == SUPERMAT_MV_ATTENTION_STRIDED && (d->mv_key_stride < 1 || d->mv_key_stride > 4096))
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_key_stride %d: 1 to 4096 with SUPERMAT_MV_ATTENTION_STRIDED", d->mv_key_stride);
+        if (!(d->detail_sigma >= 0.0f && d->detail_sigma <= 1.0f))
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma %g: from 0 (off) to 1", (double)d->detail_sigma);
+        if (d->detail_sigma > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma: a UV-refine model has no input picture to keep detail from");
     }
     return SUPERMAT_SUCCESS;
 }

@@ -944,10 +944,23 @@ check "bench --image JSON without truth: gt_psnr albedo is null ($v)" [ "$v" = n
 check "bench --image without truth: no gt_psnr column" bash -c "! grep -q gt_psnr '$T/out'"
 
 # bench --image against ground truth: `supermat image`'s PNGs of the same model are the truth, so the
-# f32 row (the same computation, quantised the same way) is at the cap
+# f32 row (the same computation, quantised the same way) is at the cap; bench measures the network's maps,
+# so the truth is made with --detail off (image's default keeps the picture's detail in the albedo)
 GT=$T/gt
-run image --model "$MODEL" --out "$GT" "$SPHERE"
+run image --model "$MODEL" --detail off --out "$GT" "$SPHERE"
 check "image for the truth maps exits 0" [ $RC -eq 0 ]
+# --detail: image's default (1/64) changes the albedo only; a value out of range is a usage error
+DT=$T/detail_default
+run image --model "$MODEL" --out "$DT" "$SPHERE"
+check "image with the default --detail exits 0" [ $RC -eq 0 ]
+check "image: the default --detail changes the albedo" bash -c "! cmp -s '$DT/sphere_64_albedo.png' '$GT/sphere_64_albedo.png'"
+check "image: the default --detail leaves roughness and metallic" bash -c "cmp -s '$DT/sphere_64_roughness.png' '$GT/sphere_64_roughness.png' && cmp -s '$DT/sphere_64_metallic.png' '$GT/sphere_64_metallic.png'"
+run image --model "$MODEL" --detail 0.015625 --out "$T/detail_explicit" "$SPHERE"
+check "image --detail 0.015625 = the default" cmp -s "$T/detail_explicit/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
+run image --model "$MODEL" --detail 1.5 --out "$T/detail_bad" "$SPHERE"
+check "image --detail 1.5 exits 2" [ $RC -eq 2 ]
+check "image --detail 1.5 explains" grep -q -- "--detail" "$T/err"
+
 TRUTH=(--truth-albedo "$GT/sphere_64_albedo.png" --truth-roughness "$GT/sphere_64_roughness.png" --truth-metallic "$GT/sphere_64_metallic.png")
 BG=$T/bench_gt.json
 run bench --model "$MODEL" --image "$SPHERE" --modes f16,branch_rm "${TRUTH[@]}" --json "$BG"

@@ -1,7 +1,7 @@
 /* The CI quality floor (a regression guard for the default model): runs a model on an evaluation slice
    and checks the mean masked PSNR of each map against a committed floor.
 
-   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt
+   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA]
 
    SLICE_DIR/index.txt   one stem per line (blank lines and lines starting with # are skipped)
    SLICE_DIR/<stem>.png            the input picture, RGBA (straight alpha)
@@ -11,7 +11,8 @@
    FLOOR.txt             one line per map: "albedo 21.3", "roughness 17.0", "metallic 15.2" (dB); # starts
                          a comment; all three maps are required
 
-   For each stem the model computes all three maps with default settings; they are quantised to 8 bits
+   For each stem the model computes all three maps with default settings (with DETAIL_SIGMA: and
+   session_desc.detail_sigma, what `supermat image` does by default); they are quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
    >= 128 and over their channels, values in [0, 1] (v / 255), capped at 100 dB. The table lists each
@@ -158,15 +159,21 @@ int main(int argc, char **argv) {
     supermat_session *sess = NULL;
     supermat_error err;
     supermat_result r;
+    float detail = 0.0f;
 
-    if (argc != 4) {
-        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt\n", argv[0]);
+    if (argc != 4 && argc != 5) {
+        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA]\n", argv[0]);
         return 2;
+    }
+    if (argc == 5) {
+        char *end = NULL;
+        detail = strtof(argv[4], &end);
+        if (!end || *end || !(detail > 0.0f && detail <= 1.0f)) { printf("usage: DETAIL_SIGMA '%s': a number in (0, 1]\n", argv[4]); return 2; }
     }
     model_path = argv[1];
     dir = argv[2];
     floor_path = argv[3];
-    printf("quality: model %s, slice %s, floor %s\n", model_path, dir, floor_path);
+    printf("quality: model %s, slice %s, floor %s, detail_sigma %g\n", model_path, dir, floor_path, (double)detail);
     TU_CHECK(q_read_floor(floor_path, floors) == 0, "the floor file '%s' is not usable", floor_path);
     nstems = q_read_index(dir, &stems);
     TU_CHECK(nstems > 0, "the slice %s is %s", dir, nstems < 0 ? "unreadable (no index.txt)" : "empty: index.txt lists no stem");
@@ -208,7 +215,7 @@ int main(int argc, char **argv) {
             supermat_session_destroy(sess);
             sess = NULL;
             memset(&sd, 0, sizeof sd);
-            sd.model = model; sd.width = w; sd.height = h;
+            sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail;
             r = supermat_session_create(&sd, &sess, &err);
             TU_CHECK(r == SUPERMAT_SUCCESS, "%s: session %dx%d: %s [%s]", stems[s], w, h, err.message, supermat_result_string(r));
             if (r != SUPERMAT_SUCCESS) { sess = NULL; ok = 0; }

@@ -17,8 +17,9 @@ What it does
      quantises to the 8-bit RGBA input; the ground truth maps are averaged likewise and quantised as the
      training data is: albedo sRGB 8-bit (glTF baseColor convention), roughness / metallic linear 8-bit.
      This is the recipe of the training-data generator (tools/gen_data.py), which uses the same module;
-  4. runs the predictors on each input: `--model NAME=FILE` models through `supermat image --float`
-     (PFM maps, PNG if no PFM), and the baselines
+  4. runs the predictors on each input: `--model NAME=FILE` models through `supermat image --native --float`
+     (PFM maps, PNG if no PFM; its defaults, so since 2026-11-27 with --detail 1/64: the albedo keeps the
+     picture's detail; --image-args "--detail off" for the network's maps alone), and the baselines
        input_as_albedo  albedo = the input's RGB, roughness / metallic = dataset means,
        dataset_mean     every map = its dataset mean (--dataset-stats JSON: albedo_srgb_mean [3],
                         rough_mean, metal_mean; default 0.5 gray / 0.5 / 0.0),
@@ -492,10 +493,11 @@ def read_map(out_dir, stem, name):
     return a if a.ndim == 2 else a[..., 0]
 
 
-def run_model(supermat, model, inputs, out_dir, threads):
-    """Maps of every input (stem -> paths) by `supermat image`."""
+def run_model(supermat, model, inputs, out_dir, threads, extra=()):
+    """Maps of every input (stem -> paths) by `supermat image` (its defaults, --detail included, and `extra`)."""
     os.makedirs(out_dir, exist_ok=True)
     cmd = [supermat, "image", "--force", "--native", "--model", model, "--out", out_dir, "--float", "--threads", str(threads)]
+    cmd += list(extra)
     subprocess.run(cmd + list(inputs.values()), check=True, stdout=subprocess.DEVNULL)
     return {stem: {name: read_map(out_dir, stem, name) for name in MAPS} for stem in inputs}
 
@@ -689,7 +691,8 @@ def evaluate(args, meshes, work):
     preds, t_pred = {}, {}
     for name, path in args.model:
         t0 = time.time()
-        preds[name] = run_model(args.supermat, path, inputs, os.path.join(work, "pred_" + name), args.threads)
+        preds[name] = run_model(args.supermat, path, inputs, os.path.join(work, "pred_" + name), args.threads,
+                                args.image_args.split())
         t_pred[name] = (time.time() - t0) / len(inputs)
         print(f"predicted with {name} ({t_pred[name]:.1f} s a view)", file=sys.stderr)
     for kind in args.baselines:
@@ -779,6 +782,8 @@ def main():
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
     ap.add_argument("--work", help="folder for the inputs and predicted maps (default: a temporary one)")
     ap.add_argument("--threads", type=int, default=0, help="supermat threads (default 0 = all cores)")
+    ap.add_argument("--image-args", default="", help="more `supermat image` options for --model runs, e.g. "
+                    "\"--detail off\" (the maps without the picture's detail) or \"--work-size 128\" (after --native)")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--decompose", action="store_true",
                     help="also the albedo PSNR after the best gain per view (the unknown exposure taken out) and "

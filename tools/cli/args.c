@@ -100,6 +100,10 @@ static const char cli_usage_image[] =
     "it), the network runs there, and the maps are resized back to the picture's size.\n"
     "  --native          run each picture at its own size instead\n"
     "  --work-size N     at N x N (a multiple of 8)\n"
+    "  --detail F|off    the albedo keeps the picture's detail: picture x low-pass(albedo) / low-pass\n"
+    "                    (picture) in linear light, the lighting taken as smooth over F x the picture's\n"
+    "                    larger side (default 1/64; off: the network's albedo as it is; supermat.h,\n"
+    "                    session_desc.detail_sigma)\n"
     "\n"
     "options:\n"
     "  --model FILE      a model file made by `supermat convert` (default: the default model,\n"
@@ -144,6 +148,8 @@ static const char cli_usage_views[] =
     "all have the same size, width and height multiples of 8; they run at the model's work size\n"
     "(512x512 as the official script; --native: their own size, --work-size N: N x N), the maps come\n"
     "back at the views' size. 1 to 64 views (the official model is trained on 6 orthogonal views).\n"
+    "  --detail F|off    each view's albedo keeps that view's detail, as `supermat image --detail`\n"
+    "                    (default off here)\n"
     "\n"
     "options:\n"
     "  --model FILE      a supermat-mv model file made by `supermat convert` (required)\n"
@@ -412,6 +418,7 @@ static int cli_parse_weights(const char *cmd, const char *s) {
 
 /* --max-memory SIZE: bytes, or with K, M, G, T (powers of 1024; KiB... and KB... read the same) */
 static size_t cli_max_memory;
+static float cli_detail = -1.0f; /* --detail: -1 = the command's default (image 1/64, views off) */
 static int cli_parse_bytes(const char *cmd, const char *opt, const char *s, size_t *out) {
     char *end;
     double v, mul = 1;

@@ -464,12 +464,12 @@ static const char cli_usage_batch[] =
     "  --retry-failed    run the items the journal says failed again\n"
     "  --fail-fast       stop at the first failed item (default: go on, exit 1 at the end)\n"
     "  --json FILE       a summary: items, done, failed, skipped, seconds, journal\n"
-    "  --outputs, --float, --native, --work-size, --threads, --kernel, --weights   as `supermat image`\n"
+    "  --outputs, --float, --native, --work-size, --detail, --threads, --kernel, --weights   as `supermat image`\n"
     "\n"
     "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
     "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
     "--mv-model, --albedo-refine, --rm-refine, --no-refine, --passthrough, --size, --views-size, --work-size, --threads, --gutter,\n"
-    "--edge-reject, --weight, --supersample go to `supermat mesh`; each process loads the models once.\n"
+    "--edge-reject, --weight, --supersample, --detail go to `supermat mesh`; each process loads the models once.\n"
     "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
     "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
     "\n"
@@ -672,6 +672,7 @@ static int cli_batch(int argc, char **argv) {
     int ninputs = 0, nfwd = 0;
     char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
 
+    cli_detail = -1.0f;
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
     if (argc >= 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"))) { fputs(cli_usage_batch, stdout); return CLI_OK; }
@@ -696,7 +697,7 @@ static int cli_batch(int argc, char **argv) {
         const char *a = argv[i];
         if (cli_batch_mesh_mode) { /* the options of `supermat mesh`, passed on */
             static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--size", "--views-size", "--threads",
-                                                     "--work-size", "--gutter", "--edge-reject", "--weight", "--supersample"};
+                                                     "--work-size", "--gutter", "--edge-reject", "--weight", "--supersample", "--detail"};
             size_t q;
             int hit = 0;
             if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine")) { fwd[nfwd++] = argv[i]; continue; }

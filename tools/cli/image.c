@@ -107,6 +107,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         sd.model = X->model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threads = X->threads;
         sd.max_memory = cli_session_budget(X->model);
         cli_set_work(&sd, X->ws, w, h);
+        sd.detail_sigma = cli_detail >= 0.0f ? cli_detail : 1.0f / 64.0f;
         r = supermat_session_create(&sd, &X->sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[600];
@@ -174,6 +175,7 @@ static int cli_image(int argc, char **argv) {
     cli_image_ctx X;
     cli_model_ref mref;
 
+    cli_detail = -1.0f;
     memset(&X, 0, sizeof X);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }

@@ -30,6 +30,7 @@ static int cli_refine(int argc, char **argv) {
     supermat_model *model = NULL;
     supermat_session *sess = NULL;
 
+    cli_detail = -1.0f;
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         int k, hit = 0;
@@ -89,6 +90,7 @@ static int cli_refine(int argc, char **argv) {
         sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
         sd.max_memory = cli_session_budget(model);
         cli_set_work(&sd, ws, w, h);
+        sd.detail_sigma = cli_detail > 0.0f ? cli_detail : 0.0f;
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char msg[64];
