@@ -5084,54 +5084,54 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
 }
 
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
-/* detail_sigma (see supermat_session_desc): one box pass of half-width r over 6 channels, rows (dir 0) or
-   columns (dir 1), zero outside, sums in double; src -> dst */
-static void supermat__detail_box(const float *src, float *dst, int w, int h, int r, int dir) {
-    int len = dir ? h : w, lines = dir ? w : h, l, k, c;
-    size_t step = dir ? (size_t)w * 6 : 6, lstep = dir ? 6 : (size_t)w * 6;
+/* detail_sigma (see supermat_session_desc): one box pass of half-width r over the 2 channels of g, rows
+   (dir 0) or columns (dir 1), in place through a line copy (tmp: max(w, h) x 2), zero outside, sums in double */
+static void supermat__detail_box(float *g, float *tmp, int w, int h, int r, int dir) {
+    int len = dir ? h : w, lines = dir ? w : h, l, k;
+    size_t step = dir ? (size_t)w * 2 : 2, lstep = dir ? 2 : (size_t)w * 2;
     for (l = 0; l < lines; l++) {
-        const float *a = src + l * lstep;
-        float *d = dst + l * lstep;
-        double acc[6] = {0, 0, 0, 0, 0, 0};
-        for (k = 0; k < r && k < len; k++)
-            for (c = 0; c < 6; c++) acc[c] += a[k * step + c];
+        float *d = g + l * lstep;
+        double a0 = 0.0, a1 = 0.0;
+        for (k = 0; k < len; k++) { tmp[2 * k] = d[k * step]; tmp[2 * k + 1] = d[k * step + 1]; }
+        for (k = 0; k < r && k < len; k++) { a0 += tmp[2 * k]; a1 += tmp[2 * k + 1]; }
         for (k = 0; k < len; k++) {
-            if (k + r < len) for (c = 0; c < 6; c++) acc[c] += a[(k + r) * step + c];
-            if (k - r - 1 >= 0) for (c = 0; c < 6; c++) acc[c] -= a[(k - r - 1) * step + c];
-            for (c = 0; c < 6; c++) d[k * step + c] = (float)acc[c];
+            if (k + r < len) { a0 += tmp[2 * (k + r)]; a1 += tmp[2 * (k + r) + 1]; }
+            if (k - r - 1 >= 0) { a0 -= tmp[2 * (k - r - 1)]; a1 -= tmp[2 * (k - r - 1) + 1]; }
+            d[k * step] = (float)a0; d[k * step + 1] = (float)a1;
         }
     }
 }
 static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; /* NaN -> 0 */ return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 
-/* the albedo (raw decode, [-1, 1], w x h x 3) of one view keeps its input picture's detail; g0, g1: w x h x 6 */
-static void supermat__detail(const supermat_image *in, float sigma, float *alb, int w, int h, float *g0, float *g1) {
+/* the albedo (raw decode, [-1, 1], w x h x 3) of one view keeps its input picture's detail, a channel at a
+   time; g: w x h x 2 (the albedo's and the picture's channel, weighted), tmp: max(w, h) x 2 */
+static void supermat__detail(const supermat_image *in, float sigma, float *alb, int w, int h, float *g, float *tmp) {
     size_t n = (size_t)w * h, i;
-    double s = (double)sigma * (w > h ? w : h), sum[6] = {0, 0, 0, 0, 0, 0}, gr[3];
+    double s = (double)sigma * (w > h ? w : h);
     int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass;
     if (r < 1) r = 1;
-    for (i = 0; i < n; i++) {
-        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
-        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
-        a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
-        for (c = 0; c < 3; c++) {
-            g0[i * 6 + c] = a > 0.0f ? (float)(a * supermat__lin(alb[i * 3 + c] * 0.5 + 0.5)) : 0.0f;
-            g0[i * 6 + 3 + c] = a > 0.0f ? (float)(a * supermat__lin(supermat__px(in, x, y, c))) : 0.0f;
-            sum[c] += g0[i * 6 + c]; sum[3 + c] += g0[i * 6 + 3 + c];
+    for (c = 0; c < 3; c++) {
+        double sa = 0.0, si = 0.0, gr;
+        for (i = 0; i < n; i++) {
+            int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+            float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+            a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
+            g[2 * i] = a > 0.0f ? (float)(a * supermat__lin(alb[i * 3 + c] * 0.5 + 0.5)) : 0.0f;
+            g[2 * i + 1] = a > 0.0f ? (float)(a * supermat__lin(supermat__px(in, x, y, c))) : 0.0f;
+            sa += g[2 * i]; si += g[2 * i + 1];
         }
-    }
-    for (c = 0; c < 3; c++) gr[c] = sum[c] > 0.0 && sum[3 + c] > 0.0 ? sum[c] / sum[3 + c] : 1.0;
-    for (pass = 0; pass < 3; pass++) {
-        supermat__detail_box(g0, g1, w, h, r, 0);
-        supermat__detail_box(g1, g0, w, h, r, 1);
-    }
-    for (i = 0; i < n; i++) {
-        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
-        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
-        if (!(a > 0.0f)) continue;
-        for (c = 0; c < 3; c++) {
-            double q = g0[i * 6 + 3 + c] > 1e-6f ? (double)g0[i * 6 + c] / g0[i * 6 + 3 + c] : gr[c];
+        gr = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
+        for (pass = 0; pass < 3; pass++) {
+            supermat__detail_box(g, tmp, w, h, r, 0);
+            supermat__detail_box(g, tmp, w, h, r, 1);
+        }
+        for (i = 0; i < n; i++) {
+            int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+            float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+            double q;
+            if (!(a > 0.0f)) continue;
+            q = g[2 * i + 1] > 1e-6f ? (double)g[2 * i] / g[2 * i + 1] : gr;
             q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
             alb[i * 3 + c] = (float)(supermat__srgb(supermat__lin(supermat__px(in, x, y, c)) * q) * 2.0 - 1.0);
         }
@@ -5248,7 +5248,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
     supermat__put(X, fg);
     if (S->detail > 0.0f && !uv && dec[0].d) { /* detail_sigma: the albedo keeps its picture's detail */
-        float *g0 = supermat__get(X, (size_t)S->h * S->w * 6), *g1 = supermat__get(X, (size_t)S->h * S->w * 6);
+        float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2);
         if (supermat__live(X))
             for (i = 0; i < V; i++) supermat__detail(supermat__view_in(rd, i), S->detail, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, g0, g1);
         supermat__put(X, g1);
