@@ -960,6 +960,8 @@ check "image --detail 0.015625 = the default" cmp -s "$T/detail_explicit/sphere_
 run image --model "$MODEL" --detail 1.5 --out "$T/detail_bad" "$SPHERE"
 check "image --detail 1.5 exits 2" [ $RC -eq 2 ]
 check "image --detail 1.5 explains" grep -q -- "--detail" "$T/err"
+run refine --detail 0.1 --map "$SPHERE" --mask "$SPHERE" --position "$SPHERE" --out "$T/detail_refine"
+check "refine --detail exits 2 (a UV map has no picture)" [ $RC -eq 2 ]
 
 TRUTH=(--truth-albedo "$GT/sphere_64_albedo.png" --truth-roughness "$GT/sphere_64_roughness.png" --truth-metallic "$GT/sphere_64_metallic.png")
 BG=$T/bench_gt.json

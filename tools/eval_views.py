@@ -9,7 +9,8 @@ For each asset (FILE.gltf, or FILE.gltf#NODE) and input map (--env-in, or all th
      eval_quality.py's views, with its truth maps;
   2. predicts: --mv-model NAME=FILE models with `supermat views` (the six views together, their cameras in a
      meta.json of the official format), --model NAME=FILE single-view models with `supermat image` view by
-     view (the paper's ablation: no multi-view attention), baseline input_as_albedo;
+     view (the paper's ablation: no multi-view attention), baseline input_as_albedo; --args "..." go to both
+     commands (their --detail defaults differ: image 1/64, views off; pass one to compare like with like);
   3. masked PSNR / SSIM per map over each view's object, averaged over the views, per asset and overall.
 
   /usr/bin/python3 tools/eval_views.py --assets WaterBottle.gltf ... --hdri-dir HDRI \\
@@ -77,6 +78,8 @@ def main():
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
     ap.add_argument("--work", help="keep the views and maps here")
     ap.add_argument("--json")
+    ap.add_argument("--args", default="", help="more options for both `supermat views` and `supermat image`, e.g. "
+                    "\"--detail off\" (image's default keeps the picture's detail, views' does not) or \"--detail 0.015625\"")
     args = ap.parse_args()
     if not args.mv_model and not args.model and not args.baselines:
         ap.error("nothing to measure")
@@ -110,11 +113,11 @@ def main():
                 os.makedirs(out, exist_ok=True)
                 subprocess.run([args.supermat, "views", "--force", "--native", "--float", "--model", path, "--cameras",
                                 os.path.join(case, "meta.json"), "--out", out, "--threads", str(args.threads)]
-                               + list(inputs.values()), check=True, stdout=subprocess.DEVNULL)
+                               + args.args.split() + list(inputs.values()), check=True, stdout=subprocess.DEVNULL)
                 preds[name] = [{m: evq.read_map(out, stem, m) for m in MAPS} for stem in inputs]
             for name, path in args.model:
                 out = os.path.join(case, "pred_" + name)
-                got = evq.run_model(args.supermat, path, inputs, out, args.threads)
+                got = evq.run_model(args.supermat, path, inputs, out, args.threads, args.args.split())
                 preds[name] = [got[stem] for stem in inputs]
             if args.baselines:
                 preds["input_as_albedo"] = [dict(albedo=rgba[v][..., :3] / np.float32(255),

@@ -56,6 +56,7 @@ static int cli_refine(int argc, char **argv) {
             return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
         }
     }
+    if (cli_detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
     if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) return rc;
     model_path = mref.path;
     for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);
