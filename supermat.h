@@ -450,6 +450,8 @@ typedef struct supermat_session_desc {
     /* SuperMatMV only: approximate the multi-view attention at the highest resolution. */
     supermat_mv_attention mv_attention;
     int mv_key_stride;           /* SUPERMAT_MV_ATTENTION_STRIDED: keep every n-th key of the other views (1 = all) */
+    size_t max_memory;           /* 0 = no limit; else a session whose plan (supermat_session_memory) needs more
+                                    fails with OUT_OF_MEMORY before anything is allocated */
     /* supermat / supermat-mv, not in the official computation: the albedo keeps the input picture's
        detail. Per channel in linear light, albedo = I x clamp(G(w A) / G(w I), 1/4, 4), I the input
        colour (sRGB-encoded as given), A the network's albedo, w the input's alpha (1 without alpha), G
@@ -459,8 +461,6 @@ typedef struct supermat_session_desc {
        smooth at that scale: the network sets the level and colour, the picture the detail (`supermat
        image` uses 1/64, chosen on validation assets: README). 0 = off; at most 1. */
     float detail_sigma;
-    size_t max_memory;           /* 0 = no limit; else a session whose plan (supermat_session_memory) needs more
-                                    fails with OUT_OF_MEMORY before anything is allocated */
 } supermat_session_desc;
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -5083,7 +5083,6 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
     return out;
 }
 
-/* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 /* detail_sigma (see supermat_session_desc): one box pass of half-width r over the 2 channels of g, rows
    (dir 0) or columns (dir 1), in place through a line copy (tmp: max(w, h) x 2), zero outside, sums in double */
 static void supermat__detail_box(float *g, float *tmp, int w, int h, int r, int dir) {
@@ -5138,6 +5137,7 @@ static void supermat__detail(const supermat_image *in, float sigma, float *alb, 
     }
 }
 
+/* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
                               supermat_flops *fl) {
     const supermat_model *m = S->m;

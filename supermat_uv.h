@@ -242,9 +242,6 @@ typedef struct supermat_uv_bake_desc {
     const supermat_model *albedo_refine_model; /* kind uv-refine, NULL = no albedo refinement */
     const supermat_model *rm_refine_model;     /* kind uv-refine, NULL = no RM refinement */
     int keep_observed;           /* refined maps only fill unseen texels (default: refined everywhere) */
-    float detail_sigma;          /* > 0: the albedo keeps the input texture's detail (see DETAIL), low-pass
-                                    sigma as a fraction of the texture's larger side (1/32 in `supermat
-                                    mesh`); 0 = off (the official pipeline); at most 1 */
     supermat_uv_weight weight;
     float cos_power;             /* SUPERMAT_UV_WEIGHT_COS_POWER exponent: 0 = 2 */
     float max_angle_deg;         /* views at a larger angle to the normal are not used: 0 = 88.85 */
@@ -264,6 +261,9 @@ typedef struct supermat_uv_bake_desc {
     void (*debug)(void *user, supermat_uv_debug_kind kind, int index, const float *data, int width, int height,
                   int channels);
     void *debug_user;
+    float detail_sigma;          /* > 0: the albedo keeps the input texture's detail (see DETAIL), low-pass
+                                    sigma as a fraction of the texture's larger side (1/32 in `supermat
+                                    mesh`); 0 = off (the official pipeline); at most 1 */
 } supermat_uv_bake_desc;
 
 /* One output texture's images (pixels NULL = not wanted; width/height 0 = the texture size, else equal). */
