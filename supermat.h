@@ -1323,7 +1323,8 @@ static float supermat__load_elem(const unsigned char *p, supermat_dtype dt, size
 
 /* >>gemm
    C[m, n] = init + sum_k A[m, k] * B[k, n], with B packed in panels of NR=16 columns (K x 16 each,
-   zero-padded past N) and A given by row pointers (dense) or gathered from an NHWC image (conv).
+   zero-padded past N) and A given by row pointers (dense) or read from an NHWC image (conv: in place, K
+   blocks within one tap, from 64 channels up with f32 / widened weights; else gathered into rows).
    init = bias[n] (+ R[m, n]) on the first K block, the running C afterwards. Each output element is
    computed by exactly one task with the same K order, so any thread count gives the same bits. */
 #define SUPERMAT__MR 6     /* rows of the scalar and AVX2 micro-kernels */
@@ -1818,6 +1819,9 @@ static int supermat__nearest(int dst, int in, int out) {
     return s < in - 1 ? s : in - 1;
 }
 
+/* what a direct convolution reads in the padding */
+static const float supermat__zero_row[SUPERMAT__KC] = {0.0f};
+
 /* gather rows [m0, m0+mr) x K range [k0, k0+kc) of the implicit im2col matrix into buf (row stride kc) */
 static void supermat__gather(const supermat__asrc *s, int m0, int mr, int k0, int kc, float *buf) {
     int i;
@@ -1970,14 +1974,29 @@ static void supermat__gemm_task(void *user, int index, int thread) {
     int m0 = mb * SUPERMAT__MC, m1 = SUPERMAT__MIN(g->M, m0 + SUPERMAT__MC);
     int npanels = (g->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     int p0 = nc * g->panels_per_chunk, p1 = SUPERMAT__MIN(npanels, p0 + g->panels_per_chunk);
-    int k0, p, m;
+    int k0, p, m, kc;
     const supermat__asrc *A = g->A;
     float *buf = g->scratch[thread];
-    for (k0 = 0; k0 < g->K; k0 += SUPERMAT__KC) {
-        int kc = SUPERMAT__MIN(SUPERMAT__KC, g->K - k0);
+    /* direct convolution: no gather; each K block within one tap, every row read where it lies in the image
+       (rp: its first element; the zero row in the padding). For f32 and the widened weight formats, from 64
+       channels up (fewer would make K blocks too short); the K order per output element is unchanged. */
+    const float *rp[SUPERMAT__MC];
+    const int direct = A->conv && g->fmt < 4 && A->c >= 64;
+    for (k0 = 0; k0 < g->K; k0 += kc) {
         const float *abase;
         size_t lda;
-        if (A->conv) {
+        kc = SUPERMAT__MIN(SUPERMAT__KC, g->K - k0);
+        if (direct) {
+            int tap = k0 / A->c, ci = k0 - tap * A->c, ky = tap / A->kw, kx = tap - ky * A->kw, i;
+            kc = SUPERMAT__MIN(kc, A->c - ci);
+            for (i = 0; i < m1 - m0; i++) {
+                int mm = m0 + i, ox = mm % A->ow, oy = (mm / A->ow) % A->oh, img = mm / (A->ow * A->oh);
+                int vy = oy * A->stride - A->pad_t + ky, vx = ox * A->stride - A->pad_l + kx;
+                if (vy < 0 || vy >= A->uh || vx < 0 || vx >= A->uw) rp[i] = supermat__zero_row;
+                else rp[i] = A->x + (((size_t)img * A->h + supermat__nearest(vy, A->h, A->uh)) * A->w + supermat__nearest(vx, A->w, A->uw)) * A->c + ci;
+            }
+            abase = NULL; lda = 0;
+        } else if (A->conv) {
             supermat__gather(A, m0, m1 - m0, k0, kc, buf);
             abase = buf; lda = (size_t)kc;
         } else {
@@ -2073,7 +2092,10 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                 for (m = m0; m < m1; m += SUPERMAT__MR512) {
                     const float *rows[SUPERMAT__MR512];
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
-                    for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
+                    for (i = 0; i < SUPERMAT__MR512; i++) {
+                        int rr = i < mr ? m - m0 + i : m - m0;
+                        rows[i] = direct ? rp[rr] : abase + (size_t)rr * lda;
+                    }
                     supermat__ukr2_avx512(kc, rows, bp, bp1, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
                                           (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
                 }
@@ -2084,7 +2106,10 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (m = m0; m < m1; m += g->mr) {
                 const float *rows[SUPERMAT__MRMAX];
                 int mr = SUPERMAT__MIN(g->mr, m1 - m), i;
-                for (i = 0; i < g->mr; i++) rows[i] = abase + (size_t)(i < mr ? m - m0 + i : m - m0) * lda;
+                for (i = 0; i < g->mr; i++) {
+                    int rr = i < mr ? m - m0 + i : m - m0;
+                    rows[i] = direct ? rp[rr] : abase + (size_t)rr * lda;
+                }
                 g->ukr(kc, rows, bp, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr,
                            k0 > 0);
