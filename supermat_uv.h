@@ -932,33 +932,36 @@ static void supermat_uv__box(supermat_uv__ctx *C, const float *src, float *dst, 
 }
 
 /* DETAIL: albedo = L x clamp(G(w A) / G(w L), 1/4, 4) at the chart texels (in place, sRGB-encoded in and
-   out); `valid` says where A holds a value. tmp: two buffers of N x 6 floats. */
+   out); `valid` says where A holds a value. A channel at a time through tmp: N x 4 floats (two planes of
+   the pair w A, w L). */
 static void supermat_uv__detail(supermat_uv__ctx *C, int tw, int th, const unsigned char *layers, const unsigned char *valid,
-                                const float *lit, float *albedo, float *g0, float *g1) {
+                                const float *lit, float *albedo, float *tmp) {
     size_t N = (size_t)tw * th, i;
-    double sigma = (double)C->d.detail_sigma * (tw > th ? tw : th), gsum[6] = {0, 0, 0, 0, 0, 0}, gr[3];
+    double sigma = (double)C->d.detail_sigma * (tw > th ? tw : th);
     int r = (int)floor((sqrt(4.0 * sigma * sigma + 1.0) - 1.0) * 0.5 + 0.5), pass, c;
+    float *g0 = tmp, *g1 = tmp + N * 2;
     if (r < 1) r = 1;
-    for (i = 0; i < N; i++) {
-        float *g = g0 + i * 6;
-        for (c = 0; c < 6; c++) g[c] = 0.0f;
-        if (!valid[i] || !layers[i]) continue;
-        for (c = 0; c < 3; c++) {
-            g[c] = supermat_uv__to_linear(albedo[i * 3 + c]);
-            g[3 + c] = supermat_uv__to_linear(lit[i * 3 + c]);
+    for (c = 0; c < 3; c++) {
+        double sa = 0.0, sl = 0.0, gr;
+        for (i = 0; i < N; i++) {
+            float *g = g0 + i * 2;
+            g[0] = g[1] = 0.0f;
+            if (!valid[i] || !layers[i]) continue;
+            g[0] = supermat_uv__to_linear(albedo[i * 3 + c]);
+            g[1] = supermat_uv__to_linear(lit[i * 3 + c]);
+            sa += g[0];
+            sl += g[1];
         }
-        for (c = 0; c < 6; c++) gsum[c] += g[c];
-    }
-    for (c = 0; c < 3; c++) gr[c] = gsum[c] > 0.0 && gsum[3 + c] > 0.0 ? gsum[c] / gsum[3 + c] : 1.0;
-    for (pass = 0; pass < 3; pass++) {
-        supermat_uv__box(C, g0, g1, tw, th, 6, r, 0);
-        supermat_uv__box(C, g1, g0, tw, th, 6, r, 1);
-    }
-    for (i = 0; i < N; i++) {
-        const float *g = g0 + i * 6;
-        if (!layers[i]) continue;
-        for (c = 0; c < 3; c++) {
-            double q = g[3 + c] > 1e-6f ? (double)g[c] / g[3 + c] : gr[c];
+        gr = sa > 0.0 && sl > 0.0 ? sa / sl : 1.0;
+        for (pass = 0; pass < 3; pass++) {
+            supermat_uv__box(C, g0, g1, tw, th, 2, r, 0);
+            supermat_uv__box(C, g1, g0, tw, th, 2, r, 1);
+        }
+        for (i = 0; i < N; i++) {
+            const float *g = g0 + i * 2;
+            double q;
+            if (!layers[i]) continue;
+            q = g[1] > 1e-6f ? (double)g[0] / g[1] : gr;
             q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
             albedo[i * 3 + c] = supermat_uv__to_srgb((float)(supermat_uv__to_linear(lit[i * 3 + c]) * q));
         }
@@ -1498,13 +1501,9 @@ static supermat_result supermat_uv__bake_output(supermat_uv__ctx *C, int o, floa
     SUPERMAT_UV__ALLOC(C, src, int32_t, N);
     SUPERMAT_UV__ALLOC(C, queue, int32_t, N);
     SUPERMAT_UV__ALLOC(C, gen, uint16_t, N);
-    if (B.lit) { /* the detail step's second buffer; B.acc (N x 6) is free again and is its first */
-        float *g1;
-        SUPERMAT_UV__ALLOC(C, g1, float, N * 6);
-        if (!C->measure) {
-            for (i = 0; i < N; i++) valid[i] = (unsigned char)(refine_a ? B.layers[i] != 0 : B.seen[i] != 0);
-            supermat_uv__detail(C, tw, th, B.layers, valid, B.lit, partial_a, B.acc, g1);
-        }
+    if (B.lit && !C->measure) { /* the detail step, in B.acc (N x 6 floats, free again; it needs N x 4) */
+        for (i = 0; i < N; i++) valid[i] = (unsigned char)(refine_a ? B.layers[i] != 0 : B.seen[i] != 0);
+        supermat_uv__detail(C, tw, th, B.layers, valid, B.lit, partial_a, B.acc);
     }
     if (!C->measure) {
         for (c = 0; c < 2; c++) {
