@@ -501,7 +501,7 @@ static void test_same_bits(void) {
     }
     for (t = 0; t < 8; t++) {
         /* the last two: enough rows for whole 96-row blocks (no column split), K over several 256 blocks,
-           column panels in pairs (the AVX-512 path packs the gathered A into 12-row micro-panels) and not */
+           64+ input channels (the direct path: rows read in place), column panels all in pairs and not */
         int n = 1, h = t < 6 ? irand(3, 17) : 29 + t, wd = t < 6 ? irand(3, 17) : 31, cin = t < 6 ? irand(1, 40) : 61 + t, cout = t < 6 ? irand(1, 72) : (t == 6 ? 64 : 80), oh = h, ow = wd;
         size_t no = (size_t)n * oh * ow * cout;
         float *x = rvec((size_t)n * h * wd * cin, 1.0), *wt = rvec((size_t)cout * cin * 9, 0.3), *b = rvec((size_t)cout, 1.0), *o[2];
