@@ -2322,12 +2322,15 @@ static void supermat__step(supermat__ctx *X, double work, const char *what) {
 }
 
 /* >>ops : GEMM-based layers */
-static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, const supermat__pw *W, float *C, size_t ldc,
-                           const float *bias, const float *R, size_t ldr) {
+/* fills g for C = A W^T (+ bias) (+ R) and returns its task count (0: nothing to run, the status set on an
+   error). whole_n: every task takes all the columns (callers that batch several GEMMs into one parallel-for
+   have tasks enough); else a few row blocks split the columns too. */
+static int supermat__gemm_setup(supermat__ctx *X, supermat__gemm_args *gp, const supermat__asrc *A, int M, const supermat__pw *W,
+                                float *C, size_t ldc, const float *bias, const float *R, size_t ldr, int whole_n) {
     supermat__gemm_args g;
-    int npanels, threads, tasks_m;
+    int npanels, tasks_m;
     X->flops += 2.0 * M * (double)W->N * W->K;
-    if (!supermat__live(X) || M <= 0) return;
+    if (!supermat__live(X) || M <= 0) return 0;
     memset(&g, 0, sizeof g);
     g.ukr = X->ukr; g.mr = X->mr > 0 ? X->mr : SUPERMAT__MR; g.M = M; g.N = W->N; g.K = W->K; g.A = A; g.B = W->p; g.bias = bias;
     g.fmt = W->fmt; g.Bq = W->q; g.qs = W->qs; g.qcin = W->qcin > 0 ? W->qcin : W->K; g.np = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
@@ -2337,30 +2340,35 @@ static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, con
 #if SUPERMAT__HAS_AVX512
     g.wide = X->ukr == supermat__ukr_avx512;
 #endif
-    if (W->fmt && W->fmt < 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (W->fmt && W->fmt < 4 && (!g.widen || g.B)) { X->status = SUPERMAT_ERROR_INTERNAL; return 0; }
 #if SUPERMAT__HAS_AVX512
     if (W->fmt >= 4 && (!(X->avx512 || (W->fmt == 5 && X->vnni256 && SUPERMAT__HAS_AVXVNNI)) || !W->q || (W->fmt == 5 && !W->qs) ||
                         X->scratch_floats < (size_t)SUPERMAT__MC * SUPERMAT__KC * 3 / 2 + (size_t)SUPERMAT__KC * SUPERMAT__NR)) {
         X->status = SUPERMAT_ERROR_INTERNAL;
-        return;
+        return 0;
     }
 #else
-    if (W->fmt >= 4) { X->status = SUPERMAT_ERROR_INTERNAL; return; }
+    if (W->fmt >= 4) { X->status = SUPERMAT_ERROR_INTERNAL; return 0; }
 #endif
     g.C = C; g.ldc = ldc; g.R = R; g.ldr = ldr; g.scratch = X->scratch;
     npanels = (W->N + SUPERMAT__NR - 1) / SUPERMAT__NR;
     tasks_m = (M + SUPERMAT__MC - 1) / SUPERMAT__MC;
-    threads = X->thr.parallel_for ? X->thr.max_threads : 1;
     g.nchunks = 1;
-    (void)threads;
-    if (tasks_m < 8) { /* few row blocks: split the columns too (fixed by shape, not by thread count) */
+    if (tasks_m < 8 && !whole_n) { /* few row blocks: split the columns too (fixed by shape, not by thread count) */
         g.nchunks = SUPERMAT__MIN(npanels, (4 * 8 + tasks_m - 1) / tasks_m);
         if (g.nchunks < 1) g.nchunks = 1;
     }
     g.panels_per_chunk = (npanels + g.nchunks - 1) / g.nchunks;
     g.nchunks = (npanels + g.panels_per_chunk - 1) / g.panels_per_chunk;
     g.mblocks = tasks_m;
-    supermat__par(X, tasks_m * g.nchunks, supermat__gemm_task, &g);
+    *gp = g;
+    return tasks_m * g.nchunks;
+}
+static void supermat__gemm(supermat__ctx *X, const supermat__asrc *A, int M, const supermat__pw *W, float *C, size_t ldc,
+                           const float *bias, const float *R, size_t ldr) {
+    supermat__gemm_args g;
+    int n = supermat__gemm_setup(X, &g, A, M, W, C, ldc, bias, R, ldr, 0);
+    if (n > 0) supermat__par(X, n, supermat__gemm_task, &g);
 }
 
 /* y[M, N] = x[M, K] W^T + b (+ R) */
@@ -2635,10 +2643,18 @@ static void supermat__wino_task(const supermat__wino_job *J, int index, int out)
 static void supermat__wino_in_task(void *user, int index, int thread) { (void)thread; supermat__wino_task((const supermat__wino_job *)user, index, 0); }
 static void supermat__wino_out_task(void *user, int index, int thread) { (void)thread; supermat__wino_task((const supermat__wino_job *)user, index, 1); }
 
+/* the a*a GEMMs of a chunk of tiles: the same shape each, n tasks each */
+typedef struct supermat__wino_gemms { supermat__gemm_args g[36]; supermat__asrc a[36]; int n; } supermat__wino_gemms; /* g[i].A = &a[i] */
+static void supermat__wino_gemm_task(void *user, int index, int thread) {
+    const supermat__wino_gemms *G = (const supermat__wino_gemms *)user;
+    supermat__gemm_task((void *)&G->g[index / G->n], index % G->n, thread);
+}
+
 /* out = conv3x3(in resized to (uh, uw) by nearest, padding 1) + bias (padded, or NULL) (+ R) */
 static void supermat__conv3x3_wino(supermat__ctx *X, const supermat__t *in, int uh, int uw, const supermat__wino *wg,
                                    supermat__t *out, const float *bias, const float *R) {
     supermat__wino_job J;
+    supermat__wino_gemms G;
     supermat__asrc A;
     int m = wg->m, aa = (m + 2) * (m + 2), cin = in->c, cout = wg->u[0].N, T, nch, ch, xi, ntask;
     size_t cap, per_tile;
@@ -2668,10 +2684,14 @@ static void supermat__conv3x3_wino(supermat__ctx *X, const supermat__t *in, int 
         J.t0 = ch * J.TB; J.tb = SUPERMAT__MIN(J.TB, T - J.t0);
         ntask = (J.tb + J.per - 1) / J.per;
         if (supermat__live(X)) supermat__par(X, ntask, supermat__wino_in_task, &J);
-        for (xi = 0; xi < aa; xi++) { /* planning: counts the FLOPs only */
-            A.a = J.V ? J.V + (size_t)xi * J.TB * cin : NULL;
-            supermat__gemm(X, &A, J.tb, &wg->u[xi], J.Mo ? J.Mo + (size_t)xi * J.TB * cout : NULL, (size_t)cout, NULL, NULL, 0);
+        /* the a*a GEMMs in one parallel-for (each task takes all the columns of one row block of one of
+           them: the two-panel kernel, one dispatch instead of a*a); planning counts the FLOPs only */
+        for (xi = 0, G.n = 0; xi < aa; xi++) {
+            G.a[xi] = A;
+            G.a[xi].a = J.V ? J.V + (size_t)xi * J.TB * cin : NULL;
+            G.n = supermat__gemm_setup(X, &G.g[xi], &G.a[xi], J.tb, &wg->u[xi], J.Mo ? J.Mo + (size_t)xi * J.TB * cout : NULL, (size_t)cout, NULL, NULL, 0, 1);
         }
+        if (G.n > 0 && supermat__live(X)) supermat__par(X, aa * G.n, supermat__wino_gemm_task, &G);
         if (supermat__live(X)) supermat__par(X, ntask, supermat__wino_out_task, &J);
     }
     supermat__put(X, J.Mo);
