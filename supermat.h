@@ -1580,26 +1580,37 @@ SUPERMAT__AVX512 static void supermat__ukr_avx512(int kc, const float *const *a,
         acc0[i] = _mm512_fmadd_ps(a_, bv0, acc0[i]);                   \
         acc1[i] = _mm512_fmadd_ps(a_, bv1, acc1[i]);                   \
     } while (0)
+#define SUPERMAT__UKR2_STEP                                                                                                    \
+    do {                                                                                                                       \
+        __m512 bv0 = _mm512_loadu_ps(b0 + (size_t)k * SUPERMAT__NR), bv1 = _mm512_loadu_ps(b1 + (size_t)k * SUPERMAT__NR);       \
+        SUPERMAT__UKR2_ROW(0); SUPERMAT__UKR2_ROW(1); SUPERMAT__UKR2_ROW(2); SUPERMAT__UKR2_ROW(3);                            \
+        SUPERMAT__UKR2_ROW(4); SUPERMAT__UKR2_ROW(5); SUPERMAT__UKR2_ROW(6); SUPERMAT__UKR2_ROW(7);                            \
+        SUPERMAT__UKR2_ROW(8); SUPERMAT__UKR2_ROW(9); SUPERMAT__UKR2_ROW(10); SUPERMAT__UKR2_ROW(11);                           \
+    } while (0)
+/* pf (or NULL): kc / 4 cache lines from there are prefetched into L2, one every 4 k steps (the callers point
+   it at a share of the next panel pair, which would otherwise come from L3 or memory on first use) */
 SUPERMAT__AVX512 static void supermat__ukr2_avx512(int kc, const float *const *a, const float *b0, const float *b1, float *c, size_t ldc,
-                                                   int mr, int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+                                                   int mr, int nr, const float *bias, const float *r, size_t ldr, int accumulate,
+                                                   const char *pf) {
     __m512 acc0[SUPERMAT__MR512], acc1[SUPERMAT__MR512];
     const float *ap[SUPERMAT__MR512];
     __mmask16 mask1 = (__mmask16)(nr >= 32 ? 0xFFFF : (1u << (nr - 16)) - 1u);
-    int i, k;
+    int i, k = 0;
     for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
     supermat__acc512_init(acc0, mr, (__mmask16)0xFFFF, c, ldc, bias, r, ldr, accumulate);
     supermat__acc512_init(acc1, mr, mask1, c + 16, ldc, bias ? bias + 16 : NULL, r ? r + 16 : NULL, ldr, accumulate);
-    for (k = 0; k < kc; k++) {
-        __m512 bv0 = _mm512_loadu_ps(b0 + (size_t)k * SUPERMAT__NR), bv1 = _mm512_loadu_ps(b1 + (size_t)k * SUPERMAT__NR);
-        SUPERMAT__UKR2_ROW(0); SUPERMAT__UKR2_ROW(1); SUPERMAT__UKR2_ROW(2); SUPERMAT__UKR2_ROW(3);
-        SUPERMAT__UKR2_ROW(4); SUPERMAT__UKR2_ROW(5); SUPERMAT__UKR2_ROW(6); SUPERMAT__UKR2_ROW(7);
-        SUPERMAT__UKR2_ROW(8); SUPERMAT__UKR2_ROW(9); SUPERMAT__UKR2_ROW(10); SUPERMAT__UKR2_ROW(11);
-    }
+    if (pf)
+        for (; k + 4 <= kc; pf += 64) {
+            _mm_prefetch(pf, _MM_HINT_T1);
+            SUPERMAT__UKR2_STEP; k++; SUPERMAT__UKR2_STEP; k++; SUPERMAT__UKR2_STEP; k++; SUPERMAT__UKR2_STEP; k++;
+        }
+    for (; k < kc; k++) SUPERMAT__UKR2_STEP;
     for (i = 0; i < mr; i++) {
         _mm512_storeu_ps(c + (size_t)i * ldc, acc0[i]);
         _mm512_mask_storeu_ps(c + (size_t)i * ldc + 16, mask1, acc1[i]);
     }
 }
+#undef SUPERMAT__UKR2_STEP
 #undef SUPERMAT__UKR2_ROW
 
 /* bf16 compute: B panels as bf16 pairs [K/2][16][2] (one ZMM per pair of rows), A rows as bf16 pairs
@@ -2088,16 +2099,22 @@ static void supermat__gemm_task(void *user, int index, int thread) {
 #if SUPERMAT__HAS_AVX512
             if (g->wide && !g->fmt && p + 1 < p1) { /* f32 panels p and p + 1 together */
                 const float *bp1 = g->B + boff + (size_t)g->K * SUPERMAT__NR;
-                int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
-                for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0), t;
+                /* the next pair in this loop's order (the same K block's next panels, else the next K block's
+                   first ones): row tile t prefetches the t-th quarter of its first panel's block (t < 4) or
+                   of its second's (the K block's kc or the next one's; a prefetch past the weights is harmless) */
+                const float *nx = p + 3 < p1 ? bp + (size_t)2 * g->K * SUPERMAT__NR
+                                             : g->B + ((size_t)p0 * g->K + (size_t)(k0 + kc)) * SUPERMAT__NR;
+                for (m = m0, t = 0; m < m1; m += SUPERMAT__MR512, t++) {
                     const float *rows[SUPERMAT__MR512];
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                    const char *pf = t < 8 ? (const char *)(nx + (t >= 4 ? (size_t)g->K * SUPERMAT__NR : 0)) + (size_t)(t & 3) * kc * 16 : NULL;
                     for (i = 0; i < SUPERMAT__MR512; i++) {
                         int rr = i < mr ? m - m0 + i : m - m0;
                         rows[i] = direct ? rp[rr] : abase + (size_t)rr * lda;
                     }
                     supermat__ukr2_avx512(kc, rows, bp, bp1, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
-                                          (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                                          (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0, pf);
                 }
                 p++;
                 continue;
@@ -3103,7 +3120,7 @@ static void supermat__attn_task(void *user, int index, int thread) {
                 int mr = SUPERMAT__MIN(MR, nq - r), i;
                 for (i = 0; i < MR; i++) rows[i] = qrows[r + (i < mr ? i : 0)];
 #if SUPERMAT__HAS_AVX512
-                if (two) { supermat__ukr2_avx512(d, rows, bp, bp + (size_t)16 * d, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 32, NULL, NULL, 0, 0); continue; }
+                if (two) { supermat__ukr2_avx512(d, rows, bp, bp + (size_t)16 * d, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 32, NULL, NULL, 0, 0, NULL); continue; }
 #endif
                 ukr(d, rows, bp, S + (size_t)r * SUPERMAT__KB + j * 16, SUPERMAT__KB, mr, 16, NULL, NULL, 0, 0);
             }
@@ -3136,7 +3153,7 @@ static void supermat__attn_task(void *user, int index, int thread) {
                 int mr = SUPERMAT__MIN(MR, nq - r), i;
                 for (i = 0; i < MR; i++) rows[i] = S + (size_t)(r + (i < mr ? i : 0)) * SUPERMAT__KB;
 #if SUPERMAT__HAS_AVX512
-                if (two) { supermat__ukr2_avx512(nk, rows, bp, bp + (size_t)a->mk * 16, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 32, NULL, NULL, 0, 1); continue; }
+                if (two) { supermat__ukr2_avx512(nk, rows, bp, bp + (size_t)a->mk * 16, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 32, NULL, NULL, 0, 1, NULL); continue; }
 #endif
                 ukr(nk, rows, bp, O + (size_t)r * dpad + jd * 16, (size_t)dpad, mr, 16, NULL, NULL, 0, 1);
             }
