@@ -2102,13 +2102,14 @@ static void supermat__gemm_task(void *user, int index, int thread) {
                 int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0), t;
                 /* the next pair in this loop's order (the same K block's next panels, else the next K block's
                    first ones): row tile t prefetches the t-th quarter of its first panel's block (t < 4) or
-                   of its second's (the K block's kc or the next one's; a prefetch past the weights is harmless) */
-                const float *nx = p + 3 < p1 ? bp + (size_t)2 * g->K * SUPERMAT__NR
-                                             : g->B + ((size_t)p0 * g->K + (size_t)(k0 + kc)) * SUPERMAT__NR;
+                   of its second's (with this K block's kc, which the next one's may differ from: only a hint) */
+                size_t nx = p + 3 < p1 ? boff + (size_t)2 * g->K * SUPERMAT__NR : ((size_t)p0 * g->K + (size_t)(k0 + kc)) * SUPERMAT__NR;
+                const size_t nb = (size_t)g->np * g->K * SUPERMAT__NR; /* floats of the weights: no pointer past them */
                 for (m = m0, t = 0; m < m1; m += SUPERMAT__MR512, t++) {
                     const float *rows[SUPERMAT__MR512];
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
-                    const char *pf = t < 8 ? (const char *)(nx + (t >= 4 ? (size_t)g->K * SUPERMAT__NR : 0)) + (size_t)(t & 3) * kc * 16 : NULL;
+                    size_t q = nx + (t >= 4 ? (size_t)g->K * SUPERMAT__NR : 0) + (size_t)(t & 3) * kc * 4; /* in floats */
+                    const char *pf = t < 8 && q + (size_t)kc * 4 <= nb ? (const char *)(g->B + q) : NULL;
                     for (i = 0; i < SUPERMAT__MR512; i++) {
                         int rr = i < mr ? m - m0 + i : m - m0;
                         rows[i] = direct ? rp[rr] : abase + (size_t)rr * lda;
