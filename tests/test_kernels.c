@@ -451,6 +451,9 @@ static void test_winograd(void) {
     wino_case(2, 5, 3, 64, 37, 1, 1, 1);
     wino_case(1, 16, 16, 64, 64, 0, 1, 1);
     wino_case(2, 13, 11, 128, 40, 0, 1, 1);
+    /* several chunks of tiles (F4: 169 tiles in chunks of at most 144; F2: 676 in chunks of 292), each
+       chunk's 36 / 16 GEMMs in one parallel-for: 1 and 3 threads the same bits, float64 as everywhere */
+    wino_case(1, 52, 52, 128, 96, 0, 1, 1);
     printf("worst: F2 %.3g, F4 %.3g\n", worst[0], worst[1]);
     for (av = 0; av < NMODES; av++) for (th = 0; th < 2; th++) kctx_free(&WK[av][th]);
     wino_plan(2, 2, 9, 7, 16, 37);
