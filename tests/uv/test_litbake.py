@@ -288,6 +288,62 @@ def main():
                 open(os.path.join(d_flags, n), "rb").read() == open(os.path.join(d_none, n), "rb").read() for n in names)
             check(same, f"supermat mesh without model flags = --mv-model $SUPERMAT_MODEL --no-refine, byte for byte ({names}): "
                         f"{r1.stderr[-300:]} {r2.stderr[-300:]}")
+            # the mesh defaults beside the default model: with the three files there, no model flags = the flags
+            # naming them; with the multi-view one alone (or --no-refine), that model without refinement
+            def mesh_bake(args, env=None, tag="b"):
+                d = os.path.join(out, "md_" + tag)
+                shutil.rmtree(d, ignore_errors=True)
+                os.makedirs(d)
+                rr = subprocess.run([sys.argv[5], "mesh"] + args + [lit, os.path.join(d, "q.gltf")] + small,
+                                    env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+                if rr.returncode != 0:
+                    print(rr.stderr[-400:])
+                    return None
+                return {n: open(os.path.join(d, n), "rb").read() for n in sorted(os.listdir(d))}
+            md = os.path.join(out, "mesh_defaults")
+            shutil.rmtree(md, ignore_errors=True)
+            os.makedirs(md)
+            links = {"supermat_default.safetensors": sys.argv[6], "supermat_mv_default.safetensors": sys.argv[3],
+                     "supermat_refine_albedo_default.safetensors": sys.argv[4], "supermat_refine_rm_default.safetensors": sys.argv[4]}
+            for n, t in links.items():
+                os.symlink(os.path.abspath(t), os.path.join(md, n))
+            env = dict(os.environ, SUPERMAT_MODEL=os.path.join(md, "supermat_default.safetensors"))
+            full = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4], "--rm-refine", sys.argv[4]], tag="full")
+            got = mesh_bake([], env, "full_default")
+            check(full is not None and full == got, "the three mesh defaults beside the default model: no model flags = "
+                                                    "--mv-model MV --albedo-refine UV --rm-refine UV, byte for byte")
+            mv_only = mesh_bake(["--mv-model", sys.argv[3], "--no-refine"], tag="mv")
+            got = mesh_bake(["--no-refine"], env, "mv_default_nr")
+            check(mv_only is not None and mv_only == got and mv_only != full,
+                  "no model flags with --no-refine: the multi-view default alone, byte for byte")
+            for n in ("supermat_refine_albedo_default.safetensors", "supermat_refine_rm_default.safetensors"):
+                os.unlink(os.path.join(md, n))
+            got = mesh_bake([], env, "mv_default")
+            check(mv_only == got, "only the multi-view default beside the default model: it bakes without refinement")
+            # --keep-observed: the refined maps fill only the texels no view saw; the seen ones stay the
+            # back-projection's (--detail off: the detail step would mix neighbours in)
+            lit_dbg = os.path.join(out, "keep_dbg")
+            ko = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4], "--rm-refine", sys.argv[4],
+                       "--keep-observed", "--detail", "off", "--debug-dir", lit_dbg], tag="keep")
+            nr2 = mesh_bake(["--mv-model", sys.argv[3], "--no-refine", "--detail", "off"], tag="keep_nr")
+            rf = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4], "--rm-refine", sys.argv[4],
+                       "--detail", "off"], tag="keep_rf")
+            if ko and nr2 and rf:
+                import io
+                img = lambda b: np.asarray(Image.open(io.BytesIO(b)).convert("RGB")).astype(int)  # noqa: E731
+                seen = np.asarray(Image.open(os.path.join(lit_dbg, "mask.png"))) > 0
+                a_ko, a_nr, a_rf = (img(x["q_baseColor.png"]) for x in (ko, nr2, rf))
+                m_ko, m_nr = (img(x["q_metallicRoughness.png"]) for x in (ko, nr2))
+                check(seen.any() and np.array_equal(a_ko[seen], a_nr[seen]) and np.array_equal(m_ko[seen], m_nr[seen])
+                      and not np.array_equal(a_rf[seen], a_nr[seen]),
+                      f"--keep-observed: the {int(seen.sum())} seen texels = --no-refine's (refined everywhere: they differ)")
+            else:
+                check(False, "--keep-observed bakes")
+            rk = subprocess.run([sys.argv[5], "mesh", "--mv-model", sys.argv[3], "--no-refine", "--keep-observed", lit,
+                                 os.path.join(out, "k.gltf")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                universal_newlines=True)
+            check(rk.returncode == 2 and "--keep-observed" in rk.stderr and not os.path.exists(os.path.join(out, "k.gltf")),
+                  "--keep-observed with --no-refine: usage error")
             # --work-size: the network's size (default: the file's pipeline.work_size); another size, other maps
             outs = []
             for ws in ("native", "32"):

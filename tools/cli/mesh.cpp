@@ -1,7 +1,7 @@
 /* supermat mesh: bake PBR textures for a glTF asset with supermat_uv.h (C++11, tinygltf).
  *
  *   supermat mesh --mv-model F --albedo-refine F --rm-refine F IN.gltf OUT.gltf
- *                 [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
+ *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
  *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]
  *
  * Reads IN (.gltf or .glb) and bakes every mesh its default scene shows (each at the world transform of
@@ -485,18 +485,29 @@ void remove_tree(const std::string &root) {
     rmdir(root.c_str());
 }
 
+/* the mesh defaults, looked for in the default model's folder (models/, or <prefix>/share/supermat) */
+#define MESH_DEFAULT_MV "supermat_mv_default.safetensors"
+#define MESH_DEFAULT_BC "supermat_refine_albedo_default.safetensors"
+#define MESH_DEFAULT_RM "supermat_refine_rm_default.safetensors"
+
 int usage() {
     std::fprintf(stderr,
                  "usage: supermat mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine)] IN.gltf OUT.gltf\n"
-                 "       [--passthrough] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
+                 "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]\n"
                  "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
                  "                  view, no cross-view attention: the paper's ablation)\n"
-                 "  no model flags  the default model (as `supermat image`), view by view, with --no-refine\n"
+                 "  no model flags  the mesh defaults in the default model's folder (as `supermat image` finds\n"
+                 "                  it): " MESH_DEFAULT_MV " (else the default model,\n"
+                 "                  view by view), " MESH_DEFAULT_BC " and\n"
+                 "                  " MESH_DEFAULT_RM " (else --no-refine); with\n"
+                 "                  --no-refine: the view model alone\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
                  "  --no-refine     the view model alone (no refine flags): its back-projected maps,\n"
                  "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
                  "                  the paper's ablation without refinement)\n"
+                 "  --keep-observed the refined maps fill only the texels no view saw; the others keep the\n"
+                 "                  back-projection (default: refined everywhere, as the official pipeline)\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
                  "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
                  "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
@@ -662,7 +673,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
-    int passthrough = 0, no_refine = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
+    int passthrough = 0, no_refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     g_max_memory = 0;
     for (int i = 1; i < argc; i++) {
@@ -707,6 +718,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             else if (w != "average") return usage();
         } else if (a == "--passthrough") passthrough = 1;
         else if (a == "--no-refine") no_refine = 1;
+        else if (a == "--keep-observed") keep_observed = 1;
         else if (a == "--force" || a == "--skip-existing") {
             int want = a == "--force" ? 1 : 2;
             if (policy && policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
@@ -728,19 +740,35 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
     }
+    if (keep_observed && (passthrough || no_refine)) {
+        std::fprintf(stderr, "supermat mesh: --keep-observed keeps the seen texels out of the refinement: not with %s\n",
+                     passthrough ? "--passthrough" : "--no-refine");
+        return 2;
+    }
     if (!passthrough && !mv_path && (bc_path || rm_path)) {
         std::fprintf(stderr, "supermat mesh: --albedo-refine and --rm-refine need --mv-model\n");
         return 2;
     }
     static char default_path[4096];
-    if (!passthrough && !mv_path) { /* no model flags: the default single-view model, view by view, no refinement */
+    static std::string default_mv, default_bc, default_rm;
+    if (!passthrough && !mv_path) {
+        /* no model flags: the mesh defaults beside the default model (SuperMatMV, the two UV-refine networks),
+           where they are; else the default single-view model, view by view, without refinement */
         const char *from = nullptr;
         if (!supermat_cli_default_model(default_path, sizeof default_path, &from)) return 1; /* it said why */
-        mv_path = default_path;
-        no_refine = 1;
+        std::string dir = dir_of(default_path);
+        default_mv = dir + "/" MESH_DEFAULT_MV;
+        default_bc = dir + "/" MESH_DEFAULT_BC;
+        default_rm = dir + "/" MESH_DEFAULT_RM;
+        bool have_mv = access(default_mv.c_str(), R_OK) == 0;
+        bool have_refine = !no_refine && access(default_bc.c_str(), R_OK) == 0 && access(default_rm.c_str(), R_OK) == 0;
+        mv_path = have_mv ? default_mv.c_str() : default_path;
+        if (have_refine) { bc_path = default_bc.c_str(); rm_path = default_rm.c_str(); }
+        else no_refine = 1;
         if (isatty(STDERR_FILENO))
-            std::fprintf(stderr, "models: the default single-view model %s (%s), view by view, no refinement "
-                                 "(no trained multi-view or UV-refine default exists yet)\n", default_path, from);
+            std::fprintf(stderr, "models (%s): %s%s%s%s\n", from, mv_path,
+                         have_mv ? " (multi-view)" : " (single view, view by view)", have_refine ? ", refined by " : ", no refinement",
+                         have_refine ? (default_bc + " and " + default_rm).c_str() : "");
     }
     if (!passthrough && !no_refine && (!bc_path || !rm_path)) {
         std::fprintf(stderr, "supermat mesh: give --albedo-refine and --rm-refine with --mv-model (or --no-refine)\n");
@@ -985,6 +1013,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm ? rm : bc;
     bd.weight = weight;
     bd.gutter = gutter;
+    bd.keep_observed = keep_observed;
     bd.edge_reject = edge_reject;
     bd.threads = threads;
     bd.max_memory = budget_left();
