@@ -40,6 +40,7 @@ from PIL import Image
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import gen_data as G  # noqa: E402
+import make_example_mesh as M  # noqa: E402  (its glTF writer)
 import smrender as R  # noqa: E402
 
 KEYS = ("partial_albedo", "partial_rm", "mask", "position", "chart", "lit", "truth_albedo", "truth_rough",
@@ -149,39 +150,6 @@ def build(rng, size, photos, mode_p, photo):
     return pos, nrm.astype(np.float32), uv, idx.ravel(), alb, rough, metal
 
 
-def write_gltf(out, name, pos, nrm, uv, idx, alb, rough, metal):
-    blobs = [pos.tobytes(), nrm.tobytes(), uv.tobytes(), idx.tobytes()]
-    views, o = [], 0
-    for b in blobs:
-        views.append({"buffer": 0, "byteOffset": o, "byteLength": len(b)})
-        o += len(b)
-    with open(os.path.join(out, name + ".bin"), "wb") as f:
-        f.write(b"".join(blobs))
-    q8 = lambda x: np.clip(np.round(x * 255), 0, 255).astype(np.uint8)  # noqa: E731
-    Image.fromarray(q8(R.srgb_encode(alb))).save(os.path.join(out, name + "_baseColor.png"))
-    Image.fromarray(q8(np.stack([np.ones_like(rough), rough, metal], -1))).save(
-        os.path.join(out, name + "_metallicRoughness.png"))
-    g = {"asset": {"version": "2.0", "generator": "supermat tools/gen_refine_data.py"},
-         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": name}],
-         "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
-                                     "material": 0}]}],
-         "materials": [{"name": name, "pbrMetallicRoughness": {
-             "baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 1}}}],
-         "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}],
-         "images": [{"uri": name + "_baseColor.png"}, {"uri": name + "_metallicRoughness.png"}],
-         "textures": [{"source": 0, "sampler": 0}, {"source": 1, "sampler": 0}],
-         "buffers": [{"uri": name + ".bin", "byteLength": o}], "bufferViews": views,
-         "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(pos), "type": "VEC3",
-                        "min": pos.min(0).tolist(), "max": pos.max(0).tolist()},
-                       {"bufferView": 1, "componentType": 5126, "count": len(pos), "type": "VEC3"},
-                       {"bufferView": 2, "componentType": 5126, "count": len(pos), "type": "VEC2"},
-                       {"bufferView": 3, "componentType": 5125, "count": len(idx), "type": "SCALAR"}]}
-    path = os.path.join(out, name + ".gltf")
-    with open(path, "w") as f:
-        json.dump(g, f)
-    return path
-
-
 def run(cmd):
     r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     if r.returncode:
@@ -195,7 +163,7 @@ def sample(args, i, envs, photos):
     angle = float(rng.uniform(0, 360))
     tmp = tempfile.mkdtemp(prefix="smref_", dir=args.out)
     try:
-        src = write_gltf(tmp, "asset", *mesh)
+        src = M.write_pbr_gltf(tmp, "asset", *mesh, generator="supermat tools/gen_refine_data.py")
         run([sys.executable, os.path.join(HERE, "litbake.py"), src, os.path.join(tmp, "lit"), "--hdri", env,
              "--env-angle", str(angle), "--size", str(args.size), "--force"])
         dbg = os.path.join(tmp, "dbg")

@@ -85,16 +85,9 @@ def textures(size, rng):
     return alb, rough, metal
 
 
-def write_gltf(out, name, size, rng):
-    parts = [grid(fn, rect, 64, 32) for fn, rect in PARTS]
-    pos = np.concatenate([p[0] for p in parts]).astype(np.float32)
-    nrm = np.concatenate([p[1] for p in parts]).astype(np.float32)
-    uv = np.concatenate([p[2] for p in parts]).astype(np.float32)
-    off, idx = 0, []
-    for p in parts:
-        idx.append(p[3] + off)
-        off += len(p[0])
-    idx = np.concatenate(idx).astype(np.uint32)
+def write_pbr_gltf(out, name, pos, nrm, uv, idx, alb, rough, metal, generator="supermat tools/make_example_mesh.py"):
+    """One mesh, one material: OUT/NAME.gltf + .bin + _baseColor.png (sRGB of the linear albedo) +
+    _metallicRoughness.png (G roughness, B metallic). Also tools/gen_refine_data.py's writer."""
     blobs = [pos.tobytes(), nrm.tobytes(), uv.tobytes(), idx.tobytes()]
     views, o = [], 0
     for b in blobs:
@@ -102,11 +95,10 @@ def write_gltf(out, name, size, rng):
         o += len(b)
     with open(os.path.join(out, name + ".bin"), "wb") as f:
         f.write(b"".join(blobs))
-    alb, rough, metal = textures(size, rng)
     q8 = lambda x: np.clip(np.round(x * 255), 0, 255).astype(np.uint8)  # noqa: E731
     Image.fromarray(q8(R.srgb_encode(alb))).save(os.path.join(out, name + "_baseColor.png"))
     Image.fromarray(q8(np.stack([np.ones_like(rough), rough, metal], -1))).save(os.path.join(out, name + "_metallicRoughness.png"))
-    g = {"asset": {"version": "2.0", "generator": "supermat tools/make_example_mesh.py"},
+    g = {"asset": {"version": "2.0", "generator": generator},
          "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "example"}],
          "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
                                      "material": 0}]}],
@@ -125,6 +117,19 @@ def write_gltf(out, name, size, rng):
     with open(path, "w") as f:
         json.dump(g, f, indent=1)
     return path
+
+
+def write_gltf(out, name, size, rng):
+    parts = [grid(fn, rect, 64, 32) for fn, rect in PARTS]
+    pos = np.concatenate([p[0] for p in parts]).astype(np.float32)
+    nrm = np.concatenate([p[1] for p in parts]).astype(np.float32)
+    uv = np.concatenate([p[2] for p in parts]).astype(np.float32)
+    off, idx = 0, []
+    for p in parts:
+        idx.append(p[3] + off)
+        off += len(p[0])
+    idx = np.concatenate(idx).astype(np.uint32)
+    return write_pbr_gltf(out, name, pos, nrm, uv, idx, *textures(size, rng))
 
 
 def main():

@@ -1065,6 +1065,17 @@ def phase_export(args, data):
           f"{report['vae_params']} parameters", flush=True)
 
 
+def add_run_args(ap):
+    """The run options tools/train_mv.py and tools/train_refine.py share (what configure() reads)."""
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--amp", default="off", choices=("off", "bf16"))
+    ap.add_argument("--seconds", default="", metavar="PHASE=S,...")
+    ap.add_argument("--until", default="", metavar="PHASE=STEP,...")
+    ap.add_argument("--ckpt-every", type=float, default=120.0)
+
+
 def configure(args):
     """What --threads, --device, --seconds, --until and --amp set for the whole run (also tools/train_mv.py's)."""
     global DEV, AMP
