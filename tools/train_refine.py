@@ -94,17 +94,6 @@ def build_refine(base=None):
     return unet.to(T.DEV)
 
 
-def default_state(path):
-    from safetensors.torch import safe_open
-    with safe_open(path, framework="pt") as f:
-        meta = f.metadata() or {}
-        if meta.get("supermat.kind") != "supermat" or int(meta.get("unet.branches", 0)) != 2:
-            raise SystemExit(f"train_refine: {path} is not a two-branch SuperMat model file")
-        t = {k: f.get_tensor(k).float() for k in f.keys()}
-    t.pop("context")
-    return {k: v for k, v in t.items() if not k.startswith("vae.")}
-
-
 class RefData:
     def __init__(self, path, holdout=40):
         sh = sorted(f for f in os.listdir(path) if f.startswith("shard_") and f.endswith(".npz") and ".tmp" not in f)
@@ -157,7 +146,7 @@ def phase_refine(args, data, name):
         unet = build_refine()
         unet.load_state_dict(T.load_ckpt(os.path.join(args.init_refine, f"ckpt_{name}.pt"))["models"]["unet"])
     else:
-        unet = build_refine(base_from_supermat(default_state(args.init_from), BRANCH[name]))
+        unet = build_refine(base_from_supermat(T.load_unet(args.out, "e2e").state_dict(), BRANCH[name]))
     opt = torch.optim.AdamW(unet.parameters(), lr=args.lr, weight_decay=0.0)
     ph = T.Phase(args.out, name, {"unet": unet}, opt, args.steps, args.ckpt_every, args.seed)
     unet.train()
