@@ -98,7 +98,8 @@ echo "sheet: out/sheet.png (each row: $labels)"
 
 # the mesh: examples/mesh/lit/example_pbr_lit.gltf, a procedural torus and sphere of ours whose base colour has
 # its lighting baked in (tools/make_example_mesh.py, tools/litbake.py; the true textures beside it), baked by
-# `supermat mesh` with no model flags: the default model on the six views, one by one, no refinement
+# `supermat mesh` with no model flags: the multi-view default (models/supermat_mv_default.safetensors) on the six
+# views together, no refinement (no UV-refine default is shipped)
 mesh_help=$("$SM" mesh --help 2>&1 || true)
 if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
   mkdir -p out/mesh

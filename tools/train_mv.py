@@ -3,6 +3,7 @@
 
     /usr/bin/python3 tools/train_mv.py --data MVDATA --out RUN --init-from models/supermat_default.safetensors \\
         [--phases mv,export] [--steps 2000] [--batch 4] [--lr 1e-4] [--device cuda] [--amp bf16]
+        [--init-mv RUN] [--distill-albedo A] [--distill-rm R]
 
 MVDATA: tools/gen_data.py --views 6 output (each sample one object in the six official views, lit alike).
 The network is the official multi-view one, built by the official code exactly as its inference script builds
@@ -14,6 +15,12 @@ layer attends over the six views' tokens together).  It starts from the single-v
 the cameras' first effect is learnt), the VAE frozen, and trains end to end as train_default.py's e2e phase
 does (one step at t = 999, zero latents, v-prediction x0; masked L1 + gradient per map, a re-render loss
 under another training map), batches of --batch objects x 6 views, colour permutations per object.
+
+--init-mv RUN starts from another run's multi-view model instead (a second round); --distill-albedo A and
+--distill-rm R add A (R) x the mean L1 between the albedo (roughness / metallic) branch's x0 latent and the
+single-view model's on the same views, run view by view without gradients: what that model learnt from tens
+of thousands of renders is held while the views' attention is learnt from a few hundred objects
+(tools/train_mv_default.sh: the shipped recipe).
 
 Phases (each checkpoints to RUN/ckpt_<phase>.pt and resumes; --seconds PHASE=S and --until as in
 train_default.py):
@@ -119,7 +126,15 @@ def phase_mv(args, data):
     vae, sf, ctx, coef, sv = T.end_to_end_setup(args.out, T.unet_source(args.out))
     unet = build_unet_mv()
     from_single_view(unet, sv)
-    del sv
+    if args.init_mv:                      # continue another run's multi-view model instead
+        unet.load_state_dict(load_mv(args.init_mv).state_dict())
+    teach = args.distill_albedo > 0 or args.distill_rm > 0
+    if teach:
+        sv.eval()
+        for p in sv.parameters():
+            p.requires_grad_(False)
+    else:
+        del sv
     envs = [T.TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
     opt = torch.optim.AdamW(unet.parameters(), lr=args.lr, weight_decay=0.0)
     ph = T.Phase(args.out, "mv", {"unet": unet}, opt, args.steps, args.ckpt_every, args.seed)
@@ -139,8 +154,15 @@ def phase_mv(args, data):
         la, lr, lm, lo = T.map_losses(pa, po, b)
         lrr = T.rerender_loss(envs, ph.rng, b, pa, po)
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
+        msg = ""
+        if teach:   # keep each branch's latent near the single-view model's, view by view (what it learnt
+            with torch.no_grad(), T.amp():    # from tens of thousands of renders)
+                ta, to = T.unet_forward(sv, zi, ctx, coef)
+            da, do = (x0a - ta).abs().mean(), (x0o - to).abs().mean()
+            loss = loss + args.distill_albedo * da + args.distill_rm * do
+            msg = f" distill {da.item():.4f} {do.item():.4f}"
         ph.update(loss, list(unet.parameters()))
-        ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}")
+        ph.tick(f"albedo {la.item():.4f} rough {lr.item():.4f} metal {lm.item():.4f} rerender {lrr.item():.4f}{msg}")
     ph.finish()
 
 
@@ -204,6 +226,12 @@ def main():
     ap.add_argument("--lr", type=float, default=1e-4)
     ap.add_argument("--permute", type=int, default=1, help="colour permutations, one per object")
     ap.add_argument("--rerender-weight", type=float, default=0.5)
+    ap.add_argument("--init-mv", default="", metavar="RUN",
+                    help="start the mv phase from another run's multi-view model (RUN/ckpt_mv.pt)")
+    ap.add_argument("--distill-albedo", type=float, default=0.0,
+                    help="weight of the L1 between the albedo branch's latent and the single-view model's")
+    ap.add_argument("--distill-rm", type=float, default=0.0,
+                    help="the same for the roughness / metallic branch")
     T.add_run_args(ap)
     args = ap.parse_args()
     T.configure(args)

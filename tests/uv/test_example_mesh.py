@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """ctest uv_example_mesh: the demo's example mesh (examples/mesh/, tools/make_example_mesh.py) baked by
-`supermat mesh` with no model flags (the default model from the source tree, view by view, no refinement),
-measured against the example's true textures on its chart texels: a regression guard for the default mesh
-path, its floors set from the first measurement (2026-11-26, 2-core Xeon, AVX-512: albedo 9.32 dB against the
-lit texture's 8.04; roughness 9.71, metallic 3.98), the albedo floor lowered when `supermat mesh` began keeping
-the input's detail (--detail 1/32 by default, 2026-11-27: 9.16 dB on this 256x256 example, 0.16 below
---detail off here; +1.37 dB on the five held-out assets, README).
+`supermat mesh` with no model flags (the multi-view default beside the default model in the source tree, no
+refinement), measured against the example's true textures on its chart texels: a regression guard for the
+default mesh path, its floors set from the first measurement (2026-11-26, 2-core Xeon, AVX-512, the
+single-view default view by view: albedo 9.32 dB against the lit texture's 8.04; roughness 9.71, metallic
+3.98), the albedo floor lowered when `supermat mesh` began keeping the input's detail (--detail 1/32 by
+default, 2026-11-27: 9.16 dB on this 256x256 example, 0.16 below --detail off here; +1.37 dB on the five
+held-out assets, README).  With the multi-view default (models/supermat_mv_default.safetensors, 2026-11-27):
+albedo 9.29, roughness 9.70, metallic 4.00, the relit bake 15.86 dB; the floors stand.
 
 Then the demo's relighting (tools/relight_demo.py: the input as given, the bake and the truth under
 examples/mesh/studio_small_03_256.hdr, two views, the truth's exposure): PSNR of each against the truth's
@@ -53,6 +55,7 @@ def main():
     check(r.returncode == 0, "supermat mesh without model flags bakes the example: exit 0 " + r.stderr[-500:])
     if r.returncode != 0:
         return 1
+    check("supermat_mv_default.safetensors" in r.stderr, "without model flags it loads the multi-view default")
     m = read(EX + "_mask.png", "L") > 0
     psnr = lambda a, b: 10 * np.log10(1 / np.mean((a - b)[m] ** 2))  # noqa: E731
     alb = psnr(read(os.path.join(out, "example_baseColor.png"), "RGB"), read(EX + "_truth_albedo.png", "RGB"))
