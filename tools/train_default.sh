@@ -24,33 +24,11 @@
 # it gives a model of the same recipe, not the same file.  Measured parts here (2 cores, AVX512_BF16): data
 # about 100 min, vae_colour 55 min, latent cache about 35 min, ft 25 min; not replayed end to end here: the
 # end-to-end phases at batch 32 take about 15 s a step on 2 cores (about 4.5 h for 1084 steps).
-set -euo pipefail
-cd "$(dirname "${BASH_SOURCE[0]}")/.."
-: "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets/repo}"
-: "${HARNESS_DEPS:?set HARNESS_DEPS to the reference harness dependency folder}"
-: "${WORK:?set WORK to a scratch folder outside the repository}"
-export HARNESS_DEPS
+# shellcheck source=tools/train_env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/train_env.sh"
 COUNT="${COUNT:-20000}"
 SEED="${SEED:-0}"
-THREADS="${THREADS:-$(nproc 2>/dev/null || echo 2)}"
 COUNT2="${COUNT2:-6000}"
-# bf16 autocast for the fine-tuning where the CPU has AMX or AVX512_BF16 (the shipped model's ft phases ran so;
-# an e2e step: 1.56 s on AMX; 3.7 s with AVX512_BF16 but no AMX, where float32 takes 4.25 s), else float32
-AMP="${AMP:-$(grep -qwE 'amx_bf16|avx512_bf16' /proc/cpuinfo 2>/dev/null && echo bf16 || echo off)}"
-PY=/usr/bin/python3
-
-need=()
-for p in python3-torch python3-numpy python3-pil libopenblas0-pthread cmake make gcc g++ libstb-dev; do
-  dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
-done
-if [ ${#need[@]} -gt 0 ]; then
-  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
-  $SUDO apt-get update -qq
-  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
-fi
-
-mkdir -p "$WORK/hdri"
-git --git-dir="$MIRROR_DIR/pmndrs+drei-assets/repo" archive HEAD hdri | tar -x -C "$WORK"
 
 gen() {  # gen OUT SEED COUNT extra args...
   local out="$1" seed="$2" count="$3"; shift 3

@@ -5,7 +5,7 @@
 #
 #   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_mv_default.sh
 #
-#   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: as tools/train_default.sh reads them (run the same command
+#   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: as tools/train_default.sh reads them (tools/train_env.sh) (run the same command
 #   again to resume: finished shards and phases are kept, the others restart from their last checkpoint)
 #   STEPS1, STEPS2  the two rounds' steps (default 179 and 229)
 #
@@ -15,20 +15,10 @@
 # model of the same recipe, not the same file.  Measured here: data 10 min (560 objects x 6 views at 128²,
 # 2 processes), round 1 15 min (4.9 s a step), round 2 23 min (5.6 s a step with the single-view model's forward
 # pass for the distillation term), export and conversion 1 min.
-set -euo pipefail
-cd "$(dirname "${BASH_SOURCE[0]}")/.."
-: "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets/repo}"
-: "${HARNESS_DEPS:?set HARNESS_DEPS to the reference harness dependency folder}"
-: "${WORK:?set WORK to a scratch folder outside the repository}"
-export HARNESS_DEPS
-THREADS="${THREADS:-$(nproc 2>/dev/null || echo 2)}"
-AMP="${AMP:-$(grep -qwE 'amx_bf16|avx512_bf16' /proc/cpuinfo 2>/dev/null && echo bf16 || echo off)}"
+# shellcheck source=tools/train_env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/train_env.sh"
 STEPS1="${STEPS1:-179}"
 STEPS2="${STEPS2:-229}"
-PY=/usr/bin/python3
-
-mkdir -p "$WORK/hdri"
-git --git-dir="$MIRROR_DIR/pmndrs+drei-assets/repo" archive HEAD hdri | tar -x -C "$WORK"
 
 echo "== six-view data (560 objects, seed 23, 128x128)"
 $PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/mvdata" --count 560 --shard 8 --size 128 --seed 23 \
