@@ -124,10 +124,11 @@ def forward_mv(unet, z, ctx, coef, cams):
 
 def phase_mv(args, data):
     vae, sf, ctx, coef, sv = T.end_to_end_setup(args.out, T.unet_source(args.out))
-    unet = build_unet_mv()
-    from_single_view(unet, sv)
-    if args.init_mv:                      # continue another run's multi-view model instead
-        unet.load_state_dict(load_mv(args.init_mv).state_dict())
+    if args.init_mv:                      # continue another run's multi-view model
+        unet = load_mv(args.init_mv)
+    else:
+        unet = build_unet_mv()
+        from_single_view(unet, sv)
     teach = args.distill_albedo > 0 or args.distill_rm > 0
     if teach:
         sv.eval()
