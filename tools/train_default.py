@@ -936,18 +936,21 @@ def phase_rm(args, data):
     phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH)
 
 
-def init_from(args):
+def init_from(args, allow_mv=False):
     """Seed RUN with a released default model (a `supermat convert` file of this script's release): its VAE as
     the finished vae / vae_crops phases, its scaling factor, its UNet as the finished latent / e2e phases, so
     that later phases (alb, joint, ...) continue from it.  The release rounded every weight to float16, so
-    this is the f16-rounded state of those phases of the run that made the file."""
+    this is the f16-rounded state of those phases of the run that made the file.  allow_mv: the file may be a
+    SuperMatMV one of tools/train_mv.py's release (the same VAE; its UNet without the camera MLP,
+    class_embedding.*, is a single-view two-branch UNet: the multi-view attention has no weights of its own)."""
     if done(args.out, "e2e"):
         return
+    kinds = ("supermat", "supermat-mv") if allow_mv else ("supermat",)
     with safe_open(args.init_from, framework="pt") as f:
         meta = f.metadata() or {}
-        if meta.get("supermat.kind") != "supermat" or int(meta.get("unet.branches", 0)) != 2:
+        if meta.get("supermat.kind") not in kinds or int(meta.get("unet.branches", 0)) != 2:
             raise SystemExit(f"train_default: {args.init_from} is not a two-branch SuperMat model file")
-        tensors = {k: f.get_tensor(k) for k in f.keys()}
+        tensors = {k: f.get_tensor(k) for k in f.keys() if not k.startswith("class_embedding.")}
     bad = [k for k, v in tensors.items() if not v.is_floating_point()]
     if bad:
         raise SystemExit(f"train_default: {args.init_from}: {bad[0]} is {tensors[bad[0]].dtype} (f32 / f16 / bf16 files only)")

@@ -6,6 +6,7 @@
 #   here:   HARNESS_DEPS=<deps> HDRI=<hdri dir> bash tools/train_gpu.sh pack      -> .gpu/payload.tar.gz
 #   there:  OUT=<folder> bash tools/train_gpu.sh device                            -> OUT/unet_*.npz, logs
 #   there:  OUT=<folder> bash tools/train_gpu.sh device-mv                         -> OUT/unet_mv.npz (SuperMatMV)
+#   there:  OUT=<folder> bash tools/train_gpu.sh device-refine   -> OUT/refine_bc.npz, refine_rm.npz (UV refine)
 #   back:   bash tools/train_gpu.sh import OUT/unet_ft_e2e.npz RUN ft_e2e                 -> RUN/ckpt_ft_e2e.pt
 #           then train_default.py --data D --out RUN --init-from models/supermat_default.safetensors
 #           --phases export, and `supermat convert` as in train_default.sh
@@ -34,6 +35,10 @@
 #   on the device did not make the end-to-end step faster (263 against 271 ms): it is bound elsewhere, unprofiled.
 # device-mv measured (2026-11-26, H100, 16 cores; GEN_S=120 MV_S=150): 488 six-view objects in 128 s, 533 steps
 #   of 8 objects x 6 views (255 ms a step), 292 s in all (README, "A first multi-view model").
+# device-refine measured (2026-11-27, H200, 16 cores; GEN_S=230 END_S=565 TAIL_S=40, the payload packed with REFINE=1
+#   PHOTO_HDR=1, tests/data and models/supermat_default.safetensors moved aside for the call): 512 meshes in 238 s,
+#   880 / 887 steps of batch 32 for the two networks at once (300 ms a step each), 529 s in all (README, "A GPU
+#   round for the refine networks").
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 mode="${1:-}"
@@ -54,6 +59,11 @@ if [ "$mode" = pack ]; then
         if [ "${PHOTO_HDR:-0}" = 1 ]; then cp -p "$f" "$st/hdri/"   # gen_data --photo crops the maps themselves
         else : > "$st/hdri/$b"; touch -d '2000-01-01' "$st/hdri/$b"; fi
     done
+    if [ "${REFINE:-0}" = 1 ]; then   # device-refine: build/supermat (the mesh command) and the libraries it
+        mkdir -p "$st/bin" "$st/lib"     # takes from Debian (tinygltf, stb, webp; libc / libstdc++ are the device's)
+        cp build/supermat "$st/bin/" || exit 1
+        ldd build/supermat | awk '/=> \// {print $3}' | grep -E 'lib(tinygltf|stb|webp|sharpyuv)' | xargs -r cp -t "$st/lib/"
+    fi
     find "$st" -name __pycache__ -prune -exec rm -rf {} +
     tar -C "$st" -czf .gpu/payload.tar.gz . && rm -rf "$st"
     ls -l .gpu/payload.tar.gz
@@ -131,7 +141,52 @@ print(f"{npz} -> {rel}/supermat_mv.pth ({len(z.files)} tensors)")
 EOF2
     exit 0
 fi
-[ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|device-mv|import|import-mv" >&2; exit 2; }
+if [ "$mode" = device-refine ]; then
+    # procedural meshes baked by the view model on the device's cores (tools/gen_refine_data.py: needs a payload
+    # packed with REFINE=1 PHOTO_HDR=1), then the two UV-refine networks trained at once, one process each, from
+    # INIT (default: the multi-view default, its branches as the bases); all of it ends by END_S (default 560)
+    # seconds after the start.  Gives back OUT/refine_bc.npz and refine_rm.npz (float16), the logs and each
+    # run's report.  Here: `train_gpu.sh import OUT/refine_bc.npz RUN bc` (and rm), then train_refine.py
+    # --phases export on RUN.
+    unpack
+    export LD_LIBRARY_PATH="$W/w/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    VIEW="${VIEW_MODEL:-models/supermat_mv_default.safetensors}"
+    { nvidia-smi -L; nproc; "$W/w/bin/supermat" --version; } > "$OUT/env.txt" 2>&1 || { cat "$OUT/env.txt"; exit 1; }
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-210}" $PY tools/gen_refine_data.py \
+        --hdri-dir "$W/w/hdri" --out "$W/ref" --model "$VIEW" --supermat "$W/w/bin/supermat" --count 100000 --shard 8 \
+        --seed "${SEED:-5}" --jobs "${JOBS:-$(nproc)}" > "$W/gen.log" 2>&1
+    pkill -f tools/gen_refine_data.py; pkill -f "$W/w/bin/supermat"; sleep 1
+    n=$(ls "$W/ref" | grep -c '^shard_[0-9]*\.npz$')
+    echo "meshes: $n shards of 8 at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
+    tail -5 "$W/gen.log" >> "$OUT/env.txt"
+    [ "$n" -gt 0 ] || { tail -40 "$W/gen.log"; exit 1; }
+    left=$(( ${END_S:-560} - ($(date +%s) - T0) ))
+    for net in bc rm; do
+        timeout "$left" $PY tools/train_refine.py --data "$W/ref" --out "$W/run_$net" --init-from "${INIT:-$VIEW}" \
+            --phases "$net" --device "${DEVICE:-cuda}" --amp bf16 --threads 4 --steps 100000 --batch "${BATCH:-32}" \
+            --lr "${LR:-2e-4}" --seconds "$net=$(( left - ${TAIL_S:-60} ))" --ckpt-every 60 ${TRAIN_EXTRA:-} \
+            > "$OUT/train_$net.log" 2>&1 &
+    done
+    wait
+    echo "training ended at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
+    $PY - "$W" "$OUT" <<'EOF2'
+import os, sys
+import numpy as np
+import torch
+w, out = sys.argv[1:]
+for net in ("bc", "rm"):
+    p = os.path.join(w, f"run_{net}", f"ckpt_{net}.pt")
+    if not os.path.exists(p):
+        print(net, "no checkpoint")
+        continue
+    st = torch.load(p, map_location="cpu", weights_only=False)
+    np.savez(os.path.join(out, f"refine_{net}.npz"), **{k: v.half().numpy() for k, v in st["models"]["unet"].items()})
+    print(net, "step", st["step"], "of", st.get("total"))
+EOF2
+    echo "device: $(( $(date +%s) - T0 )) s"
+    exit 0
+fi
+[ "$mode" = device ] || { echo "usage: train_gpu.sh pack|device|device-mv|device-refine|import|import-mv" >&2; exit 2; }
 unpack
 DEVICE="${DEVICE:-cuda}"
 JOBS="${JOBS:-$(nproc)}"

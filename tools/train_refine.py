@@ -10,11 +10,12 @@ meshes' true UV textures).  Each network is the official UV-refine UNet (src.mod
 and conv_out last_up_blocks.0 / rep_conv_out.0), built as the official UVRefineAdapterWrapper.convert builds it
 from a base UNet, with one difference: its input is [the partial map's latent, the mask, the position map], so
 in_channels = the VAE's latent channels + 4 = 20 with this project's 16-channel VAE (the official SD VAE: 4 + 4
-= 8, which the official wrapper writes as a constant).  The base UNet is the single-view default model of
---init-from with its albedo branch (bc) or its roughness / metallic branch (rm) as the plain last up block and
-conv_out; conv_in's weights for the latent are the base's, those for the mask and position start at zero (the
-official wrapper leaves them at their random initialisation), so that training starts from the base network.
-The VAE is the default model's, frozen.
+= 8, which the official wrapper writes as a constant). The base UNet is the model of --init-from (the
+single-view default, or the multi-view default without its camera MLP) with its albedo branch (bc) or its roughness /
+metallic branch (rm) as the plain last up block and conv_out; conv_in's weights for the latent are the base's,
+those for the mask and position start at zero (the official wrapper leaves them at their random initialisation),
+so that training starts from the base network.
+The VAE is that model's, frozen.
 
 It is run as supermat_uv.h and the official refine pipeline run it: the partial map (unseen texels 0) in
 [-1, 1] -> VAE encode (mode x scaling factor), the mask and position bilinearly resized to the latent size
@@ -37,7 +38,10 @@ Phases (each checkpoints to RUN/ckpt_<phase>.pt and resumes; --seconds PHASE=S, 
           file must match it: `test_golden FILE auto 2 DIR`)
 
 Measured (README): 800 meshes, bc 570 + rm 485 steps of batch 8 at lr 2e-4 in 37 min on 2 cores (bf16 on AMX);
-the refined maps do not beat the partial maps on either held-out procedural meshes or real assets.
+the refined maps do not beat the partial maps on either held-out procedural meshes or real assets.  On a lent
+H200 (tools/train_gpu.sh device-refine, --init-from the multi-view default): 512 meshes, 880 / 887 steps of
+batch 32 at lr 2e-4, 300 ms a step: the refined albedo beats the partial map on held-out procedural meshes
+(13.90 against 12.73 dB) but not on real assets (15.59 against 16.40 on the README's held-out five).
 """
 import argparse
 import json
@@ -283,7 +287,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="a gen_refine_data.py folder")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--init-from", required=True, metavar="MODEL", help="the single-view default model file")
+    ap.add_argument("--init-from", required=True, metavar="MODEL", help="the single-view or the multi-view default model file (the base UNet: its branch; the VAE)")
     ap.add_argument("--phases", default="bc,rm,export")
     ap.add_argument("--steps", type=int, default=1500)
     ap.add_argument("--batch", type=int, default=8)
@@ -300,7 +304,7 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     data = RefData(args.data)
     T.write_base(args.out, args.seed)
-    T.init_from(args)    # the default model's VAE (and scaling factor) as this run's
+    T.init_from(args, allow_mv=True)    # the view model's VAE (and scaling factor) as this run's, its UNet the base
     with open(os.path.join(args.out, "args_refine.json"), "w") as f:
         json.dump(vars(args), f, indent=1)
     for name in args.phases.split(","):
