@@ -316,8 +316,22 @@ def main():
             got = mesh_bake(["--no-refine"], env, "mv_default_nr")
             check(mv_only is not None and mv_only == got and mv_only != full,
                   "no model flags with --no-refine: the multi-view default alone, byte for byte")
-            for n in ("supermat_refine_albedo_default.safetensors", "supermat_refine_rm_default.safetensors"):
-                os.unlink(os.path.join(md, n))
+            # one refine network alone: its map is the full bake's, the other map the view model's (the two
+            # refinements are independent); beside the default model, only the file that is there is used
+            alb_only = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4]], tag="alb")
+            rm_only = mesh_bake(["--mv-model", sys.argv[3], "--rm-refine", sys.argv[4]], tag="rm")
+            bcn, mrn = "q_baseColor.png", "q_metallicRoughness.png"
+            check(alb_only is not None and full is not None and mv_only is not None and alb_only[bcn] == full[bcn]
+                  and alb_only[mrn] == mv_only[mrn] and full[bcn] != mv_only[bcn],
+                  "--albedo-refine alone: the albedo of the full bake, the metallic-roughness of --no-refine")
+            check(rm_only is not None and full is not None and mv_only is not None and rm_only[mrn] == full[mrn]
+                  and rm_only[bcn] == mv_only[bcn] and full[mrn] != mv_only[mrn],
+                  "--rm-refine alone: the metallic-roughness of the full bake, the albedo of --no-refine")
+            os.unlink(os.path.join(md, "supermat_refine_rm_default.safetensors"))
+            got = mesh_bake([], env, "alb_default")
+            check(alb_only is not None and alb_only == got, "only the albedo refine default beside the default model: "
+                  "no model flags = --albedo-refine alone, byte for byte")
+            os.unlink(os.path.join(md, "supermat_refine_albedo_default.safetensors"))
             got = mesh_bake([], env, "mv_default")
             check(mv_only == got, "only the multi-view default beside the default model: it bakes without refinement")
             # --keep-observed: the refined maps fill only the texels no view saw; the seen ones stay the

@@ -437,7 +437,7 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
 
 static const char cli_usage_batch[] =
     "usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
-    "       supermat batch mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine) | --passthrough] --out DIR\n"
+    "       supermat batch mesh [--mv-model F ([--albedo-refine F] [--rm-refine F] | --no-refine) | --passthrough] --out DIR\n"
     "                           [mesh options] [batch options] INPUT...\n"
     "       supermat batch --merge --out DIR [INPUT...]\n"
     "\n"

@@ -1,6 +1,6 @@
 /* supermat mesh: bake PBR textures for a glTF asset with supermat_uv.h (C++11, tinygltf).
  *
- *   supermat mesh --mv-model F --albedo-refine F --rm-refine F IN.gltf OUT.gltf
+ *   supermat mesh --mv-model F [--albedo-refine F] [--rm-refine F] IN.gltf OUT.gltf
  *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
  *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]
  *
@@ -492,7 +492,7 @@ void remove_tree(const std::string &root) {
 
 int usage() {
     std::fprintf(stderr,
-                 "usage: supermat mesh [--mv-model F (--albedo-refine F --rm-refine F | --no-refine)] IN.gltf OUT.gltf\n"
+                 "usage: supermat mesh [--mv-model F ([--albedo-refine F] [--rm-refine F] | --no-refine)] IN.gltf OUT.gltf\n"
                  "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]\n"
                  "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
@@ -500,8 +500,10 @@ int usage() {
                  "  no model flags  the mesh defaults in the default model's folder (as `supermat image` finds\n"
                  "                  it): " MESH_DEFAULT_MV " (else the default model,\n"
                  "                  view by view), " MESH_DEFAULT_BC " and\n"
-                 "                  " MESH_DEFAULT_RM " (else --no-refine); with\n"
+                 "                  " MESH_DEFAULT_RM " where present; with\n"
                  "                  --no-refine: the view model alone\n"
+                 "  --albedo-refine F, --rm-refine F  the UV-refine networks, either or both (the same file may\n"
+                 "                  serve both); a map without one is the view model's, as with --no-refine\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
                  "  --no-refine     the view model alone (no refine flags): its back-projected maps,\n"
                  "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
@@ -761,17 +763,20 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         default_bc = dir + "/" MESH_DEFAULT_BC;
         default_rm = dir + "/" MESH_DEFAULT_RM;
         bool have_mv = access(default_mv.c_str(), R_OK) == 0;
-        bool have_refine = !no_refine && access(default_bc.c_str(), R_OK) == 0 && access(default_rm.c_str(), R_OK) == 0;
+        bool have_bc = !no_refine && access(default_bc.c_str(), R_OK) == 0;
+        bool have_rm = !no_refine && access(default_rm.c_str(), R_OK) == 0;
         mv_path = have_mv ? default_mv.c_str() : default_path;
-        if (have_refine) { bc_path = default_bc.c_str(); rm_path = default_rm.c_str(); }
-        else no_refine = 1;
-        if (isatty(STDERR_FILENO))
-            std::fprintf(stderr, "models (%s): %s%s%s%s\n", from, mv_path,
-                         have_mv ? " (multi-view)" : " (single view, view by view)", have_refine ? ", refined by " : ", no refinement",
-                         have_refine ? (default_bc + " and " + default_rm).c_str() : "");
+        if (have_bc) bc_path = default_bc.c_str();
+        if (have_rm) rm_path = default_rm.c_str();
+        if (!have_bc && !have_rm) no_refine = 1;
+        if (isatty(STDERR_FILENO)) {
+            std::string by = have_bc && have_rm ? default_bc + " and " + default_rm : have_bc ? default_bc : have_rm ? default_rm : "";
+            std::fprintf(stderr, "models (%s): %s%s%s%s\n", from, mv_path, have_mv ? " (multi-view)" : " (single view, view by view)",
+                         by.empty() ? ", no refinement" : ", refined by ", by.c_str());
+        }
     }
-    if (!passthrough && !no_refine && (!bc_path || !rm_path)) {
-        std::fprintf(stderr, "supermat mesh: give --albedo-refine and --rm-refine with --mv-model (or --no-refine)\n");
+    if (!passthrough && !no_refine && !bc_path && !rm_path) {
+        std::fprintf(stderr, "supermat mesh: give --albedo-refine and / or --rm-refine with --mv-model (or --no-refine)\n");
         return 2;
     }
     auto t0 = std::chrono::steady_clock::now();
@@ -962,12 +967,11 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     /* ---- models ---- */
     supermat_model *mv = nullptr, *bc = nullptr, *rm = nullptr;
     if (!passthrough) {
-        bool same = !no_refine && std::string(bc_path) == rm_path; /* one model serves both when given the same file */
-        if (!load_model(mv_path, &mv) || (!no_refine && (!load_model(bc_path, &bc) || (!same && !load_model(rm_path, &rm))))) {
+        /* either refine network may be absent (that map stays the view model's); one file given for both loads once */
+        if (!load_model(mv_path, &mv) || (bc_path && !load_model(bc_path, &bc)) || (rm_path && !load_model(rm_path, &rm))) {
             if (!g_keep_models) release_models();
             return 1;
         }
-        if (same) rm = nullptr;
     }
 
     /* ---- bake ---- */
@@ -1010,7 +1014,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     bd.supersample = supersample;
     bd.detail_sigma = detail >= 0.0f ? detail : passthrough ? 0.0f : 1.0f / 32.0f;
     bd.passthrough = passthrough;
-    bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm ? rm : bc;
+    bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm;
     bd.weight = weight;
     bd.gutter = gutter;
     bd.keep_observed = keep_observed;
