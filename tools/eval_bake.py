@@ -12,7 +12,8 @@ For each asset (FILE.gltf, or FILE.gltf#NODE for one node's subtree):
        truth        the truth textures themselves (not a baseline: the measurement's own check; its relight
                     PSNR says how far the texture resampling alone moves the renders)
        NAME=MV,ALB,RM  `supermat mesh` with those three model files (SuperMatMV, albedo and
-                    roughness/metallic UV refine), --bake NAME=MV,ALB,RM, repeatable
+                    roughness/metallic UV refine), --bake NAME=MV,ALB,RM, repeatable; one refine slot may
+                    be empty (NAME=MV,ALB, or NAME=MV,,RM: that map unrefined)
        NAME=MV      `supermat mesh --no-refine`: the multi-view model alone (the paper's ablation without
                     the refine networks)
   3. measures, on the chart texels (the mask): masked PSNR and SSIM of the albedo (sRGB 8-bit), of the
@@ -109,7 +110,11 @@ def main():
         files = files.split(",")
         if not name or len(files) not in (1, 3) or name in ("lit", "passthrough", "truth"):
             ap.error(f"--bake NAME=MV,ALB,RM or NAME=MV, not {b!r}")
-        for f in files:
+        if len(files) == 3 and not files[1] and not files[2]:
+            ap.error(f"--bake {name}: NAME=MV for no refinement, not two empty refine slots")
+        if not files[0]:
+            ap.error(f"--bake {name}: no view model")
+        for f in filter(None, files):
             if not os.path.isfile(f):
                 ap.error(f"--bake {name}: no model file {f}")
         bakes.append((name, files))
@@ -175,7 +180,10 @@ def main():
                 else:
                     files = dict(bakes)[kind]
                     cmd += ["--mv-model", files[0]]
-                    cmd += ["--albedo-refine", files[1], "--rm-refine", files[2]] if len(files) == 3 else ["--no-refine"]
+                    if len(files) == 3:
+                        cmd += (["--albedo-refine", files[1]] if files[1] else []) + (["--rm-refine", files[2]] if files[2] else [])
+                    else:
+                        cmd += ["--no-refine"]
                 r = subprocess.run(cmd + [lit_gltf, gltf], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    universal_newlines=True)
                 if r.returncode != 0:

@@ -99,7 +99,8 @@ def build_refine(base=None):
 
 
 class RefData:
-    def __init__(self, path, holdout=40):
+    def __init__(self, path, holdout=40, level_aug=0.0):
+        self.level_aug = level_aug
         sh = sorted(f for f in os.listdir(path) if f.startswith("shard_") and f.endswith(".npz") and ".tmp" not in f)
         if not sh:
             raise SystemExit(f"train_refine: no shards in {path} (tools/gen_refine_data.py)")
@@ -130,6 +131,18 @@ class RefData:
             if which == "bc" and rng.random() < 0.5:
                 o = list(rng.permutation(3))
                 b["inp"], b["tgt"] = b["inp"][:, o], b["tgt"][:, o]
+            if self.level_aug > 0:   # the same level / tint change on partial map and truth: no level prior to learn
+                s, n = self.level_aug, len(idx)
+                seen = (b["mask"] > 0).float()
+                if which == "bc":
+                    g = np.exp(rng.uniform(-s, s, (n, 1, 1, 1)) + rng.uniform(-s / 2, s / 2, (n, 3, 1, 1)))
+                    g = torch.from_numpy(g).float()
+                    b["inp"], b["tgt"] = (b["inp"] * g).clamp(0, 1) * seen, (b["tgt"] * g).clamp(0, 1)
+                else:   # roughness scaled about 0.5 and shifted; metallic as it is
+                    g = torch.from_numpy(np.exp(rng.uniform(-s, s, (n, 1, 1)))).float()
+                    o = torch.from_numpy(rng.uniform(-s / 2, s / 2, (n, 1, 1))).float()
+                    f = lambda r: ((r - 0.5) * g + 0.5 + o).clamp(0, 1)  # noqa: E731
+                    b["inp"][:, 1], b["tgt"][:, 1] = f(b["inp"][:, 1]) * seen[:, 0], f(b["tgt"][:, 1])
         return {k: v.contiguous().to(T.DEV) for k, v in b.items()}
 
 
@@ -297,12 +310,15 @@ def main():
     ap.add_argument("--seen-weight", type=float, default=1.0, help="loss weight of the chart texels a view saw")
     ap.add_argument("--unseen-weight", type=float, default=1.0, help="loss weight of the chart texels no view saw")
     ap.add_argument("--off-weight", type=float, default=0.1, help="loss weight of the texels off the charts")
+    ap.add_argument("--level-aug", type=float, default=0.0, metavar="S",
+                    help="per mesh, partial map and truth changed alike: albedo x exp(U(-S, S) + U(-S/2, S/2) per "
+                    "channel), roughness scaled about 0.5 by exp(U(-S, S)) and shifted by U(-S/2, S/2)")
     T.add_run_args(ap)
     args = ap.parse_args()
     T.configure(args)
     torch.manual_seed(args.seed)
     os.makedirs(args.out, exist_ok=True)
-    data = RefData(args.data)
+    data = RefData(args.data, level_aug=args.level_aug)
     T.write_base(args.out, args.seed)
     T.init_from(args, allow_mv=True)    # the view model's VAE (and scaling factor) as this run's, its UNet the base
     with open(os.path.join(args.out, "args_refine.json"), "w") as f:

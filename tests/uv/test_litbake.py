@@ -233,7 +233,7 @@ def main():
                os.path.join(out, "asset", "quad.gltf"), "--hdri-dir", out, "--env-bake", "const", "--env-relight", "sky",
                "--size", "16", "--views-size", "64", "--mesh-args", "--work-size native", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
-               "--bake", f"tiny_mv={sys.argv[3]}"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
+               "--bake", f"tiny_mv={sys.argv[3]}", "--bake", f"tiny_alb={sys.argv[3]},{sys.argv[4]},"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
                "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 0, "eval_bake: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-2000:]))
@@ -262,6 +262,12 @@ def main():
                   and abs(nr["albedo_psnr"] - res["tiny"]["albedo_psnr"]) > 1e-3,
                   f"eval_bake NAME=MV (supermat mesh --no-refine): measured, {nr['albedo_psnr']:.2f} dB against "
                   f"{res['tiny']['albedo_psnr']:.2f} with the refine models")
+            # an empty refine slot (NAME=MV,ALB,): that map unrefined, the other refined
+            al = res["tiny_alb"]
+            check(al["albedo_psnr"] == res["tiny"]["albedo_psnr"] and al["rough_psnr"] == nr["rough_psnr"]
+                  and al["metal_psnr"] == nr["metal_psnr"],
+                  f"eval_bake NAME=MV,ALB, (--albedo-refine alone): the albedo of the full bake ({al['albedo_psnr']:.2f} dB), "
+                  f"the roughness / metallic of --no-refine ({al['rough_psnr']:.2f} / {al['metal_psnr']:.2f})")
         if len(sys.argv) > 6 and r.returncode == 0:
             # a single-view model as --mv-model: run view by view (the paper's ablation)
             sv = res["tiny_sv"]
