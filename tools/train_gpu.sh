@@ -96,6 +96,21 @@ unpack() {
     # a real safetensors there: diffusers then imports more of it than the harness' stand-in has
     $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
 }
+# ckpt_npz CKPT NPZ: a run's checkpoint's UNet as float16 npz, what comes back from the device (the f32 .pt is over
+# the lent machine's size limit for returned files; the releases round to f16 anyway); says its step
+ckpt_npz() {
+    [ -f "$1" ] || { echo "$(basename "$1"): no checkpoint"; return 1; }
+    $PY - "$1" "$2" <<'EOF'
+import os, sys
+import numpy as np
+import torch
+ckpt, npz = sys.argv[1:]
+st = torch.load(ckpt, map_location="cpu", weights_only=False)
+np.savez(npz, **{k: v.half().numpy() for k, v in st["models"]["unet"].items()})
+done = os.path.exists(os.path.join(os.path.dirname(ckpt), os.path.basename(ckpt)[5:-3] + ".done"))
+print(os.path.basename(ckpt), "step", st["step"], "of", st.get("total"), "done" if done else "NOT done", "->", npz)
+EOF
+}
 if [ "$mode" = device-mv ]; then
     # six-view renders on the device's cores, then tools/train_mv.py from INIT (the shipped single-view model);
     # gives back the multi-view UNet as float16 npz (OUT/unet_mv.npz: the f32 .pth is over the lent machine's
@@ -112,15 +127,7 @@ if [ "$mode" = device-mv ]; then
         --threads 8 --steps 100000 --batch "${MV_BATCH:-8}" --lr "${MV_LR:-1e-4}" --seconds "mv=${MV_S:-150}" \
         --ckpt-every 30 > "$OUT/train_mv.log" 2>&1
     echo "training rc $? at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
-    $PY - "$W/run" "$OUT" <<'EOF2'
-import os, sys
-import numpy as np
-import torch
-run, out = sys.argv[1:]
-st = torch.load(os.path.join(run, "ckpt_mv.pt"), map_location="cpu", weights_only=False)
-np.savez(os.path.join(out, "unet_mv.npz"), **{k: v.half().numpy() for k, v in st["models"]["unet"].items()})
-print("mv step", st["step"], "of", st.get("total"))
-EOF2
+    ckpt_npz "$W/run/ckpt_mv.pt" "$OUT/unet_mv.npz"
     cp "$W/run/release/report_mv.json" "$W/run/log_mv.txt" "$OUT/" 2>/dev/null
     echo "device: $(( $(date +%s) - T0 )) s"
     exit 0
@@ -169,20 +176,7 @@ if [ "$mode" = device-refine ]; then
     done
     wait
     echo "training ended at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
-    $PY - "$W" "$OUT" <<'EOF2'
-import os, sys
-import numpy as np
-import torch
-w, out = sys.argv[1:]
-for net in ("bc", "rm"):
-    p = os.path.join(w, f"run_{net}", f"ckpt_{net}.pt")
-    if not os.path.exists(p):
-        print(net, "no checkpoint")
-        continue
-    st = torch.load(p, map_location="cpu", weights_only=False)
-    np.savez(os.path.join(out, f"refine_{net}.npz"), **{k: v.half().numpy() for k, v in st["models"]["unet"].items()})
-    print(net, "step", st["step"], "of", st.get("total"))
-EOF2
+    for net in bc rm; do ckpt_npz "$W/run_$net/ckpt_$net.pt" "$OUT/refine_$net.npz"; done
     echo "device: $(( $(date +%s) - T0 )) s"
     exit 0
 fi
@@ -238,20 +232,6 @@ timeout "${TRAIN_TIMEOUT:-380}" $PY tools/train_default.py --data "$W/data" --ou
     --e2e-steps 100000 --e2e-lr 2e-4 --e2e-batch "${E2E_BATCH:-32}" --e2e-permute 1 ${TRAIN_EXTRA:-} 2>&1 | tee "$OUT/train.log"
 echo "training rc ${PIPESTATUS[0]} at $(( $(date +%s) - T0 )) s"
 
-$PY - "$W/run" "$OUT" <<'EOF'
-import os, sys
-import numpy as np
-import torch
-run, out = sys.argv[1:]
-for ph in ("ft", "ft_e2e", "e2e_more"):
-    p = os.path.join(run, f"ckpt_{ph}.pt")
-    if not os.path.exists(p):
-        print(ph, "no checkpoint")
-        continue
-    st = torch.load(p, map_location="cpu", weights_only=False)
-    sd = st["models"]["unet"]
-    np.savez(os.path.join(out, f"unet_{ph}.npz"), **{k: v.half().numpy() for k, v in sd.items()})
-    print(ph, "step", st["step"], "of", st.get("total"), "done" if os.path.exists(os.path.join(run, ph + ".done")) else "NOT done")
-EOF
+for ph in ft ft_e2e e2e_more; do ckpt_npz "$W/run/ckpt_$ph.pt" "$OUT/unet_$ph.npz"; done
 cp "$W"/run/log_*.txt "$W/run/release/report.json" "$OUT/" 2>/dev/null
 echo "device: $(( $(date +%s) - T0 )) s"

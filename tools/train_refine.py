@@ -300,7 +300,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="a gen_refine_data.py folder")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--init-from", required=True, metavar="MODEL", help="the single-view or the multi-view default model file (the base UNet: its branch; the VAE)")
+    ap.add_argument("--init-from", required=True, metavar="MODEL",
+                    help="the single-view or the multi-view default model file (the base UNet: its branch; the VAE)")
     ap.add_argument("--phases", default="bc,rm,export")
     ap.add_argument("--steps", type=int, default=1500)
     ap.add_argument("--batch", type=int, default=8)
