@@ -5,8 +5,9 @@
 #
 #   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_mv_default.sh
 #
-#   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: as tools/train_default.sh reads them (tools/train_env.sh) (run the same command
-#   again to resume: finished shards and phases are kept, the others restart from their last checkpoint)
+#   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: read by tools/train_env.sh, as for tools/train_default.sh
+#   (run the same command again to resume: finished shards and phases are kept, the others restart from their
+#   last checkpoint)
 #   STEPS1, STEPS2  the two rounds' steps (default 179 and 229)
 #
 # The shipped file was made on this machine's 2 cores (Xeon, AMX; --amp bf16) with wall-clock budgets
