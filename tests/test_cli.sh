@@ -543,6 +543,37 @@ printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x10\x00\x00\x40\x10\x0
 run image --model "$MODEL" --out "$T/huge" "$T/huge.png"
 check "a picture claiming 16400x16400: exit 1" [ $RC -eq 1 ]
 check "a picture claiming 16400x16400: refused from its header" grep -q "16400x16400: at most 16384 pixels a side" "$T/err"
+# hostile pictures from fuzz/fuzz_picture.c (fuzz/corpus/picture/regress_*): Debian's stb_image 2.27 writes past a
+# Huffman table for a JPEG table of more than 256 codes (also behind leading fill bytes, or cut off by the end of
+# the file: stb_image counts zeros there); a BMP's negative width
+# came back from the header as it was; formats the CLI does not document are refused by their signature
+FZ="$DATA/../../fuzz/corpus/picture"
+for f in regress_dht_over_256.jpg regress_dht_after_fill.jpg regress_dht_past_end.jpg; do
+    run image --model "$MODEL" --out "$T/hostile" "$FZ/$f"
+    check "$f: exit 1" [ $RC -eq 1 ]
+    check "$f: refused before decoding" grep -q "is a corrupt JPEG (a Huffman table of more than 256 codes)" "$T/err"
+    absent "$T/hostile/${f%.jpg}_albedo.png"
+done
+run sheet --out "$T/hostile_sheet.png" "$FZ/regress_dht_over_256.jpg"
+check "a hostile JPEG in a contact sheet: exit 1" [ $RC -eq 1 ]
+check "a hostile JPEG in a contact sheet: refused" grep -q "is a corrupt JPEG" "$T/err"
+absent "$T/hostile_sheet.png"
+run image --model "$MODEL" --out "$T/hostile" "$FZ/regress_bmp_negative_width.bmp"
+check "a BMP of negative width: exit 1" [ $RC -eq 1 ]
+check "a BMP of negative width: said so" grep -q "claims a size of -2147483632x8 pixels: a corrupt picture" "$T/err"
+for f in a.gif a.hdr a.ppm; do
+    run image --model "$MODEL" --out "$T/hostile" "$FZ/$f"
+    check "$f: exit 1" [ $RC -eq 1 ]
+    check "$f: refused by its signature" grep -q "which supermat does not read (PNG, JPEG, BMP, TGA or WebP)" "$T/err"
+done
+if "$BIN" --version | grep -q "built with:.* mesh"; then   # the same JPEG as a glTF's base colour texture
+    run mesh --passthrough --force "$DATA/../../fuzz/corpus/gltf/regress_dht_texture.gltf" "$T/hostile_mesh.gltf"
+    check "a hostile JPEG texture: the bake goes on (exit 0)" [ $RC -eq 0 ]
+    check "a hostile JPEG texture: refused before decoding, its factor used" grep -q "material 0 is a corrupt JPEG (a Huffman table of more than 256 codes)" "$T/err"
+fi
+run image --model "$MODEL" --out "$T/hostile_ok" --outputs albedo "$FZ/base.jpg" "$FZ/prog.jpg" "$FZ/exif6.jpg" "$FZ/rgb.bmp" "$FZ/rle.tga" "$FZ/pal.png"
+check "the corpus' valid JPEG / BMP / TGA / PNG pictures still read: exit 0" [ $RC -eq 0 ]
+check_png "$T/hostile_ok/exif6_albedo.png" 8 16 2
 # a JPEG with EXIF orientation 6 (stored 48 wide, 72 high, shown 72 x 48): processed upright, as a viewer
 # shows it; its maps are those of the upright picture (ring_exif6_upright.png, decoded by another JPEG
 # decoder: measured 0.038 apart; turned 180 degrees or mirrored they are 0.87 / 1.0 apart)

@@ -702,7 +702,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         if (!p) continue;
         in.any_truth = 1;
         if (!stbi_info(p, &iw, &ih, &c)) {
-            cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], p, stbi_failure_reason());
+            cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], p, cli_stbi_reason());
             rc = CLI_FAIL;
         } else if (iw != w || ih != h) {
             cli_error("the %s truth '%s' is %dx%d but the image '%s' is %dx%d: a truth map must have the image's size "
@@ -841,17 +841,17 @@ static int cli_bench_image(const cli_bench_opts *o) {
     for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0, uv = mi.kind == SUPERMAT_KIND_UV_REFINE;
         px[i] = cli_load(o->images[i], &iw, &ih, &c, uv ? 3 : 4);
-        if (!px[i]) { cli_error("cannot read image '%s': %s", o->images[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!px[i]) { cli_error("cannot read image '%s': %s", o->images[i], cli_stbi_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("image '%s' is %dx%d, not %dx%d as before (did it change?)", o->images[i], iw, ih, w, h); rc = CLI_FAIL; break; }
     }
     if (rc == CLI_OK && mi.kind == SUPERMAT_KIND_UV_REFINE) {
         int iw = 0, ih = 0, c = 0;
         in.mask = cli_load_gray(o->mask_path, &iw, &ih);
-        if (!in.mask) { cli_error("cannot read the mask '%s': %s", o->mask_path, stbi_failure_reason()); rc = CLI_FAIL; }
+        if (!in.mask) { cli_error("cannot read the mask '%s': %s", o->mask_path, cli_stbi_reason()); rc = CLI_FAIL; }
         else if (iw != w || ih != h) { cli_error("the mask '%s' is %dx%d, not %dx%d as before (did it change?)", o->mask_path, iw, ih, w, h); rc = CLI_FAIL; }
         if (rc == CLI_OK) {
             in.pos = cli_load(o->pos_path, &iw, &ih, &c, 3);
-            if (!in.pos) { cli_error("cannot read the position map '%s': %s", o->pos_path, stbi_failure_reason()); rc = CLI_FAIL; }
+            if (!in.pos) { cli_error("cannot read the position map '%s': %s", o->pos_path, cli_stbi_reason()); rc = CLI_FAIL; }
             else if (iw != w || ih != h) { cli_error("the position map '%s' is %dx%d, not %dx%d as before (did it change?)", o->pos_path, iw, ih, w, h); rc = CLI_FAIL; }
         }
     }
@@ -882,7 +882,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
             int iw = 0, ih = 0, c = 0;
             if (!tp) continue;
             in.truth[k] = k == 0 ? cli_load(tp, &iw, &ih, &c, 3) : cli_load_gray(tp, &iw, &ih);
-            if (!in.truth[k]) { cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], tp, stbi_failure_reason()); rc = CLI_FAIL; }
+            if (!in.truth[k]) { cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], tp, cli_stbi_reason()); rc = CLI_FAIL; }
             else if (iw != w || ih != h) {
                 cli_error("the %s truth '%s' is %dx%d, not %dx%d as before (did it change?)", cli_bi_map_names[k], tp, iw, ih, w, h);
                 rc = CLI_FAIL;

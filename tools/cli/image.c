@@ -93,7 +93,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
     if (!cli_pic_info(input, "image", &w, &h, &c)) return CLI_FAIL;
     if (stbi_is_16_bit(input)) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
     else px = cli_load(input, &w, &h, &c, 4);
-    if (!px && !fin) { cli_error("cannot read image '%s': %s", input, stbi_failure_reason()); return CLI_FAIL; }
+    if (!px && !fin) { cli_error("cannot read image '%s': %s", input, cli_stbi_reason()); return CLI_FAIL; }
     if (w % 8 || h % 8) {
         cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
                   "resize it first, e.g. to 512x512)", input, w, h);

@@ -474,7 +474,7 @@ static int cli_exif_orientation(const char *path) {
                         : (((size_t)(p)[0] << 24) | ((size_t)(p)[1] << 16) | ((size_t)(p)[2] << 8) | (size_t)(p)[3]))
             if ((t0[0] != 'I' && t0[0] != 'M') || t0[1] != t0[0]) break;
             ifd = CLI_RD32(t0 + 4);
-            if (ifd + 2 > tl) break;
+            if (ifd > tl || tl - ifd < 2) break;               /* (no wrap-around where size_t is 32 bits) */
             cnt = CLI_RD16(t0 + ifd);
             for (k = 0; k < cnt; k++) {
                 t = ifd + 2 + 12 * k;
@@ -559,6 +559,18 @@ static unsigned char *cli_load_webp(const char *path, int *w, int *h, int *c, in
 }
 #endif
 
+/* the picture's bytes checked before stb_image sees them (picture_check.h); 0 and the message when refused */
+static int cli_pic_check(const char *path, const char *what) {
+    unsigned char *data = NULL;
+    size_t size = 0;
+    const char *why;
+    if (cli_read_file(path, &data, &size)) return 0;
+    why = supermat_cli_picture_check(data, size);
+    cli_free_file(data);
+    if (why) { cli_error("%s '%s' %s", what, path, why); return 0; }
+    return 1;
+}
+
 /* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
 static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
     struct stat st;
@@ -581,13 +593,18 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         return 0;
 #endif
     }
+    if (!cli_pic_check(path, what)) return 0;
     if (!stbi_info(path, w, h, c)) {
-        cli_error("cannot read %s '%s': %s", what, path, stbi_failure_reason());
+        cli_error("cannot read %s '%s': %s", what, path, cli_stbi_reason());
         return 0;
     }
     if (stbi_is_16_bit(path) && !cli_accept16) {
         cli_error("%s '%s' has 16 bits per channel, which this command does not read (it would lose 8 of them): "
                   "give an 8-bit PNG (`supermat image` reads 16-bit pictures)", what, path);
+        return 0;
+    }
+    if (*w <= 0 || *h <= 0) { /* stb_image passes a BMP header's negative width on as it is */
+        cli_error("%s '%s' claims a size of %dx%d pixels: a corrupt picture", what, path, *w, *h);
         return 0;
     }
     if (cli_exif_orientation(path) >= 5) { int t = *w; *w = *h; *h = t; }
@@ -602,9 +619,11 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
    free with free() */
 static float *cli_load16f(const char *path, int *w, int *h) {
     int c = 0;
-    unsigned short *p = stbi_load_16(path, w, h, &c, 4);
+    unsigned short *p;
     float *f;
     size_t n, i;
+    if (!cli_pic_check(path, "picture")) return NULL;
+    p = stbi_load_16(path, w, h, &c, 4);
     if (!p) return NULL;
     n = (size_t)*w * (size_t)*h * 4;
     f = (float *)malloc(n * sizeof *f);
@@ -619,6 +638,7 @@ static unsigned char *cli_load(const char *path, int *w, int *h, int *c, int wan
 #ifdef SUPERMAT_CLI_WEBP
     if (cli_is_webp(path)) return cli_load_webp(path, w, h, c, want);
 #endif
+    if (!cli_pic_check(path, "picture")) return NULL;
     px = stbi_load(path, w, h, c, want);
     int o = px ? cli_exif_orientation(path) : 1;
     if (px && o > 1) {

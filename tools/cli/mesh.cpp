@@ -31,6 +31,7 @@
 #include <tiny_gltf.h>
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
+#include "picture_check.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -426,7 +427,7 @@ bool raw_image_loader(tinygltf::Image *image, const int idx, std::string *err, s
     if ((size_t)idx >= r->bytes.size()) r->bytes.resize((size_t)idx + 1);
     r->bytes[idx].assign(bytes, bytes + size);
     int w = 0, h = 0, c = 0;
-    if (stbi_info_from_memory(bytes, size, &w, &h, &c)) { image->width = w; image->height = h; image->component = c; image->bits = 8; }
+    if (!supermat_cli_picture_check(bytes, (size_t)size) && stbi_info_from_memory(bytes, size, &w, &h, &c)) { image->width = w; image->height = h; image->component = c; image->bits = 8; }
     return true;
 }
 
@@ -868,8 +869,12 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 unsigned char *px = nullptr;
                 if (t.source >= 0 && t.source < (int)model.images.size() && !raw.bytes[t.source].empty() && raw.bytes[t.source].size() < (1u << 31)) {
                     const std::vector<unsigned char> &rb = raw.bytes[t.source];
-                    /* the header first: a few bytes may claim a huge picture (a decompression bomb) */
-                    if (stbi_info_from_memory(rb.data(), (int)rb.size(), &w, &h, &c) && (double)w * h > MAX_TEXTURE_PIXELS)
+                    /* its bytes checked first (picture_check.h), then the header: a few bytes may claim a huge
+                       picture (a decompression bomb) */
+                    const char *why = supermat_cli_picture_check(rb.data(), rb.size());
+                    if (why)
+                        std::fprintf(stderr, "supermat mesh: the base colour image of material %d %s\n", orig, why);
+                    else if (stbi_info_from_memory(rb.data(), (int)rb.size(), &w, &h, &c) && (double)w * h > MAX_TEXTURE_PIXELS)
                         std::fprintf(stderr, "supermat mesh: the base colour image of material %d is %dx%d, more than %d pixels\n", orig, w, h, MAX_TEXTURE_PIXELS);
                     else
                         px = stbi_load_from_memory(rb.data(), (int)rb.size(), &w, &h, &c, 0);

@@ -105,7 +105,7 @@ static int cli_refine(int argc, char **argv) {
     for (i = 0; i < 3 && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0;
         px[i] = i == 1 ? cli_load_gray(paths[i], &iw, &ih) : cli_load(paths[i], &iw, &ih, &c, 3);
-        if (!px[i]) { cli_error("cannot read %s '%s': %s", what[i], paths[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!px[i]) { cli_error("cannot read %s '%s': %s", what[i], paths[i], cli_stbi_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("%s '%s' is %dx%d, not %dx%d as before (did it change?)", what[i], paths[i], iw, ih, w, h); rc = CLI_FAIL; break; }
     }
     if (rc == CLI_OK) {

@@ -308,7 +308,7 @@ static int cli_sheet(int argc, char **argv) {
             if (!strcmp(name, "-")) continue;
             sel = cli_sheet_channel(name, &pick);
             px = cli_load(name, &w, &h, &ch, 4);
-            if (!px) { cli_error("cannot read image '%s': %s", name, stbi_failure_reason()); rc = CLI_FAIL; break; }
+            if (!px) { cli_error("cannot read image '%s': %s", name, cli_stbi_reason()); rc = CLI_FAIL; break; }
             if (sel) {
                 size_t k, n = (size_t)w * h;
                 *sel = ':';

@@ -335,7 +335,7 @@ static int cli_views(int argc, char **argv) {
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int iw = 0, ih = 0, c = 0;
         px[i] = cli_load(imgs[i], &iw, &ih, &c, 4);
-        if (!px[i]) { cli_error("cannot read view '%s': %s", imgs[i], stbi_failure_reason()); rc = CLI_FAIL; break; }
+        if (!px[i]) { cli_error("cannot read view '%s': %s", imgs[i], cli_stbi_reason()); rc = CLI_FAIL; break; }
         if (iw != w || ih != h) { cli_error("view '%s' is %dx%d, not %dx%d as before (did it change?)", imgs[i], iw, ih, w, h); rc = CLI_FAIL; break; }
         in[i].pixels = px[i]; in[i].width = w; in[i].height = h; in[i].channels = 4; in[i].format = SUPERMAT_FORMAT_U8;
         oa[i].pixels = fa ? fa + np * 3 * (size_t)i : NULL; oa[i].channels = 3; oa[i].format = SUPERMAT_FORMAT_F32;

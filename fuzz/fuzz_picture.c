@@ -1,0 +1,61 @@
+/* libFuzzer harness: the CLI's picture reader, as `supermat image` reads every input (cli_pic_info: the
+   header, WebP / 16-bit / EXIF handling and the size cap; then cli_load16f for 16-bit pictures, else
+   cli_load: stb_image's decoders and the EXIF orientation). The CLI is one translation unit; it is
+   included whole here with its main renamed. Messages stay in cli_last_error (cli_quiet). Pictures over
+   4 M pixels are checked from the header only (the decoders are the same; the CLI takes up to 16384²).
+
+   Built with -fno-sanitize=pointer-overflow,nonnull-attribute: for a PNG whose first IDAT chunk is empty,
+   stb_image 2.27 computes NULL + 0 and calls memcpy(NULL, p, 0) (undefined in the letter of C; nothing is read
+   or written), which would stop every run.
+
+     clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize=pointer-overflow,nonnull-attribute -I.. -I../tools -I../tools/cli fuzz_picture.c \
+         ../tools/sm_convert.c -o fuzz_picture -lm -lpthread [-DSUPERMAT_CLI_WEBP -lwebp]
+     ./fuzz_picture -max_total_time=3600 work corpus/picture */
+#if defined(__clang__)
+#pragma clang diagnostic ignored "-Wunneeded-internal-declaration" /* the CLI's commands this harness does not call */
+#pragma clang diagnostic ignored "-Wunused-function"
+#endif
+#define main supermat_cli_main
+#include "../tools/cli/main.c"
+#undef main
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
+    static char path[96];
+    int w = 0, h = 0, c = 0, lw = 0, lh = 0, lc = 0;
+    FILE *f;
+    if (!path[0]) {
+        struct stat st;
+        snprintf(path, sizeof path, "%s/supermat_fuzz_picture_%ld", stat("/dev/shm", &st) == 0 ? "/dev/shm" : "/tmp", (long)getpid());
+        cli_quiet = 1;
+        cli_accept16 = 1; /* as `supermat image`: 16-bit pictures are read too */
+    }
+    f = fopen(path, "wb");
+    if (!f) return 0;
+    if (size && fwrite(data, 1, size, f) != size) { fclose(f); return 0; }
+    fclose(f);
+    if (!cli_pic_info(path, "image", &w, &h, &c)) return 0;
+    if (w <= 0 || h <= 0 || w > 16384 || h > 16384) __builtin_trap(); /* cli_pic_info's promise */
+    if ((size_t)w * (size_t)h > ((size_t)1 << 22)) return 0;
+    if (stbi_is_16_bit(path)) {
+        float *p = cli_load16f(path, &lw, &lh);
+        if (p) {
+            volatile float s = 0.0f;
+            size_t i, n = (size_t)lw * (size_t)lh * 4;
+            for (i = 0; i < n; i += 997) s += p[i]; /* every part of the buffer is there */
+            (void)s;
+            free(p);
+        }
+    } else {
+        unsigned char *p = cli_load(path, &lw, &lh, &lc, 4);
+        if (p) {
+            volatile unsigned s = 0;
+            size_t i, n = (size_t)lw * (size_t)lh * 4;
+            if (n) s += p[n - 1];
+            for (i = 0; i < n; i += 997) s += p[i];
+            (void)s;
+            stbi_image_free(p);
+        }
+    }
+    return 0;
+}
