@@ -23,8 +23,11 @@
    starts a step at most once and is put on the stack at most once (a bit per byte each), and a scan of
    entropy-coded data stops where an earlier one went on from, so the walk is linear in the file's size. */
 static const char *supermat_cli_jpeg_walk(const unsigned char *d, size_t n, size_t start, unsigned char *seen,
-                                          unsigned char *pushed, size_t *stack) {
-    size_t top = 0, pos;
+                                          unsigned char *pushed) {
+    size_t top = 0, cap = 64, pos;
+    size_t *stack = (size_t *)malloc(cap * sizeof *stack);
+    const char *why = NULL;
+    if (!stack) return "could not be checked (out of memory)";
     stack[top++] = start;                                   /* after the start-of-image marker */
     while (top) {
         pos = stack[--top];
@@ -49,7 +52,7 @@ static const char *supermat_cli_jpeg_walk(const unsigned char *d, size_t n, size
                     if (q >= n) break;                       /* past the end stb_image reads zeros: empty tables */
                     if ((d[q] >> 4) > 1 || (d[q] & 15) > 3) break; /* stb_image refuses the table */
                     for (i = 0; i < 16 && q + 1 + i < n; i++) codes += d[q + 1 + i]; /* (zeros past the end) */
-                    if (codes > 256) return "is a corrupt JPEG (a Huffman table of more than 256 codes)";
+                    if (codes > 256) { why = "is a corrupt JPEG (a Huffman table of more than 256 codes)"; goto done; }
                     if (17 + codes > left) break;            /* stb_image ends the segment in error */
                     left -= 17 + codes;
                     q += 17 + codes;
@@ -63,23 +66,28 @@ static const char *supermat_cli_jpeg_walk(const unsigned char *d, size_t n, size
                     if (d[q] != 0xFF) continue;
                     if (pushed[q >> 3] & (1u << (q & 7))) break; /* scanned from here on already */
                     pushed[q >> 3] |= (unsigned char)(1u << (q & 7));
-                    stack[top++] = q;                        /* at most once a position: fits */
+                    if (top == cap) {                        /* (at most once a position: at most n + 1) */
+                        size_t *grown = (size_t *)realloc(stack, 2 * cap * sizeof *stack);
+                        if (!grown) { why = "could not be checked (out of memory)"; goto done; }
+                        stack = grown;
+                        cap *= 2;
+                    }
+                    stack[top++] = q;
                     if (q + 1 < n && d[q + 1] != 0x00 && d[q + 1] != 0xFF && !(d[q + 1] >= 0xD0 && d[q + 1] <= 0xD7)) break;
                 }
                 break;
             }
         }
     }
-    return NULL;
+done:
+    free(stack);
+    return why;
 }
 
 static const char *supermat_cli_jpeg_check(const unsigned char *d, size_t n, size_t start) {
-    unsigned char *seen = (unsigned char *)calloc(2 * (n / 8 + 1), 1);
-    size_t *stack = (size_t *)malloc((n + 1) * sizeof *stack);
-    const char *why = seen && stack ? supermat_cli_jpeg_walk(d, n, start, seen, seen + n / 8 + 1, stack)
-                                    : "could not be checked (out of memory)";
+    unsigned char *seen = (unsigned char *)calloc(2 * (n / 8 + 1), 1);   /* n / 4 bytes */
+    const char *why = seen ? supermat_cli_jpeg_walk(d, n, start, seen, seen + n / 8 + 1) : "could not be checked (out of memory)";
     free(seen);
-    free(stack);
     return why;
 }
 
