@@ -1,7 +1,7 @@
 /* libFuzzer harness: the CLI's picture reader, as `supermat image` reads every input (cli_pic_info: the
    header, WebP / 16-bit / EXIF handling and the size cap; then cli_load16f for 16-bit pictures, else
-   cli_load: stb_image's decoders and the EXIF orientation). The CLI is one translation unit; it is
-   included whole here with its main renamed. Messages stay in cli_last_error (cli_quiet). Pictures over
+   cli_load: stb_image's decoders and the EXIF orientation). The CLI is included whole (fuzz_cli.h),
+   each input written to a file as the reader takes it. Pictures over
    4 M pixels are checked from the header only (the decoders are the same; the CLI takes up to 16384²).
 
    Built for memory errors only (ASan, and UBSan's array bounds, which sees an index past an array inside a
@@ -12,29 +12,14 @@
      clang -g -O1 -fsanitize=fuzzer,address -fsanitize=bounds -I.. -I../tools -I../tools/cli fuzz_picture.c \
          ../tools/sm_convert.c -o fuzz_picture -lm -lpthread [-DSUPERMAT_CLI_WEBP -lwebp]
      ./fuzz_picture -max_total_time=3600 work corpus/picture */
-#if defined(__clang__)
-#pragma clang diagnostic ignored "-Wunneeded-internal-declaration" /* the CLI's commands this harness does not call */
-#pragma clang diagnostic ignored "-Wunused-function"
-#endif
-#define main supermat_cli_main
-#include "../tools/cli/main.c"
-#undef main
+#include "fuzz_cli.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    static char path[96];
+    const char *path = fuzz_cli_file(data, size, "picture");
     int w = 0, h = 0, c = 0, lw = 0, lh = 0, lc = 0;
-    FILE *f;
-    if (!path[0]) {
-        struct stat st;
-        snprintf(path, sizeof path, "%s/supermat_fuzz_picture_%ld", stat("/dev/shm", &st) == 0 ? "/dev/shm" : "/tmp", (long)getpid());
-        cli_quiet = 1;
-        cli_accept16 = 1; /* as `supermat image`: 16-bit pictures are read too */
-    }
-    f = fopen(path, "wb");
-    if (!f) return 0;
-    if (size && fwrite(data, 1, size, f) != size) { fclose(f); return 0; }
-    fclose(f);
+    if (!path) return 0;
+    cli_accept16 = 1; /* as `supermat image`: 16-bit pictures are read too */
     if (!cli_pic_info(path, "image", &w, &h, &c)) return 0;
     if (w <= 0 || h <= 0 || w > 16384 || h > 16384) __builtin_trap(); /* cli_pic_info's promise */
     if ((size_t)w * (size_t)h > ((size_t)1 << 22)) return 0;
