@@ -13,7 +13,9 @@
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
 #endif
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c (CMakeLists.txt) */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "supermat.h"
 #include "sm_convert.h"
 #include <stdint.h>

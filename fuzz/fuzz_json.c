@@ -1,6 +1,8 @@
 /* libFuzzer harness: the JSON tokenizer and the safetensors header readers.
      clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. fuzz_json.c -o fuzz_json -lm -lpthread */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c (CMakeLists.txt) */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "../supermat.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

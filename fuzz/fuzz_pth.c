@@ -3,7 +3,9 @@
    (CRC-32 checked); then the pickle VM alone on the same bytes (sm_pickle_check).
      clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../tools fuzz_pth.c ../tools/sm_convert.c -o fuzz_pth -lm -lpthread
    Seeds: corpus/pth (a small torch.save state dict), corpus/pickle (its data.pkl). */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c (CMakeLists.txt) */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "../supermat.h"
 #include "sm_convert.h"
 #include <stdlib.h>

@@ -6,7 +6,9 @@
      TWIN_DIR  optional: a folder with <checkpoint>.safetensors copies made by the reference harness; the
                converted tensors are then compared with those too (else with this reader's own values)
    Scratch files go to ./test_convert_tmp (removed at the end). */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "supermat.h"
 #include "sm_convert.h"
 #include "test_util.h"

@@ -6,7 +6,9 @@
    too. A copy of exactly the cut size is made at a stride, so that ASan sees any read past the end.
 
    usage: test_corrupt MODEL... */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "supermat.h"
 #include "test_util.h"
 #include <stdint.h>

@@ -3,7 +3,9 @@
    are bit-identical for any thread count. Every case must return a clear error, never crash, never leak
    (this test runs under ASan/UBSan in CI) and never write an output on failure.
    usage: test_errors MODEL.safetensors [MV_MODEL UV_MODEL] */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "../supermat.h"
 #include "test_util.h"
 

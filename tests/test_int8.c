@@ -10,7 +10,9 @@
    - malformed int8 files fail with clear errors: a missing scale tensor, a scale of the wrong shape,
      NaN or negative scales, an I8 tensor of the wrong rank.
    usage: test_int8 F32_MODEL I8_MODEL [F32_MV I8_MV F32_UV I8_UV] */
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "../supermat.h"
 #include "test_util.h"
 

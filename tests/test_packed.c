@@ -11,7 +11,9 @@
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200112L
 #endif
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "supermat.h"
 #include "test_util.h"
 #include <stdint.h>

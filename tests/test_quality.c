@@ -23,7 +23,9 @@
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #endif
+#ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c */
 #define SUPERMAT_IMPLEMENTATION
+#endif
 #include "../supermat.h"
 #include "test_util.h"
 #include <ctype.h>
