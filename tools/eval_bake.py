@@ -22,6 +22,9 @@ For each asset (FILE.gltf, or FILE.gltf#NODE for one node's subtree):
      (--env-relight, turned at random about +Y) with the exposure auto-chosen for the original, tone
      mapped, PSNR and SSIM over the object; and each bake's seconds and peak memory (`supermat mesh`'s own
      report).
+  --decompose also reports the albedo PSNR after the best least-squares gain on the baked texture (one for all
+  channels, then one a channel), as eval_quality.py --decompose does per view: the lit texture's level is
+  whatever its lighting and exposure made it, so this separates a bake's albedo level from the rest.
 Normal maps, occlusion and emission are ignored throughout (as in eval_quality.py).
 
   /usr/bin/python3 tools/eval_bake.py --assets WaterBottle.gltf BoomBoxWithAxes.gltf#BoomBox \\
@@ -103,6 +106,8 @@ def main():
     ap.add_argument("--supermat", default=os.path.join(root, "build", "supermat"))
     ap.add_argument("--work", help="keep the bakes here (default: a temporary folder)")
     ap.add_argument("--json", help="also write the results here")
+    ap.add_argument("--decompose", action="store_true",
+                    help="also the albedo PSNR after the best gain (and per channel) on each bake")
     args = ap.parse_args()
     bakes = []
     for b in args.bake:
@@ -214,6 +219,8 @@ def main():
                        rough_ssim=evq.masked_ssim(rough8 / 255.0, truth["rough"] / 255.0, mask),
                        metal_psnr=psnr8(metal8, truth["metal"], mask),
                        metal_ssim=evq.masked_ssim(metal8 / 255.0, truth["metal"] / 255.0, mask),
+                       albedo_psnr_gain=evq.gain_psnr(albedo / 255.0, truth["albedo"] / 255.0, mask, False),
+                       albedo_psnr_wb=evq.gain_psnr(albedo / 255.0, truth["albedo"] / 255.0, mask, True),
                        peak_mb=int(mb.group(1)) if mb else 0,
                        relight_psnr=float(rl[0]), relight_ssim=float(rl[1]))
             rows.append(row)
@@ -235,6 +242,16 @@ def main():
     print("\n## per asset\n\n" + head.replace("| predictor |", "| asset / predictor |"))
     for r in rows:
         print(f"| {r['asset']} / {r['predictor']} | " + line(r))
+    if args.decompose:
+        print("\n## albedo error decomposed (PSNR as measured | after the best gain | after the best gain per channel)"
+              "\n\n| asset / predictor | albedo PSNR | best gain | best gains per channel |\n|---|---|---|---|")
+        for p in order:
+            sel = [r for r in rows if r["predictor"] == p]
+            print(f"| all / {p} | " + " | ".join(f"{np.mean([r[m] for r in sel]):.2f}"
+                                                 for m in ("albedo_psnr", "albedo_psnr_gain", "albedo_psnr_wb")) + " |")
+        for r in rows:
+            print(f"| {r['asset']} / {r['predictor']} | {r['albedo_psnr']:.2f} | {r['albedo_psnr_gain']:.2f} | "
+                  f"{r['albedo_psnr_wb']:.2f} |")
     if args.json:
         with open(args.json + ".tmp", "w") as f:
             json.dump(dict(config=dict(vars(args)), overall=overall, rows=rows), f, indent=1)

@@ -234,7 +234,7 @@ def main():
                "--size", "16", "--views-size", "64", "--mesh-args", "--work-size native", "--views", "2", "--relight-size", "64", "--baselines",
                "lit,passthrough,truth", "--bake", f"tiny={sys.argv[3]},{sys.argv[4]},{sys.argv[4]}",
                "--bake", f"tiny_mv={sys.argv[3]}", "--bake", f"tiny_alb={sys.argv[3]},{sys.argv[4]},"] + (["--bake", f"tiny_sv={sys.argv[6]}"] if len(sys.argv) > 6 else []) + [
-               "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js]
+               "--supermat", sys.argv[5], "--work", os.path.join(out, "eval_bake"), "--json", js, "--decompose"]
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 0, "eval_bake: exit 0" + ("" if r.returncode == 0 else ": " + r.stderr[-2000:]))
         if r.returncode == 0:
@@ -254,6 +254,16 @@ def main():
             check(abs(res["lit"]["albedo_psnr"] - own) < 1e-6 and abs(res["lit"]["metal_psnr"] - own_m) < 1e-6,
                   f"eval_bake: lit albedo {res['lit']['albedo_psnr']:.3f} / metallic {res['lit']['metal_psnr']:.3f} dB = "
                   f"this test's own {own:.3f} / {own_m:.3f}")
+            # --decompose: the best gain on the lit texture, recomputed here (one gain, then one a channel)
+            own_g = []
+            for axis in (None, 0):
+                k = np.sum(lit8[m] * alb8[m], axis=axis) / np.sum(lit8[m] ** 2, axis=axis)
+                own_g.append(10 * np.log10(1 / np.mean((np.clip(lit8 * k, 0, 1) - alb8)[m] ** 2)))
+            got_g = (res["lit"]["albedo_psnr_gain"], res["lit"]["albedo_psnr_wb"])
+            check(all(abs(a - b) < 1e-6 for a, b in zip(got_g, own_g))
+                  and res["truth"]["albedo_psnr_gain"] == 100 and "albedo error decomposed" in r.stdout,
+                  f"eval_bake --decompose: lit albedo after the best gain {got_g[0]:.3f} / per channel {got_g[1]:.3f} dB = "
+                  f"this test's own {own_g[0]:.3f} / {own_g[1]:.3f}")
             check(all(np.isfinite(res["tiny"][k]) for k in ("albedo_psnr", "rough_psnr", "metal_psnr", "relight_psnr")),
                   "eval_bake: the tiny models' bake measured")
             # --no-refine: the multi-view model's back-projection alone, which the refine networks then change
