@@ -38,7 +38,9 @@ What it does
   --decompose also reports the albedo PSNR after the best least-squares gain per view (one for all channels:
   the exposure, which the input's auto-exposure hides, taken out of the error) and after the best gain per view
   and channel (exposure and white balance): how much of a predictor's albedo error is global brightness and
-  colour, and how much is the map itself.
+  colour, and how much is the map itself; and the albedo's level (its mean linear luminance over the object) per
+  view against the truth's: correlation, R2 and RMSE of the log2 levels (level_stats; tools/eval_level.py does the
+  same on the generator's own renders), the geometric mean level per asset.
   --levers MODEL [--levers-modes all|LIST] also measures the speed / accuracy levers of MODEL against the
   truth: per view, `supermat bench --model MODEL --image WORK/inputs/<stem>.png --truth-albedo
   WORK/truth/<stem>_albedo.png --truth-roughness ... --truth-metallic ... --modes LIST --json
@@ -95,7 +97,7 @@ CC0_ASSETS = ("Avocado", "WaterBottle")
 FRAME_FILL = 0.85                       # the projected bounding box's larger side, in frame widths
 KEY_RANGE = (0.18, 0.3)                 # auto-exposure key (median luminance), as the training data
 MAPS = ("albedo", "roughness", "metallic")
-DECOMPOSE = ("albedo_psnr_gain", "albedo_psnr_wb")   # --decompose
+DECOMPOSE = ("albedo_psnr_gain", "albedo_psnr_wb", "albedo_level", "albedo_level_true")   # --decompose
 METRICS = ("albedo_psnr", "albedo_ssim", "roughness_psnr", "roughness_ssim", "metallic_psnr",
            "metallic_ssim", "rerender_psnr")
 
@@ -572,6 +574,42 @@ def gain_psnr(pred, gt, mask, per_channel):
     return masked_psnr(np.clip(pred * k, 0.0, 1.0), gt, mask)
 
 
+def albedo_level(albedo, mask):
+    """An albedo map's level: the mean linear luminance (Rec. 709 weights) of its sRGB values over the mask."""
+    y = smr.luminance(smr.srgb_decode(np.asarray(albedo, np.float32)).astype(np.float64))[mask]
+    return float(y.mean()) if y.size else float("nan")
+
+
+def level_stats(pred, true):
+    """How closely predicted albedo levels follow the true ones, per view, in log2 units (log2(level + 1e-4)):
+    Pearson's correlation, R2 of the prediction as it stands (1 - SSE / SST: 0 is what the true mean as a constant
+    scores, below 0 worse), the RMSE, the constant's RMSE (the true levels' standard deviation), the best linear
+    fit's slope (true on predicted: below 1, the prediction swings too far; above 1, too little), and the
+    geometric mean levels (linear)."""
+    p = np.log2(np.asarray(pred, np.float64) + 1e-4)
+    t = np.log2(np.asarray(true, np.float64) + 1e-4)
+    sst = float(((t - t.mean()) ** 2).sum())
+    sse = float(((p - t) ** 2).sum())
+    vp = float(((p - p.mean()) ** 2).sum())
+    cov = float(((p - p.mean()) * (t - t.mean())).sum())
+    corr = cov / np.sqrt(vp * sst) if vp > 0 and sst > 0 else float("nan")
+    return dict(n=int(t.size), corr=float(corr), r2=1.0 - sse / sst if sst > 0 else float("nan"),
+                rmse=float(np.sqrt(sse / t.size)), rmse_const=float(np.sqrt(sst / t.size)),
+                slope=cov / vp if vp > 0 else float("nan"), pred_std=float(p.std()), true_std=float(t.std()),
+                pred_gmean=float(2 ** p.mean()), true_gmean=float(2 ** t.mean()))
+
+
+def level_table(stats):
+    """Markdown: one level_stats() row per name."""
+    out = ["| predictor | views | true level | predicted | log2 std true / predicted | corr | R2 | RMSE log2 "
+           "(constant) | slope |", "|---|---|---|---|---|---|---|---|---|"]
+    for name, s in stats:
+        out.append(f"| {name} | {s['n']} | {s['true_gmean']:.3f} | {s['pred_gmean']:.3f} | {s['true_std']:.2f} / "
+                   f"{s['pred_std']:.2f} | {s['corr']:.3f} | {s['r2']:.3f} | {s['rmse']:.2f} ({s['rmse_const']:.2f}) | "
+                   f"{s['slope']:.2f} |")
+    return "\n".join(out)
+
+
 def measure(pred, gt, mask, relit_pred, relit_gt, decompose=False):
     out = {}
     for name in MAPS:
@@ -581,6 +619,8 @@ def measure(pred, gt, mask, relit_pred, relit_gt, decompose=False):
     if decompose:
         out["albedo_psnr_gain"] = gain_psnr(pred["albedo"], gt["albedo"], mask, False)
         out["albedo_psnr_wb"] = gain_psnr(pred["albedo"], gt["albedo"], mask, True)
+        out["albedo_level"] = albedo_level(pred["albedo"], mask)
+        out["albedo_level_true"] = albedo_level(gt["albedo"], mask)
     return out
 
 
@@ -716,6 +756,7 @@ def evaluate(args, meshes, work):
     t_metrics = (time.time() - t0) / len(views)
 
     overall, per_asset = summarise(rows, list(preds))
+    level = None
     print(f"## overall ({len(views)} views, {args.size}x{args.size}, "
           + ", ".join(f"lit by {a}, re-rendered under {b}" for a, b in pairs) + ")\n")
     print(markdown(overall.items()))
@@ -733,6 +774,16 @@ def evaluate(args, meshes, work):
         for a, t in [("all", overall)] + list(per_asset.items()):
             for p, m in t.items():
                 print(f"| {a} / {p} | {m['albedo_psnr']:.2f} | {m['albedo_psnr_gain']:.2f} | {m['albedo_psnr_wb']:.2f} |")
+        level = {p: level_stats([r["albedo_level"] for r in rows if r["predictor"] == p],
+                                [r["albedo_level_true"] for r in rows if r["predictor"] == p]) for p in preds}
+        print("\n## albedo level (mean linear luminance over the object) per view, predicted against true, in log2\n")
+        print(level_table(list(level.items())))
+        print("\n| asset / predictor | true level | predicted |\n|---|---|---|")
+        for a in per_asset:
+            for p in preds:
+                s = level_stats([r["albedo_level"] for r in rows if r["predictor"] == p and r["asset"] == a],
+                                [r["albedo_level_true"] for r in rows if r["predictor"] == p and r["asset"] == a])
+                print(f"| {a} / {p} | {s['true_gmean']:.3f} | {s['pred_gmean']:.3f} |")
     timing = dict(render_s_per_view=t_render / len(views), metrics_s_per_view=t_metrics,
                   predict_s_per_view=t_pred)
     print(f"\ntime per asset-view: render {timing['render_s_per_view']:.1f} s, metrics (all predictors) "
@@ -751,7 +802,8 @@ def evaluate(args, meshes, work):
                                        seed=args.seed, lightings=pairs,
                                        models=dict(args.model), dataset_stats=stats),
                            overall=overall, per_asset=per_asset, per_lighting=per_env, views=rows, timing=timing,
-                           **(dict(levers=levers) if levers else {})), f, indent=1)
+                           **(dict(levers=levers) if levers else {}),
+                           **(dict(albedo_level=level) if args.decompose else {})), f, indent=1)
 
 
 def model_option(s):
