@@ -591,6 +591,8 @@ def level_stats(pred, true):
     sst = float(((t - t.mean()) ** 2).sum())
     sse = float(((p - t) ** 2).sum())
     vp = float(((p - p.mean()) ** 2).sum())
+    if p.std() < 1e-6:   # a constant, up to float rounding (the dataset mean over differently sized masks)
+        vp = 0.0
     cov = float(((p - p.mean()) * (t - t.mean())).sum())
     corr = cov / np.sqrt(vp * sst) if vp > 0 and sst > 0 else float("nan")
     return dict(n=int(t.size), corr=float(corr), r2=1.0 - sse / sst if sst > 0 else float("nan"),
