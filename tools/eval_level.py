@@ -11,7 +11,9 @@ the diffuse shading and the Fresnel rim carry it.  This tool measures, on render
 view; use a seed no training run used: training used 0-3, 5, 11-14, 21 and 23), how closely each predictor's level
 follows the truth, per render, in log2 units (eval_quality.level_stats: correlation, R2 of the prediction as it
 stands, RMSE against the constant's), and its albedo PSNR over the object (alpha >= 128) as measured and after the
-best gain (eval_quality.gain_psnr: the level taken out).
+best gain (eval_quality.gain_psnr: the level taken out).  And the metallic map, the object's pixels pooled over
+all renders: how many of the metal pixels (truth > 0.5) each predictor calls metal (> 0.5), how many others it
+calls metal, and the PSNR (rows: each --model, `constant 0`, `truth`).
 
 Predictors: each --model (run by `supermat image --native --float`, its defaults and --image-args, as
 tools/eval_quality.py runs it), `picture` (the input's RGB as albedo: baseline (a)) and `truth` (the true albedo:
@@ -32,7 +34,8 @@ import eval_quality as eq  # noqa: E402
 
 
 def load(dirs, limit, min_pixels):
-    """(stem, rgba uint8 HxWx4, true albedo float [0, 1] HxWx3) for the single-view renders of each folder."""
+    """(stem, rgba uint8 HxWx4, true albedo float [0, 1] HxWx3, true metallic float [0, 1] HxW) for the
+    single-view renders of each folder."""
     out = []
     for d in dirs:
         shards = sorted(glob.glob(os.path.join(d, "shard_*.npz")))
@@ -40,13 +43,15 @@ def load(dirs, limit, min_pixels):
             sys.exit(f"error: {d}: no shard_*.npz (a tools/gen_data.py folder)")
         for f in shards:
             z = np.load(f)
-            if "rgba" not in z or "albedo" not in z or z["rgba"].ndim != 4:
-                sys.exit(f"error: {f}: not a single-view gen_data.py shard (rgba N x H x W x 4, albedo N x H x W x 3)")
+            if "rgba" not in z or "albedo" not in z or "metal" not in z or z["rgba"].ndim != 4:
+                sys.exit(f"error: {f}: not a single-view gen_data.py shard (rgba N x H x W x 4, albedo N x H x W x 3, "
+                         "metal N x H x W)")
             for i in range(len(z["rgba"])):
                 if (z["rgba"][i][..., 3] >= 128).sum() < min_pixels:
                     continue
                 stem = f"{os.path.basename(os.path.normpath(d))}_{os.path.basename(f)[:-4]}_{i:04d}"
-                out.append((stem, z["rgba"][i], z["albedo"][i].astype(np.float32) / 255.0))
+                out.append((stem, z["rgba"][i], z["albedo"][i].astype(np.float32) / 255.0,
+                            z["metal"][i].astype(np.float32) / 255.0))
                 if limit and len(out) >= limit:
                     return out
     return out
@@ -71,21 +76,31 @@ def main():
     work = args.work or tempfile.mkdtemp(prefix="eval_level_")
     os.makedirs(os.path.join(work, "inputs"), exist_ok=True)
     inputs = {}
-    for stem, rgba, _ in renders:
+    for stem, rgba, _, _ in renders:
         inputs[stem] = os.path.join(work, "inputs", stem + ".png")
         eq.write_png(inputs[stem], rgba)
 
-    preds = {}
+    preds, metal = {}, {}
     for name, path in args.model:
         maps = eq.run_model(args.supermat, path, inputs, os.path.join(work, "pred_" + name), args.threads,
                             args.image_args.split())
         preds[name] = {s: m["albedo"] for s, m in maps.items()}
-    preds["picture"] = {stem: rgba[..., :3].astype(np.float32) / 255.0 for stem, rgba, _ in renders}
-    preds["truth"] = {stem: alb for stem, _, alb in renders}
+        metal[name] = {s: m["metallic"] for s, m in maps.items()}
+    preds["picture"] = {stem: rgba[..., :3].astype(np.float32) / 255.0 for stem, rgba, _, _ in renders}
+    preds["truth"] = {stem: alb for stem, _, alb, _ in renders}
+    metal["constant 0"] = {stem: np.zeros(rgba.shape[:2], np.float32) for stem, rgba, _, _ in renders}
+    metal["truth"] = {stem: m for stem, _, _, m in renders}
 
     rows = {p: [] for p in preds}
-    for stem, rgba, alb in renders:
+    mrows = {p: dict(metal=0, found=0, false=0, other=0, se=0.0, pixels=0) for p in metal}
+    for stem, rgba, alb, tm in renders:
         mask = rgba[..., 3] >= 128
+        for p in metal:
+            pm, t = metal[p][stem][mask], tm[mask] > 0.5
+            c = mrows[p]
+            c["metal"] += int(t.sum()); c["found"] += int((t & (pm > 0.5)).sum())
+            c["other"] += int((~t).sum()); c["false"] += int((~t & (pm > 0.5)).sum())
+            c["se"] += float(((pm.astype(np.float64) - tm[mask]) ** 2).sum()); c["pixels"] += int(mask.sum())
         true_level = eq.albedo_level(alb, mask)
         for p in preds:
             a = preds[p][stem]
@@ -100,10 +115,20 @@ def main():
     print("\n| predictor | albedo PSNR | after the best gain |\n|---|---|---|")
     for p in preds:
         print(f"| {p} | {psnr[p]['albedo_psnr']:.2f} | {psnr[p]['albedo_psnr_gain']:.2f} |")
+    for c in mrows.values():
+        c["recall"] = c["found"] / c["metal"] if c["metal"] else float("nan")
+        c["false_rate"] = c["false"] / c["other"] if c["other"] else float("nan")
+        mse = c["se"] / max(c["pixels"], 1)
+        c["psnr"] = 100.0 if mse <= 1e-10 else float(10 * np.log10(1 / mse))
+    print("\n| metallic, object pixels pooled | metal pixels (truth > 0.5) found (prediction > 0.5) | other pixels called "
+          "metal | PSNR |\n|---|---|---|---|")
+    for p, c in mrows.items():
+        print(f"| {p} | {c['found']} of {c['metal']} ({100 * c['recall']:.1f} %) | {c['false']} of {c['other']} "
+              f"({100 * c['false_rate']:.1f} %) | {c['psnr']:.2f} |")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(data=args.data, renders=len(renders), models=dict(args.model), level=stats, psnr=psnr,
-                           rows=rows), f, indent=1)
+                           metallic=mrows, rows=rows), f, indent=1)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ usage: test_eval_level.py OUT_DIR SUPERMAT MODEL
   level recomputed here from the shard arrays and the maps `supermat image` wrote (float64 sRGB decode and
   luminance, written here) within 1e-6; the statistics recomputed with numpy's corrcoef / polyfit within 1e-9;
   the truth as predictor scores correlation 1, R2 1, RMSE 0; every predictor's albedo PSNR after the best gain
-  is at least its PSNR as measured;
+  is at least its PSNR as measured; the metallic table's counts and pooled PSNR recomputed from the shards and
+  the model's PFM maps (the truth 100 dB and every metal pixel, the constant 0 none);
 - a folder with no renders: exit status not 0 and a message naming it.
 """
 import json
@@ -99,10 +100,11 @@ def main():
         res = json.load(f)
 
     shards = [np.load(os.path.join(data, n)) for n in ("shard_0000.npz", "shard_0001.npz")]
-    renders = {}
+    renders, shard_metal = {}, {}
     for k, z in enumerate(shards):
         for i in range(len(z["rgba"])):
             renders[f"data_shard_{k:04d}_{i:04d}"] = (z["rgba"][i], z["albedo"][i] / 255.0)
+            shard_metal[f"data_shard_{k:04d}_{i:04d}"] = z["metal"][i] / 255.0
     kept = {st: v for st, v in renders.items() if (v[0][..., 3] >= 128).sum() >= 100}
     check(res["renders"] == len(kept) >= 8, f"{res['renders']} renders kept (object >= 100 pixels), {len(kept)} here")
 
@@ -126,6 +128,25 @@ def main():
         for k in ("corr", "r2", "rmse", "rmse_const", "slope"):
             worst = max(worst, abs(st[k] - ref[k]))
     check(worst <= 1e-9, f"corr, R2, RMSE, slope recomputed with numpy's corrcoef / polyfit: worst {worst:.2e}")
+    # the metallic table: counts and pooled PSNR recomputed from the shards and the model's PFM maps
+    worst, counts_ok = 0.0, True
+    for p, c in res["metallic"].items():
+        se = n = metal = found = other = false = 0
+        for stem, (rgba, _) in kept.items():
+            mask = rgba[..., 3] >= 128
+            tm = shard_metal[stem][mask]
+            pm = (read_pfm(os.path.join(work, "pred_m", stem + "_metallic.pfm"))[..., 0][mask] if p == "m"
+                  else np.zeros_like(tm) if p == "constant 0" else tm)
+            t = tm > 0.5
+            metal += t.sum(); found += (t & (pm > 0.5)).sum(); other += (~t).sum(); false += (~t & (pm > 0.5)).sum()
+            se += ((np.clip(pm, 0, 1) - tm) ** 2).sum(); n += mask.sum()
+        counts_ok &= (c["metal"], c["found"], c["other"], c["false"]) == (metal, found, other, false)
+        ref = 100.0 if se / n <= 1e-10 else 10 * np.log10(n / se)
+        worst = max(worst, abs(c["psnr"] - ref))
+    check(counts_ok and worst <= 1e-6 and res["metallic"]["truth"]["psnr"] == 100 and res["metallic"]["truth"]["recall"] == 1,
+          f"metallic: metal pixels found / called, recomputed here; pooled PSNR within {worst:.1e} dB; the truth 100 dB")
+    check(res["metallic"]["constant 0"]["found"] == 0 and res["metallic"]["constant 0"]["metal"] > 0,
+          f"constant 0 finds none of the {res['metallic']['constant 0']['metal']} metal pixels")
     tr = res["level"]["truth"]
     check(abs(tr["corr"] - 1) < 1e-12 and abs(tr["r2"] - 1) < 1e-12 and tr["rmse"] < 1e-12,
           "the truth as predictor: corr 1, R2 1, RMSE 0")
