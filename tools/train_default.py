@@ -940,7 +940,7 @@ def phase_rm(args, data):
     """The roughness / metallic expert branch alone (the replicated last up block and conv_out of branch 1),
     everything else frozen, so that the albedo stays bit-identical: --rm-steps end to end (the e2e phase's
     roughness, metallic, occlusion and re-render losses; the re-render shades the frozen albedo branch's map),
-    batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute."""
+    batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute, map errors L1 or squared (--rm-loss)."""
     phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH,
               squared=args.rm_loss == "squared")
 
