@@ -13,7 +13,10 @@ follows the truth, per render, in log2 units (eval_quality.level_stats: correlat
 stands, RMSE against the constant's), and its albedo PSNR over the object (alpha >= 128) as measured and after the
 best gain (eval_quality.gain_psnr: the level taken out).  And the metallic map, the object's pixels pooled over
 all renders: how many of the metal pixels (truth > 0.5) each predictor calls metal (> 0.5), how many others it
-calls metal, and the PSNR (rows: each --model, `constant 0`, `truth`).
+calls metal, the PSNR, and the area under the ROC curve of the predicted metallic as a score of metal pixels
+against the others -- pooled over all renders, and the mean over the renders that have both (does the map tell
+which pixels of an object are metal, or only how metal the object is?); ties count a half, so a constant scores
+0.5 and the truth 1 (rows: each --model, `constant 0`, `truth`).
 
 Predictors: each --model (run by `supermat image --native --float`, its defaults and --image-args, as
 tools/eval_quality.py runs it), `picture` (the input's RGB as albedo: baseline (a)) and `truth` (the true albedo:
@@ -57,6 +60,21 @@ def load(dirs, limit, min_pixels):
     return out
 
 
+def roc_auc(pos, neg):
+    """Area under the ROC curve of scores pos (metal pixels) against neg (the others): the probability that a
+    random metal pixel scores above a random other one, ties a half (the Mann-Whitney U over len(pos) len(neg),
+    average ranks); nan where either is empty."""
+    pos, neg = np.asarray(pos, np.float64).ravel(), np.asarray(neg, np.float64).ravel()
+    if not len(pos) or not len(neg):
+        return float("nan")
+    allv = np.concatenate([pos, neg])
+    uniq, inv, counts = np.unique(allv, return_inverse=True, return_counts=True)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])          # 0-based rank of each value's first copy
+    ranks = (first + (counts + 1) / 2.0)[inv]                      # average 1-based ranks
+    u = ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2.0
+    return float(u / (len(pos) * len(neg)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="tools/gen_data.py folders, comma separated")
@@ -93,6 +111,7 @@ def main():
 
     rows = {p: [] for p in preds}
     mrows = {p: dict(metal=0, found=0, false=0, other=0, se=0.0, pixels=0) for p in metal}
+    scores = {p: ([], [], []) for p in metal}   # metal pixels' scores, the others', per-render AUCs
     for stem, rgba, alb, tm in renders:
         mask = rgba[..., 3] >= 128
         for p in metal:
@@ -101,6 +120,9 @@ def main():
             c["metal"] += int(t.sum()); c["found"] += int((t & (pm > 0.5)).sum())
             c["other"] += int((~t).sum()); c["false"] += int((~t & (pm > 0.5)).sum())
             c["se"] += float(((pm.astype(np.float64) - tm[mask]) ** 2).sum()); c["pixels"] += int(mask.sum())
+            scores[p][0].append(pm[t]); scores[p][1].append(pm[~t])
+            if t.any() and (~t).any():
+                scores[p][2].append(roc_auc(pm[t], pm[~t]))
         true_level = eq.albedo_level(alb, mask)
         for p in preds:
             a = preds[p][stem]
@@ -115,16 +137,20 @@ def main():
     print("\n| predictor | albedo PSNR | after the best gain |\n|---|---|---|")
     for p in preds:
         print(f"| {p} | {psnr[p]['albedo_psnr']:.2f} | {psnr[p]['albedo_psnr_gain']:.2f} |")
-    for c in mrows.values():
+    for p, c in mrows.items():
+        c["auc"] = roc_auc(np.concatenate(scores[p][0]), np.concatenate(scores[p][1]))
+        c["auc_within"] = float(np.mean(scores[p][2])) if scores[p][2] else float("nan")
+        c["mixed_renders"] = len(scores[p][2])
         c["recall"] = c["found"] / c["metal"] if c["metal"] else float("nan")
         c["false_rate"] = c["false"] / c["other"] if c["other"] else float("nan")
         mse = c["se"] / max(c["pixels"], 1)
         c["psnr"] = 100.0 if mse <= 1e-10 else float(10 * np.log10(1 / mse))
+    mixed = next(iter(mrows.values()))["mixed_renders"]
     print("\n| metallic, object pixels pooled | metal pixels (truth > 0.5) found (prediction > 0.5) | other pixels called "
-          "metal | PSNR |\n|---|---|---|---|")
+          f"metal | PSNR | ROC AUC pooled | ROC AUC within a render (mean of {mixed}) |\n|---|---|---|---|---|---|")
     for p, c in mrows.items():
         print(f"| {p} | {c['found']} of {c['metal']} ({100 * c['recall']:.1f} %) | {c['false']} of {c['other']} "
-              f"({100 * c['false_rate']:.1f} %) | {c['psnr']:.2f} |")
+              f"({100 * c['false_rate']:.1f} %) | {c['psnr']:.2f} | {c['auc']:.3f} | {c['auc_within']:.3f} |")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(data=args.data, renders=len(renders), models=dict(args.model), level=stats, psnr=psnr,

@@ -11,7 +11,9 @@ usage: test_eval_level.py OUT_DIR SUPERMAT MODEL
   luminance, written here) within 1e-6; the statistics recomputed with numpy's corrcoef / polyfit within 1e-9;
   the truth as predictor scores correlation 1, R2 1, RMSE 0; every predictor's albedo PSNR after the best gain
   is at least its PSNR as measured; the metallic table's counts and pooled PSNR recomputed from the shards and
-  the model's PFM maps (the truth 100 dB and every metal pixel, the constant 0 none);
+  the model's PFM maps (the truth 100 dB and every metal pixel, the constant 0 none); its ROC AUCs, pooled and
+  the mean within a render, recomputed by counting (for each metal pixel, the others scoring below it, ties a
+  half: searchsorted on the sorted others, not the tool's ranks) within 1e-9; the constant 0.5, the truth 1;
 - a folder with no renders: exit status not 0 and a message naming it.
 """
 import json
@@ -52,6 +54,14 @@ def read_pfm(path):
         w, h = int(dims[0]), int(dims[1])
         a = np.frombuffer(f.read(), ("<" if scale < 0 else ">") + "f4")
     return a.reshape(h, w, 3 if kind == b"PF" else 1)[::-1].astype(np.float64)
+
+
+def auc_count(pos, neg):
+    """ROC AUC by counting, written here: for each positive, the negatives below it plus half the equal ones."""
+    pos, neg = np.asarray(pos, np.float64), np.sort(np.asarray(neg, np.float64))
+    below = np.searchsorted(neg, pos, "left")
+    equal = np.searchsorted(neg, pos, "right") - below
+    return float((below + 0.5 * equal).sum() / (len(pos) * len(neg)))
 
 
 def stats64(pred, true):
@@ -128,9 +138,10 @@ def main():
             worst = max(worst, abs(st[k] - ref[k]))
     check(worst <= 1e-9, f"corr, R2, RMSE, slope recomputed with numpy's corrcoef / polyfit: worst {worst:.2e}")
     # the metallic table: counts and pooled PSNR recomputed from the shards and the model's PFM maps
-    worst, counts_ok = 0.0, True
+    worst, counts_ok, worst_auc = 0.0, True, 0.0
     for p, c in res["metallic"].items():
         se = n = metal = found = other = false = 0
+        pos, neg, within = [], [], []
         for stem, (rgba, _) in kept.items():
             mask = rgba[..., 3] >= 128
             tm = shard_metal[stem][mask]
@@ -139,11 +150,22 @@ def main():
             t = tm > 0.5
             metal += t.sum(); found += (t & (pm > 0.5)).sum(); other += (~t).sum(); false += (~t & (pm > 0.5)).sum()
             se += ((np.clip(pm, 0, 1) - tm) ** 2).sum(); n += mask.sum()
+            pos.append(pm[t]); neg.append(pm[~t])
+            if t.any() and (~t).any():
+                within.append(auc_count(pm[t], pm[~t]))
         counts_ok &= (c["metal"], c["found"], c["other"], c["false"]) == (metal, found, other, false)
+        worst_auc = max(worst_auc, abs(c["auc"] - auc_count(np.concatenate(pos), np.concatenate(neg))),
+                        abs(c["auc_within"] - np.mean(within)))
+        counts_ok &= c["mixed_renders"] == len(within) > 0
         ref = 100.0 if se / n <= 1e-10 else 10 * np.log10(n / se)
         worst = max(worst, abs(c["psnr"] - ref))
     check(counts_ok and worst <= 1e-6 and res["metallic"]["truth"]["psnr"] == 100 and res["metallic"]["truth"]["recall"] == 1,
           f"metallic: metal pixels found / called, recomputed here; pooled PSNR within {worst:.1e} dB; the truth 100 dB")
+    check(worst_auc <= 1e-9 and res["metallic"]["constant 0"]["auc"] == 0.5 and res["metallic"]["truth"]["auc"] == 1
+          and res["metallic"]["truth"]["auc_within"] == 1,
+          f"metallic ROC AUC, pooled and within a render ({res['metallic']['m']['mixed_renders']} renders), recomputed "
+          f"by counting: worst {worst_auc:.1e}; the constant 0.5, the truth 1 (the model: "
+          f"{res['metallic']['m']['auc']:.3f} / {res['metallic']['m']['auc_within']:.3f})")
     check(res["metallic"]["constant 0"]["found"] == 0 and res["metallic"]["constant 0"]["metal"] > 0,
           f"constant 0 finds none of the {res['metallic']['constant 0']['metal']} metal pixels")
     tr = res["level"]["truth"]
