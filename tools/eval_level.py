@@ -31,6 +31,7 @@ import sys
 import tempfile
 
 import numpy as np
+from scipy.stats import rankdata
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import eval_quality as eq  # noqa: E402
@@ -67,10 +68,7 @@ def roc_auc(pos, neg):
     pos, neg = np.asarray(pos, np.float64).ravel(), np.asarray(neg, np.float64).ravel()
     if not len(pos) or not len(neg):
         return float("nan")
-    allv = np.concatenate([pos, neg])
-    uniq, inv, counts = np.unique(allv, return_inverse=True, return_counts=True)
-    first = np.concatenate([[0], np.cumsum(counts)[:-1]])          # 0-based rank of each value's first copy
-    ranks = (first + (counts + 1) / 2.0)[inv]                      # average 1-based ranks
+    ranks = rankdata(np.concatenate([pos, neg]))                   # 1-based, ties averaged
     u = ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2.0
     return float(u / (len(pos) * len(neg)))
 
