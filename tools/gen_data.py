@@ -442,7 +442,8 @@ def eval_material(m, q, curv):
     alb = alb * (0.85 + 0.3 * grain[:, None])
     if m.get("photo") is not None:   # the photo replaces the pattern's colours (its pattern still shapes the rest)
         alb, py = eval_photo(m["photo"], q)
-    rough = m["rough"][0] * (1 - t) + m["rough"][1] * t + m["rough_var"] * (fbm(q * 4.0, m["seed"] + 7, 4) - 0.5)
+    rnoise = m["rough_var"] * (fbm(q * 4.0, m["seed"] + 7, 4) - 0.5)
+    rough = m["rough"][0] * (1 - t) + m["rough"][1] * t + rnoise
     if m.get("photo") is not None:
         rough = rough + m["photo"]["rough_k"] * (py - 0.5)
     metal = np.zeros(n, np.float32)
@@ -459,10 +460,9 @@ def eval_material(m, q, curv):
     alb_lin = R.srgb_decode(alb)
     mc = m["metal_col"] * (0.92 + 0.16 * grain[:, None])
     alb_lin = np.where(metal[:, None] > 0.5, np.clip(mc, 0, 1), alb_lin)
-    if mode in ("worn", "mask") and m.get("metal_rough") is not None:   # its own level, the same variation
-        rough = np.where(metal > 0.5, m["metal_rough"] + m["rough_var"] * (fbm(q * 4.0, m["seed"] + 7, 4) - 0.5), rough)
-    elif mode in ("worn", "mask"):
-        rough = np.where(metal > 0.5, np.clip(rough * 0.5, 0.05, 1), rough)
+    if mode in ("worn", "mask"):   # --metal-rough: its own level with the same variation; else half the surroundings'
+        own = m.get("metal_rough")
+        rough = np.where(metal > 0.5, own + rnoise if own is not None else np.clip(rough * 0.5, 0.05, 1), rough)
     for c, r, col, rg in m["decals"]:
         dm = smoothstep(r, r * 0.9, np.linalg.norm(q - c, axis=-1))
         alb_lin = alb_lin * (1 - dm[:, None]) + R.srgb_decode(col)[None] * dm[:, None]
@@ -785,8 +785,8 @@ def main():
                          "assets author metal base colours of 0.3-0.55 sRGB, the F0 table's start at 0.77; default 0)")
     ap.add_argument("--metal-rough", type=float, default=0.0,
                     help="probability that the metal of a masked-metal or worn-edge material takes a roughness of its "
-                         "own, U(0.05, 1), instead of half its surroundings' (which makes metal the smoother part "
-                         "of an object in every such render; default 0)")
+                         "own, U(0.05, 1), instead of half its surroundings' (which makes the metal the smoother part "
+                         "in 95 % of such materials; default 0)")
     ap.add_argument("--views", type=int, default=1, choices=(1, 6),
                     help="6: each sample is one object in the six official SuperMatMV views (supermat_uv.h's "
                          "cameras and view frame, Z up), lit alike; arrays gain a view axis, plus cams [6x4x4]")
