@@ -874,6 +874,32 @@ check "bench uv-refine exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
 check "bench uv: the refined branch row" grep -q '^unet branch refined ' "$T/out"
 check "bench uv: the unet input row" grep -q '^unet input (mask, position)' "$T/out"
+# the peak of the dot instruction a bf16 / int8 compute multiplies with, measured beside the FMA peak: one
+# vdpbf16ps carries 64 flops (the FMA 32), one vpdpbusd zmm 128 ops, so at any issue rate from half the FMA's
+# (Sapphire Rapids' vdpbf16ps) to the FMA's own (Zen 5) the ratio to the FMA peak lies in [1, 2] (bf16) and
+# [2, 4] (int8); the bounds below leave room for a busy machine. f32 compute: no dot peak, JSON null.
+json_num() { grep -o "\"$2\": [-0-9.e+]*" "$1" | head -1 | awk '{print $2}'; }
+run bench --model "$MODEL" --size 64 --json "$T/bench_f32.json"
+check "bench (f32, with peaks) exits 0" [ $RC -eq 0 ]
+check "bench f32: no dot peak line" bash -c "! grep -q '^dot peak' '$T/out'"
+check "bench f32: dot_peak_gops null" grep -q '"dot_peak_gops": null' "$T/bench_f32.json"
+dot_case() { # $1 compute, $2 isa name, $3 lowest ratio, $4 highest ratio
+  run bench --model "$MODEL" --size 64 --compute "$1" --json "$T/bench_$1.json"
+  check "bench --compute $1 (with peaks) exits 0" [ $RC -eq 0 ]
+  [ $RC -eq 0 ] || cat "$T/err"
+  check "bench --compute $1: the dot peak line names $2" grep -q "^dot peak .*($2," "$T/out"
+  check "bench --compute $1: a % dot column" grep -q '% dot$' "$T/out"
+  local fma dot
+  fma=$(json_num "$T/bench_$1.json" fma_peak_gflops); dot=$(json_num "$T/bench_$1.json" dot_peak_gops)
+  check "bench --compute $1: dot peak $dot / FMA peak $fma within [$3, $4]" awk -v f="$fma" -v d="$dot" -v lo="$3" -v hi="$4" \
+    'BEGIN { exit !(f > 0 && d / f >= lo && d / f <= hi) }'
+  check "bench --compute $1: JSON names $2" grep -q "\"dot_peak_isa\": \"$2\"" "$T/bench_$1.json"
+}
+if grep -qw avx512_bf16 /proc/cpuinfo 2>/dev/null; then dot_case bf16 "vdpbf16ps zmm" 0.7 2.6
+else echo "skip: bench --compute bf16 dot peak (no AVX512_BF16 on this CPU)"; fi
+if grep -qw avx512_vnni /proc/cpuinfo 2>/dev/null && grep -qw avx512bw /proc/cpuinfo 2>/dev/null; then dot_case int8 "vpdpbusd zmm" 1.4 5.2
+elif grep -qw avx_vnni /proc/cpuinfo 2>/dev/null; then dot_case int8 "vpdpbusd ymm" 1.4 5.2
+else echo "skip: bench --compute int8 dot peak (no AVX512_VNNI or AVX-VNNI on this CPU)"; fi
 run bench --model "$MODEL" --size 64 --pipeline-only --views 2
 check "bench --views 2 with the single-view model exits 1" [ $RC -eq 1 ]
 check "bench --views 2 with the single-view model explains" grep -q 'supermat-mv' "$T/err"

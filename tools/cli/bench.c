@@ -47,11 +47,93 @@ SUPERMAT__AVX512 static float cli_fma_loop512(long iters, float seed) {
 /* 1: the peak is measured with 512-bit FMAs (the pipeline runs the AVX-512 kernel) */
 static int cli_fma_zmm;
 
-typedef struct cli_fma_job { long iters; float *sink; } cli_fma_job;
+/* the peak of the instruction the GEMMs multiply with when the compute is not f32: `vdpbf16ps zmm` (bf16 compute
+   on the AVX-512 kernel: 16 lanes x 2 products, 64 flops), `vpdpbusd zmm` (int8 compute on the AVX-512 kernel:
+   16 lanes x 4 products, 128 ops) or `vpdpbusd ymm` (int8 on the AVX2 kernel, AVX-VNNI: 64 ops); the same 12
+   independent chains as the FMA peak. CPUs differ here more than in FMAs: Sapphire Rapids issues vdpbf16ps at
+   half the FMA's rate (its 64 flops then no more than the FMA's 32), Zen 5 at nearly the full rate. None for
+   f32 compute, AMX tiles (not measured) and builds or CPUs without the instruction. */
+enum { CLI_DOT_NONE, CLI_DOT_BF16_ZMM, CLI_DOT_VNNI_ZMM, CLI_DOT_VNNI_YMM };
+static int cli_dot_isa;
+static const char *const cli_dot_name[] = {"none", "vdpbf16ps zmm", "vpdpbusd zmm", "vpdpbusd ymm"};
+static const double cli_dot_ops[] = {0.0, 64.0, 128.0, 64.0};
+#define CLI_DOT_STEP(OP) \
+    a0 = OP(a0); a1 = OP(a1); a2 = OP(a2); a3 = OP(a3); a4 = OP(a4); a5 = OP(a5); \
+    a6 = OP(a6); a7 = OP(a7); a8 = OP(a8); a9 = OP(a9); a10 = OP(a10); a11 = OP(a11)
+#if SUPERMAT__HAS_AVX512
+SUPERMAT__AVX512BF16 static float cli_dot_bf16(long iters, float seed) {
+    const __m512bh x = (__m512bh)_mm512_set1_epi32(0x3f7f3f7f), y = (__m512bh)_mm512_set1_epi32(0x33d633d6); /* 0.996, 1e-7 */
+    __m512 a0 = _mm512_set1_ps(seed + 0.10f), a1 = _mm512_set1_ps(seed + 0.11f), a2 = _mm512_set1_ps(seed + 0.12f);
+    __m512 a3 = _mm512_set1_ps(seed + 0.13f), a4 = _mm512_set1_ps(seed + 0.14f), a5 = _mm512_set1_ps(seed + 0.15f);
+    __m512 a6 = _mm512_set1_ps(seed + 0.16f), a7 = _mm512_set1_ps(seed + 0.17f), a8 = _mm512_set1_ps(seed + 0.18f);
+    __m512 a9 = _mm512_set1_ps(seed + 0.19f), a10 = _mm512_set1_ps(seed + 0.20f), a11 = _mm512_set1_ps(seed + 0.21f);
+    long i;
+#define CLI_DOT_BF(v) _mm512_dpbf16_ps(v, x, y)
+    for (i = 0; i < iters; i++) { CLI_DOT_STEP(CLI_DOT_BF); }
+#undef CLI_DOT_BF
+    a0 = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(a0, a1), _mm512_add_ps(a2, a3)), _mm512_add_ps(_mm512_add_ps(a4, a5), _mm512_add_ps(a6, a7)));
+    a0 = _mm512_add_ps(a0, _mm512_add_ps(_mm512_add_ps(a8, a9), _mm512_add_ps(a10, a11)));
+    return _mm512_reduce_add_ps(a0);
+}
+SUPERMAT__AVX512VNNI static float cli_dot_vnni512(long iters, float seed) {
+    const __m512i x = _mm512_set1_epi32(0x01020304), y = _mm512_set1_epi32(0x01fe01fe);
+    int s = (int)(seed * 1000.0f);
+    __m512i a0 = _mm512_set1_epi32(s), a1 = _mm512_set1_epi32(s + 1), a2 = _mm512_set1_epi32(s + 2), a3 = _mm512_set1_epi32(s + 3);
+    __m512i a4 = _mm512_set1_epi32(s + 4), a5 = _mm512_set1_epi32(s + 5), a6 = _mm512_set1_epi32(s + 6), a7 = _mm512_set1_epi32(s + 7);
+    __m512i a8 = _mm512_set1_epi32(s + 8), a9 = _mm512_set1_epi32(s + 9), a10 = _mm512_set1_epi32(s + 10), a11 = _mm512_set1_epi32(s + 11);
+    long i;
+#define CLI_DOT_VN(v) _mm512_dpbusd_epi32(v, x, y)
+    for (i = 0; i < iters; i++) { CLI_DOT_STEP(CLI_DOT_VN); }
+#undef CLI_DOT_VN
+    a0 = _mm512_add_epi32(_mm512_add_epi32(_mm512_add_epi32(a0, a1), _mm512_add_epi32(a2, a3)), _mm512_add_epi32(_mm512_add_epi32(a4, a5), _mm512_add_epi32(a6, a7)));
+    a0 = _mm512_add_epi32(a0, _mm512_add_epi32(_mm512_add_epi32(a8, a9), _mm512_add_epi32(a10, a11)));
+    return (float)_mm512_reduce_add_epi32(a0);
+}
+#endif
+#if SUPERMAT__HAS_AVXVNNI
+SUPERMAT__AVXVNNI static float cli_dot_vnni256(long iters, float seed) {
+    const __m256i x = _mm256_set1_epi32(0x01020304), y = _mm256_set1_epi32(0x01fe01fe);
+    int s = (int)(seed * 1000.0f), out[8];
+    __m256i a0 = _mm256_set1_epi32(s), a1 = _mm256_set1_epi32(s + 1), a2 = _mm256_set1_epi32(s + 2), a3 = _mm256_set1_epi32(s + 3);
+    __m256i a4 = _mm256_set1_epi32(s + 4), a5 = _mm256_set1_epi32(s + 5), a6 = _mm256_set1_epi32(s + 6), a7 = _mm256_set1_epi32(s + 7);
+    __m256i a8 = _mm256_set1_epi32(s + 8), a9 = _mm256_set1_epi32(s + 9), a10 = _mm256_set1_epi32(s + 10), a11 = _mm256_set1_epi32(s + 11);
+    long i;
+#define CLI_DOT_VN(v) _mm256_dpbusd_avx_epi32(v, x, y)
+    for (i = 0; i < iters; i++) { CLI_DOT_STEP(CLI_DOT_VN); }
+#undef CLI_DOT_VN
+    a0 = _mm256_add_epi32(_mm256_add_epi32(_mm256_add_epi32(a0, a1), _mm256_add_epi32(a2, a3)), _mm256_add_epi32(_mm256_add_epi32(a4, a5), _mm256_add_epi32(a6, a7)));
+    a0 = _mm256_add_epi32(a0, _mm256_add_epi32(_mm256_add_epi32(a8, a9), _mm256_add_epi32(a10, a11)));
+    _mm256_storeu_si256((__m256i *)(void *)out, a0);
+    return (float)(out[0] + out[1] + out[2] + out[3] + out[4] + out[5] + out[6] + out[7]);
+}
+#endif
+#undef CLI_DOT_STEP
+
+/* which dot instruction a model's GEMMs multiply with (its kernel and compute, as supermat_model_get_info says) */
+static int cli_dot_for(supermat_kernel kernel, supermat_compute compute) {
+#if SUPERMAT__HAS_AVX512
+    if (compute == SUPERMAT_COMPUTE_BF16 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu_has_avx512_bf16()) return CLI_DOT_BF16_ZMM;
+    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu_has_avx512_vnni()) return CLI_DOT_VNNI_ZMM;
+#endif
+#if SUPERMAT__HAS_AVXVNNI
+    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX2 && supermat_cpu_has_avx_vnni()) return CLI_DOT_VNNI_YMM;
+#endif
+    (void)kernel; (void)compute;
+    return CLI_DOT_NONE;
+}
+
+typedef struct cli_fma_job { long iters; float *sink; int dot; /* CLI_DOT_*: a dot instruction instead of the FMA */ } cli_fma_job;
 
 static void cli_fma_task(void *user, int index, int thread) {
     cli_fma_job *j = (cli_fma_job *)user;
     (void)thread;
+#if SUPERMAT__HAS_AVX512
+    if (j->dot == CLI_DOT_BF16_ZMM) { j->sink[index] = cli_dot_bf16(j->iters, (float)index * 1e-3f); return; }
+    if (j->dot == CLI_DOT_VNNI_ZMM) { j->sink[index] = cli_dot_vnni512(j->iters, (float)index * 1e-3f); return; }
+#endif
+#if SUPERMAT__HAS_AVXVNNI
+    if (j->dot == CLI_DOT_VNNI_YMM) { j->sink[index] = cli_dot_vnni256(j->iters, (float)index * 1e-3f); return; }
+#endif
 #if SUPERMAT__HAS_AVX512
     if (cli_fma_zmm) { j->sink[index] = cli_fma_loop512(j->iters, (float)index * 1e-3f); return; }
 #endif
@@ -70,13 +152,14 @@ static void cli_serial_for(void *user, int count, supermat_task_fn task, void *t
 
 /* GFLOP/s, best of `reps` runs of about 0.2 s each (0 without AVX2): with hook NULL on the calling
    thread alone, else on every thread of the pool. *iters_per_task calibrates on the first call. */
-static double cli_fma_peak(const supermat_threading *hook, int reps, long *iters_per_task) {
+static double cli_peak_of(const supermat_threading *hook, int reps, long *iters_per_task, int dot) {
     cli_fma_job job;
     int tasks = hook ? 8 * hook->max_threads : 8, rep;
     double best = 0.0, t;
     float sink[8 * 64];
     if (!supermat_cpu_has_avx2()) return 0.0;
     job.sink = sink;
+    job.dot = dot;
     if (*iters_per_task <= 0) { /* about 0.2 s per run for one thread doing all 8 x max_threads tasks / max_threads */
         job.iters = 1000000;
         t = cli_now();
@@ -93,10 +176,13 @@ static double cli_fma_peak(const supermat_threading *hook, int reps, long *iters
         if (hook) hook->parallel_for(hook->user, tasks, cli_fma_task, &job);
         else for (i = 0; i < tasks; i++) cli_fma_task(&job, i, 0);
         t = cli_now() - t;
-        gf = (double)tasks * (double)job.iters * CLI_FMA_CHAINS * (cli_fma_zmm ? 32.0 : 16.0) / t / 1e9;
+        gf = (double)tasks * (double)job.iters * CLI_FMA_CHAINS * (dot ? cli_dot_ops[dot] : cli_fma_zmm ? 32.0 : 16.0) / t / 1e9;
         if (gf > best) best = gf;
     }
     return best;
+}
+static double cli_fma_peak(const supermat_threading *hook, int reps, long *iters_per_task) {
+    return cli_peak_of(hook, reps, iters_per_task, CLI_DOT_NONE);
 }
 
 /* (b) the pipeline, timed between the run's inspection points */
@@ -1056,7 +1142,7 @@ static int cli_bench(int argc, char **argv) {
     supermat_error err;
     supermat_result r;
     supermat_pool *pool = NULL;
-    double peak = 0.0, peak1 = 0.0, create_s = 0.0, best_total = 1e30, sum_total = 0.0;
+    double peak = 0.0, peak1 = 0.0, dpeak = 0.0, dpeak1 = 0.0, create_s = 0.0, best_total = 1e30, sum_total = 0.0;
     double gemm_flops = 2.0 * CLI_GEMM_HW * CLI_GEMM_HW * (double)CLI_GEMM_C * 9.0 * CLI_GEMM_C;
     double t_avx2 = -1.0, t_scalar = -1.0, t_avx512 = -1.0, gemm_diff = 0.0;
     int avx512_same = 0;
@@ -1316,6 +1402,16 @@ static int cli_bench(int argc, char **argv) {
         double p1 = cli_fma_peak(NULL, 3, &fma_iters), pa = cli_fma_peak(&hook, 3, &fma_iters);
         if (p1 > peak1) peak1 = p1;
         if (pa > peak) peak = pa;
+        cli_dot_isa = cli_dot_for(mi.kernel, mi.compute);
+        if (cli_dot_isa != CLI_DOT_NONE) { /* the compute's own instruction, best of 2 x 3 runs like the FMA peak */
+            long dot_iters = 0;
+            int r;
+            for (r = 0; r < 2; r++) {
+                double d1 = cli_peak_of(NULL, 3, &dot_iters, cli_dot_isa), da = cli_peak_of(&hook, 3, &dot_iters, cli_dot_isa);
+                if (d1 > dpeak1) dpeak1 = d1;
+                if (da > dpeak) dpeak = da;
+            }
+        }
     }
     if (rc == CLI_OK) {
         size_t planned = mi.model_bytes + session_bytes;
@@ -1333,8 +1429,13 @@ static int cli_bench(int argc, char **argv) {
                              peak, hook.max_threads, hook.max_threads == 1 ? "" : "s", peak1, cli_fma_zmm ? "AVX-512" : "AVX2", CLI_FMA_CHAINS,
                              cli_fma_zmm ? "_mm512_fmadd_ps" : "_mm256_fmadd_ps");
         else printf("FMA peak      n/a (no AVX2/FMA on this CPU or in this build)\n");
+        if (dpeak > 0)
+            printf("dot peak      %.1f GOP/s on %d thread%s, %.1f on one (%s, %d independent chains, %.0f ops each; best of 6): what the %s compute's GEMMs multiply with; %% dot = GFLOP/s / this\n",
+                   dpeak, hook.max_threads, hook.max_threads == 1 ? "" : "s", dpeak1, cli_dot_name[cli_dot_isa], CLI_FMA_CHAINS,
+                   cli_dot_ops[cli_dot_isa], cli_compute_name(mi.compute));
         printf("model create  %.3f s (validation and weight packing)\n", create_s);
-        printf("\n%-32s %9s %9s %9s %7s\n", repeats > 1 ? "stage (fastest run)" : "stage", "seconds", "GFLOP", "GFLOP/s", "% peak");
+        printf("\n%-32s %9s %9s %9s %7s%s\n", repeats > 1 ? "stage (fastest run)" : "stage", "seconds", "GFLOP", "GFLOP/s", "% peak",
+               dpeak > 0 ? "   % dot" : "");
         for (i = 0; i < nrows; i++) {
             printf("%-32s %9.4f %9.3f", rows[i].name, rows[i].seconds, rows[i].flops / 1e9);
             if (rows[i].flops > 0 && rows[i].seconds > 0) {
@@ -1342,12 +1443,17 @@ static int cli_bench(int argc, char **argv) {
                 printf(" %9.2f", gfs);
                 if (peak > 0) printf(" %6.1f%%", 100.0 * gfs / peak);
                 else printf(" %7s", "-");
-            } else printf(" %9s %7s", "-", "-");
+                if (dpeak > 0) printf(" %7.1f%%", 100.0 * gfs / dpeak);
+            } else {
+                printf(" %9s %7s", "-", "-");
+                if (dpeak > 0) printf(" %8s", "-");
+            }
             printf("\n");
         }
         printf("%-32s %9.4f %9.3f %9.2f", "total", best_total, total_flops / 1e9, total_flops / best_total / 1e9);
         if (peak > 0) printf(" %6.1f%%", 100.0 * total_flops / best_total / 1e9 / peak);
         else printf(" %7s", "-");
+        if (dpeak > 0) printf(" %7.1f%%", 100.0 * total_flops / best_total / 1e9 / dpeak);
         printf("\n");
         if (repeats > 1) printf("(%d runs, mean total %.4f s)\n", repeats, sum_total / repeats);
         printf("\nmemory        model %.1f MiB + session %.1f MiB = %.1f MiB planned; process peak RSS %.1f MiB (getrusage, after the runs; includes the %.1f MiB file buffer)\n",
@@ -1380,17 +1486,26 @@ static int cli_bench(int argc, char **argv) {
                     w, h, nviews, outs_s);
             fprintf(jf, "  \"threads\": %d,\n  \"repeats\": %d,\n  \"fma_peak_gflops\": %.6g,\n  \"fma_peak_one_thread_gflops\": %.6g,\n  \"model_create_seconds\": %.6g,\n",
                     hook.max_threads, repeats, peak, peak1, create_s);
+            fputs("  \"dot_peak_gops\": ", jf);
+            cli_json_number_or_null(jf, dpeak > 0, dpeak);
+            fputs(",\n  \"dot_peak_one_thread_gops\": ", jf);
+            cli_json_number_or_null(jf, dpeak > 0, dpeak1);
+            fprintf(jf, ",\n  \"dot_peak_isa\": \"%s\",\n", cli_dot_name[dpeak > 0 ? cli_dot_isa : CLI_DOT_NONE]);
             fprintf(jf, "  \"stages\": [\n");
             for (i = 0; i < nrows; i++) {
                 double gfs = rows[i].seconds > 0 ? rows[i].flops / rows[i].seconds / 1e9 : 0.0;
                 fprintf(jf, "    {\"stage\": ");
                 cli_json_string(jf, rows[i].name);
-                fprintf(jf, ", \"seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g}%s\n", rows[i].seconds,
-                        rows[i].flops / 1e9, gfs, peak > 0 ? 100.0 * gfs / peak : 0.0, i + 1 < nrows ? "," : "");
+                fprintf(jf, ", \"seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g, \"percent_of_dot_peak\": ", rows[i].seconds,
+                        rows[i].flops / 1e9, gfs, peak > 0 ? 100.0 * gfs / peak : 0.0);
+                cli_json_number_or_null(jf, dpeak > 0, dpeak > 0 ? 100.0 * gfs / dpeak : 0.0);
+                fprintf(jf, "}%s\n", i + 1 < nrows ? "," : "");
             }
-            fprintf(jf, "  ],\n  \"total\": {\"seconds\": %.6g, \"mean_seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g},\n",
+            fprintf(jf, "  ],\n  \"total\": {\"seconds\": %.6g, \"mean_seconds\": %.6g, \"gflop\": %.6g, \"gflops\": %.6g, \"percent_of_peak\": %.6g, \"percent_of_dot_peak\": ",
                     best_total, sum_total / repeats, total_flops / 1e9, total_flops / best_total / 1e9,
                     peak > 0 ? 100.0 * total_flops / best_total / 1e9 / peak : 0.0);
+            cli_json_number_or_null(jf, dpeak > 0, dpeak > 0 ? 100.0 * total_flops / best_total / 1e9 / dpeak : 0.0);
+            fputs("},\n", jf);
             fprintf(jf, "  \"flops\": {\"encode\": %.6g, \"trunk\": %.6g, \"branch\": %.6g, \"decode\": %.6g, \"total\": %.6g},\n",
                     fl.encode, fl.trunk, fl.branch, fl.decode, fl.total);
             fprintf(jf, "  \"memory\": {\"model_bytes\": %llu, \"session_bytes\": %llu, \"planned_bytes\": %llu, \"peak_rss_bytes\": %llu, \"file_bytes\": %llu},\n",
