@@ -1629,6 +1629,38 @@ SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *con
     }
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
+/* 12 x 32 with bf16 pairs: panels p and p + 1 at once, as supermat__ukr2_avx512 does for f32 (each broadcast
+   pair of A feeds two vdpbf16ps: 12 broadcasts + 2 B loads for 24 products, where the 12 x 16 kernel's 12 + 1
+   loads for 12 kept Zen 5's load ports, not its dot units, busy). nr: columns of the pair (17..32; the first
+   panel is whole). Per output element the same vdpbf16ps chain as supermat__ukr_bf16: the same bits. */
+#define SUPERMAT__UKR2BF_ROW(i)                                                      \
+    do {                                                                             \
+        __m512bh a_ = (__m512bh)_mm512_set1_epi32((int)ap[i][k]);                    \
+        acc0[i] = _mm512_dpbf16_ps(acc0[i], a_, bv0);                                \
+        acc1[i] = _mm512_dpbf16_ps(acc1[i], a_, bv1);                                \
+    } while (0)
+SUPERMAT__AVX512BF16 static void supermat__ukr2_bf16(int kc2, const uint32_t *const *a, const uint16_t *b0, const uint16_t *b1, float *c,
+                                                     size_t ldc, int mr, int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc0[SUPERMAT__MR512], acc1[SUPERMAT__MR512];
+    const uint32_t *ap[SUPERMAT__MR512];
+    __mmask16 mask1 = (__mmask16)(nr >= 32 ? 0xFFFF : (1u << (nr - 16)) - 1u);
+    int i, k;
+    for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
+    supermat__acc512_init(acc0, mr, (__mmask16)0xFFFF, c, ldc, bias, r, ldr, accumulate);
+    supermat__acc512_init(acc1, mr, mask1, c + 16, ldc, bias ? bias + 16 : NULL, r ? r + 16 : NULL, ldr, accumulate);
+    for (k = 0; k < kc2; k++) {
+        __m512bh bv0 = (__m512bh)_mm512_loadu_si512((const void *)(b0 + (size_t)k * 32));
+        __m512bh bv1 = (__m512bh)_mm512_loadu_si512((const void *)(b1 + (size_t)k * 32));
+        SUPERMAT__UKR2BF_ROW(0); SUPERMAT__UKR2BF_ROW(1); SUPERMAT__UKR2BF_ROW(2); SUPERMAT__UKR2BF_ROW(3);
+        SUPERMAT__UKR2BF_ROW(4); SUPERMAT__UKR2BF_ROW(5); SUPERMAT__UKR2BF_ROW(6); SUPERMAT__UKR2BF_ROW(7);
+        SUPERMAT__UKR2BF_ROW(8); SUPERMAT__UKR2BF_ROW(9); SUPERMAT__UKR2BF_ROW(10); SUPERMAT__UKR2BF_ROW(11);
+    }
+    for (i = 0; i < mr; i++) {
+        _mm512_storeu_ps(c + (size_t)i * ldc, acc0[i]);
+        _mm512_mask_storeu_ps(c + (size_t)i * ldc + 16, mask1, acc1[i]);
+    }
+}
+#undef SUPERMAT__UKR2BF_ROW
 /* n floats -> n/2 bf16 pairs (round to nearest even; an odd tail pairs with 0) */
 SUPERMAT__AVX512BF16 static void supermat__to_bf16_pairs(const float *x, int n, uint32_t *out) {
     int i = 0;
@@ -2024,6 +2056,18 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (p = p0; p < p1; p++) {
                 const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+                if (p + 1 < p1) { /* panels p and p + 1 together (p is whole: not the last) */
+                    int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
+                    for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                        const uint32_t *rows[SUPERMAT__MR512];
+                        int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                        for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = ab + (size_t)(i < mr ? m - m0 + i : m - m0) * kc2;
+                        supermat__ukr2_bf16(kc2, rows, bq, bq + (size_t)K2 * 32, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2,
+                                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                    }
+                    p++;
+                    continue;
+                }
                 for (m = m0; m < m1; m += SUPERMAT__MR512) {
                     const uint32_t *rows[SUPERMAT__MR512];
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
