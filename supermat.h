@@ -1741,6 +1741,59 @@ SUPERMAT__AVX512VNNI static void supermat__ukr_i8(int kc4, const unsigned char *
     }
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
+/* 12 x 32 int8: panels p and p + 1 at once, as supermat__ukr2_avx512 / supermat__ukr2_bf16 do (12 broadcasts
+   + 2 B loads for 24 vpdpbusd, where the 12 x 16 kernel's 12 + 1 loads for 12 keep the load ports, not the dot
+   units, busy). The chunk's 24 int32 sums in a function of their own (see supermat__i8_chunk), then per output
+   element the same operations in the same order as supermat__ukr_i8: the same bits. nr: columns of the pair
+   (17..32; the first panel is whole). */
+#define SUPERMAT__I8_2ROW(i, s, t)                                                       \
+    do {                                                                                 \
+        __m512i a_ = _mm512_set1_epi32((int)supermat__ld32(a[i] + 4 * (size_t)q));       \
+        s = _mm512_dpbusd_epi32(s, a_, bv0);                                             \
+        t = _mm512_dpbusd_epi32(t, a_, bv1);                                             \
+    } while (0)
+SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk2(int q0, int q1, const unsigned char *const *a, const signed char *b0,
+                                                                               const signed char *b1, __m512i *out) {
+    __m512i s0 = _mm512_setzero_si512(), s1 = s0, s2 = s0, s3 = s0, s4 = s0, s5 = s0, s6 = s0, s7 = s0, s8 = s0, s9 = s0, s10 = s0, s11 = s0;
+    __m512i t0 = s0, t1 = s0, t2 = s0, t3 = s0, t4 = s0, t5 = s0, t6 = s0, t7 = s0, t8 = s0, t9 = s0, t10 = s0, t11 = s0;
+    int q;
+    for (q = q0; q < q1; q++) {
+        __m512i bv0 = _mm512_loadu_si512((const void *)(b0 + (size_t)q * 64)), bv1 = _mm512_loadu_si512((const void *)(b1 + (size_t)q * 64));
+        SUPERMAT__I8_2ROW(0, s0, t0); SUPERMAT__I8_2ROW(1, s1, t1); SUPERMAT__I8_2ROW(2, s2, t2); SUPERMAT__I8_2ROW(3, s3, t3);
+        SUPERMAT__I8_2ROW(4, s4, t4); SUPERMAT__I8_2ROW(5, s5, t5); SUPERMAT__I8_2ROW(6, s6, t6); SUPERMAT__I8_2ROW(7, s7, t7);
+        SUPERMAT__I8_2ROW(8, s8, t8); SUPERMAT__I8_2ROW(9, s9, t9); SUPERMAT__I8_2ROW(10, s10, t10); SUPERMAT__I8_2ROW(11, s11, t11);
+    }
+    out[0] = s0; out[1] = s1; out[2] = s2; out[3] = s3; out[4] = s4; out[5] = s5;
+    out[6] = s6; out[7] = s7; out[8] = s8; out[9] = s9; out[10] = s10; out[11] = s11;
+    out[12] = t0; out[13] = t1; out[14] = t2; out[15] = t3; out[16] = t4; out[17] = t5;
+    out[18] = t6; out[19] = t7; out[20] = t8; out[21] = t9; out[22] = t10; out[23] = t11;
+}
+#undef SUPERMAT__I8_2ROW
+SUPERMAT__AVX512VNNI static void supermat__ukr2_i8(int kc4, const unsigned char *const *a, const float *const *as, const signed char *b0,
+                                                   const signed char *b1, const float *ws, const int32_t *cor, size_t cst, float *c, size_t ldc,
+                                                   int mr, int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
+    __m512 acc0[SUPERMAT__MR512], acc1[SUPERMAT__MR512];
+    __m512i sum[2 * SUPERMAT__MR512];
+    __mmask16 mask1 = (__mmask16)(nr >= 32 ? 0xFFFF : (1u << (nr - 16)) - 1u);
+    int i, j;
+    supermat__acc512_init(acc0, mr, (__mmask16)0xFFFF, c, ldc, bias, r, ldr, accumulate);
+    supermat__acc512_init(acc1, mr, mask1, c + 16, ldc, bias ? bias + 16 : NULL, r ? r + 16 : NULL, ldr, accumulate);
+    for (j = 0; 16 * j < kc4; j++) {
+        int q1 = SUPERMAT__MIN(kc4, 16 * j + 16);
+        __m512 wv0 = _mm512_loadu_ps(ws + (size_t)j * cst), wv1 = _mm512_loadu_ps(ws + (size_t)j * cst + 16);
+        __m512i cv0 = _mm512_loadu_si512((const void *)(cor + (size_t)j * cst)), cv1 = _mm512_loadu_si512((const void *)(cor + (size_t)j * cst + 16));
+        supermat__i8_chunk2(16 * j, q1, a, b0, b1, sum);
+        for (i = 0; i < SUPERMAT__MR512; i++) {
+            __m512 s_ = _mm512_set1_ps(as[i][j]);
+            acc0[i] = _mm512_fmadd_ps(_mm512_maskz_cvtepi32_ps(0xFFFF, _mm512_sub_epi32(sum[i], cv0)), _mm512_mul_ps(wv0, s_), acc0[i]);
+            acc1[i] = _mm512_fmadd_ps(_mm512_maskz_cvtepi32_ps(0xFFFF, _mm512_sub_epi32(sum[SUPERMAT__MR512 + i], cv1)), _mm512_mul_ps(wv1, s_), acc1[i]);
+        }
+    }
+    for (i = 0; i < mr; i++) {
+        _mm512_storeu_ps(c + (size_t)i * ldc, acc0[i]);
+        _mm512_mask_storeu_ps(c + (size_t)i * ldc + 16, mask1, acc1[i]);
+    }
+}
 #if SUPERMAT__HAS_AVXVNNI
 /* int8 compute on AVX-VNNI (the 256-bit vpdpbusd of CPUs without AVX-512: Alder Lake and later clients).
    supermat__quant_row_u8 in 256-bit vectors: the same bytes and scales (a chunk's tail is read from a
@@ -2096,6 +2149,24 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (p = p0; p < p1; p++) {
                 const signed char *bq = (const signed char *)g->Bq + ((size_t)p * K4 + (size_t)k0 / 4) * 64;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
+                if (step == SUPERMAT__MR512 && p + 1 < p1) { /* AVX512_VNNI: panels p and p + 1 together (p is whole) */
+                    int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
+                    for (m = m0; m < m1; m += SUPERMAT__MR512) {
+                        const unsigned char *rows[SUPERMAT__MR512];
+                        const float *rs[SUPERMAT__MR512];
+                        int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
+                        for (i = 0; i < SUPERMAT__MR512; i++) {
+                            int rr = i < mr ? m - m0 + i : m - m0;
+                            rows[i] = a8 + (size_t)rr * kc4 * 4;
+                            rs[i] = asc + (size_t)rr * (SUPERMAT__KC / 64);
+                        }
+                        supermat__ukr2_i8(kc4, rows, rs, bq, bq + (size_t)K4 * 64, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
+                                          g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
+                                          (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                    }
+                    p++;
+                    continue;
+                }
                 for (m = m0; m < m1; m += step) {
                     const unsigned char *rows[SUPERMAT__MR512];
                     const float *rs[SUPERMAT__MR512];
