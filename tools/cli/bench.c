@@ -87,13 +87,19 @@ SUPERMAT__AVX512VNNI static float cli_dot_vnni512(long iters, float seed) {
 #undef CLI_DOT_VN
     a0 = _mm512_add_epi32(_mm512_add_epi32(_mm512_add_epi32(a0, a1), _mm512_add_epi32(a2, a3)), _mm512_add_epi32(_mm512_add_epi32(a4, a5), _mm512_add_epi32(a6, a7)));
     a0 = _mm512_add_epi32(a0, _mm512_add_epi32(_mm512_add_epi32(a8, a9), _mm512_add_epi32(a10, a11)));
-    return (float)_mm512_reduce_add_epi32(a0);
+    { /* the lanes wrap (vector adds); summed as unsigned here, where a signed sum could overflow */
+        uint32_t out[16], t = 0;
+        _mm512_storeu_si512((void *)out, a0);
+        for (s = 0; s < 16; s++) t += out[s];
+        return (float)t;
+    }
 }
 #endif
 #if SUPERMAT__HAS_AVXVNNI
 SUPERMAT__AVXVNNI static float cli_dot_vnni256(long iters, float seed) {
     const __m256i x = _mm256_set1_epi32(0x01020304), y = _mm256_set1_epi32(0x01fe01fe);
-    int s = (int)(seed * 1000.0f), out[8];
+    int s = (int)(seed * 1000.0f);
+    uint32_t out[8];
     __m256i a0 = _mm256_set1_epi32(s), a1 = _mm256_set1_epi32(s + 1), a2 = _mm256_set1_epi32(s + 2), a3 = _mm256_set1_epi32(s + 3);
     __m256i a4 = _mm256_set1_epi32(s + 4), a5 = _mm256_set1_epi32(s + 5), a6 = _mm256_set1_epi32(s + 6), a7 = _mm256_set1_epi32(s + 7);
     __m256i a8 = _mm256_set1_epi32(s + 8), a9 = _mm256_set1_epi32(s + 9), a10 = _mm256_set1_epi32(s + 10), a11 = _mm256_set1_epi32(s + 11);
@@ -103,7 +109,7 @@ SUPERMAT__AVXVNNI static float cli_dot_vnni256(long iters, float seed) {
 #undef CLI_DOT_VN
     a0 = _mm256_add_epi32(_mm256_add_epi32(_mm256_add_epi32(a0, a1), _mm256_add_epi32(a2, a3)), _mm256_add_epi32(_mm256_add_epi32(a4, a5), _mm256_add_epi32(a6, a7)));
     a0 = _mm256_add_epi32(a0, _mm256_add_epi32(_mm256_add_epi32(a8, a9), _mm256_add_epi32(a10, a11)));
-    _mm256_storeu_si256((__m256i *)(void *)out, a0);
+    _mm256_storeu_si256((__m256i *)(void *)out, a0); /* summed as unsigned: the lanes wrap */
     return (float)(out[0] + out[1] + out[2] + out[3] + out[4] + out[5] + out[6] + out[7]);
 }
 #endif
