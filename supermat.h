@@ -2109,25 +2109,19 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (p = p0; p < p1; p++) {
                 const uint16_t *bq = (const uint16_t *)g->Bq + ((size_t)p * K2 + (size_t)k0 / 2) * 32;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
-                if (p + 1 < p1) { /* panels p and p + 1 together (p is whole: not the last) */
-                    int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
-                    for (m = m0; m < m1; m += SUPERMAT__MR512) {
-                        const uint32_t *rows[SUPERMAT__MR512];
-                        int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
-                        for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = ab + (size_t)(i < mr ? m - m0 + i : m - m0) * kc2;
-                        supermat__ukr2_bf16(kc2, rows, bq, bq + (size_t)K2 * 32, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2,
-                                            g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
-                    }
-                    p++;
-                    continue;
-                }
+                const int two = p + 1 < p1; /* panels p and p + 1 together (p is whole: not the last) */
                 for (m = m0; m < m1; m += SUPERMAT__MR512) {
                     const uint32_t *rows[SUPERMAT__MR512];
+                    float *cm = g->C + (size_t)m * g->ldc + n0;
+                    const float *bias = g->bias ? g->bias + n0 : NULL, *res = (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL;
                     int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
                     for (i = 0; i < SUPERMAT__MR512; i++) rows[i] = ab + (size_t)(i < mr ? m - m0 + i : m - m0) * kc2;
-                    supermat__ukr_bf16(kc2, rows, bq, g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr,
-                                       g->bias ? g->bias + n0 : NULL, (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                    if (two)
+                        supermat__ukr2_bf16(kc2, rows, bq, bq + (size_t)K2 * 32, cm, g->ldc, mr, SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0), bias, res,
+                                            g->ldr, k0 > 0);
+                    else supermat__ukr_bf16(kc2, rows, bq, cm, g->ldc, mr, nr, bias, res, g->ldr, k0 > 0);
                 }
+                p += two;
             }
             continue;
         }
@@ -2149,44 +2143,29 @@ static void supermat__gemm_task(void *user, int index, int thread) {
             for (p = p0; p < p1; p++) {
                 const signed char *bq = (const signed char *)g->Bq + ((size_t)p * K4 + (size_t)k0 / 4) * 64;
                 int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
-                if (step == SUPERMAT__MR512 && p + 1 < p1) { /* AVX512_VNNI: panels p and p + 1 together (p is whole) */
-                    int nr2 = SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0);
-                    for (m = m0; m < m1; m += SUPERMAT__MR512) {
-                        const unsigned char *rows[SUPERMAT__MR512];
-                        const float *rs[SUPERMAT__MR512];
-                        int mr = SUPERMAT__MIN(SUPERMAT__MR512, m1 - m), i;
-                        for (i = 0; i < SUPERMAT__MR512; i++) {
-                            int rr = i < mr ? m - m0 + i : m - m0;
-                            rows[i] = a8 + (size_t)rr * kc4 * 4;
-                            rs[i] = asc + (size_t)rr * (SUPERMAT__KC / 64);
-                        }
-                        supermat__ukr2_i8(kc4, rows, rs, bq, bq + (size_t)K4 * 64, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
-                                          g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr2, g->bias ? g->bias + n0 : NULL,
-                                          (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
-                    }
-                    p++;
-                    continue;
-                }
+                const int two = step == SUPERMAT__MR512 && p + 1 < p1; /* AVX512_VNNI: panels p and p + 1 together (p is whole) */
                 for (m = m0; m < m1; m += step) {
                     const unsigned char *rows[SUPERMAT__MR512];
                     const float *rs[SUPERMAT__MR512];
+                    const float *ws = g->qs + j0 * cst + (size_t)n0, *bias = g->bias ? g->bias + n0 : NULL;
+                    const float *res = (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL;
+                    const int32_t *cr = cor + j0 * cst + (size_t)n0;
+                    float *cm = g->C + (size_t)m * g->ldc + n0;
                     int mr = SUPERMAT__MIN(step, m1 - m), i;
                     for (i = 0; i < SUPERMAT__MR512; i++) {
                         int rr = i < mr ? m - m0 + i : m - m0;
                         rows[i] = a8 + (size_t)rr * kc4 * 4;
                         rs[i] = asc + (size_t)rr * (SUPERMAT__KC / 64);
                     }
+                    if (two)
+                        supermat__ukr2_i8(kc4, rows, rs, bq, bq + (size_t)K4 * 64, ws, cr, cst, cm, g->ldc, mr, SUPERMAT__MIN(2 * SUPERMAT__NR, g->N - n0),
+                                          bias, res, g->ldr, k0 > 0);
 #if SUPERMAT__HAS_AVXVNNI
-                    if (g->vnni256)
-                        supermat__ukr_i8_avx(kc4, rows, rs, bq, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
-                                             g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr, g->bias ? g->bias + n0 : NULL,
-                                             (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
-                    else
+                    else if (g->vnni256) supermat__ukr_i8_avx(kc4, rows, rs, bq, ws, cr, cst, cm, g->ldc, mr, nr, bias, res, g->ldr, k0 > 0);
 #endif
-                    supermat__ukr_i8(kc4, rows, rs, bq, g->qs + j0 * cst + (size_t)n0, cor + j0 * cst + (size_t)n0, cst,
-                                     g->C + (size_t)m * g->ldc + n0, g->ldc, mr, nr, g->bias ? g->bias + n0 : NULL,
-                                     (g->R && k0 == 0) ? g->R + (size_t)m * g->ldr + n0 : NULL, g->ldr, k0 > 0);
+                    else supermat__ukr_i8(kc4, rows, rs, bq, ws, cr, cst, cm, g->ldc, mr, nr, bias, res, g->ldr, k0 > 0);
                 }
+                p += two;
             }
             continue;
         }
