@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """How sure is a difference in material quality?  Paired differences and their intervals over the assets, from
-the JSON of tools/eval_quality.py.
+the JSON of tools/eval_quality.py (or of tools/eval_bake.py: one bake per asset, its relighting PSNR in the
+re-render column).
 
 usage: eval_ci.py RESULT.json [MORE.json ...] --ref PRED [--pred PRED ...] [--level L] [--json OUT]
 
@@ -21,12 +22,26 @@ on synthetic data.
 """
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
 from scipy.stats import t as student_t
 
 METRICS = ("albedo_psnr", "albedo_ssim", "roughness_psnr", "metallic_psnr", "rerender_psnr")
+
+
+BAKE_NAMES = {"rough_psnr": "roughness_psnr", "metal_psnr": "metallic_psnr", "relight_psnr": "rerender_psnr"}
+
+
+def load_rows(j):
+    """The per-view rows of an eval_quality.py JSON ('views'), or an eval_bake.py JSON's per-asset rows ('rows':
+    one bake per asset, its relighting PSNR as the re-render's) in the same form; None for anything else."""
+    if "views" in j:
+        return j["views"]
+    if "rows" in j:
+        return [dict({BAKE_NAMES.get(k, k): v for k, v in r.items()}, view=0, env_in="") for r in j["rows"]]
+    return None
 
 
 def view_key(r):
@@ -84,7 +99,7 @@ def resolve(spec, files):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("results", nargs="+", help="tools/eval_quality.py --json files")
+    ap.add_argument("results", nargs="+", help="tools/eval_quality.py or eval_bake.py --json files")
     ap.add_argument("--ref", required=True, help="the reference predictor (e.g. input_as_albedo)")
     ap.add_argument("--pred", action="append", default=[], help="a predictor to compare (repeatable)")
     ap.add_argument("--level", type=float, default=0.95)
@@ -96,11 +111,12 @@ def main():
     for p in args.results:
         try:
             with open(p) as f:
-                files[p] = json.load(f)
+                rows = load_rows(json.load(f))
         except (OSError, ValueError) as e:
             sys.exit(f"error: {p}: {e}")
-        if "views" not in files[p]:
-            sys.exit(f"error: {p}: not a tools/eval_quality.py --json file (no 'views')")
+        if not isinstance(rows, list):
+            sys.exit(f"error: {p}: not a tools/eval_quality.py or eval_bake.py --json file (no 'views' or 'rows')")
+        files[p] = {"views": rows}
     preds = args.pred or [p for p in dict.fromkeys(r["predictor"] for f in files.values() for r in f["views"])
                           if p != args.ref]
     ref_rows, ref_name = resolve(args.ref, files)
@@ -129,9 +145,13 @@ def main():
         print(f"| {spec} | " + " | ".join(cell(res[m], m) if m in res else "-" for m in METRICS)
               + f" | {a['worst'][0]} {a['worst'][1]:+.2f} .. {a['best'][0]} {a['best'][1]:+.2f} |")
     print("\n(n/k: the difference favours the predictor on n of the k assets)")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(dict(ref=args.ref, level=args.level, intervals=out), f, indent=1)
+    if args.json:   # whole or not at all
+        try:
+            with open(args.json + ".tmp", "w") as f:
+                json.dump(dict(ref=args.ref, level=args.level, intervals=out), f, indent=1)
+            os.replace(args.json + ".tmp", args.json)
+        except OSError as e:
+            sys.exit(f"error: {args.json}: {e}")
 
 
 if __name__ == "__main__":

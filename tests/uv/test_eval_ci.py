@@ -9,7 +9,7 @@ the assets).  Checks, on synthetic eval_quality.py JSON:
   - coverage: on 2000 synthetic evaluations of 5 assets (asset effects N(1, 1), view noise N(0, 1)) the 95 %
     interval holds the true effect 93-97 % of the time (an interval over views instead of assets, or a
     percentile bootstrap over 5 means, falls far below);
-  - the command line: FILE:NAME against another file, --json written, the table printed.
+  - the command line: FILE:NAME against another file, --json written, the table printed; an eval_bake.py JSON.
 usage: test_eval_ci.py WORKDIR
 """
 import json
@@ -117,6 +117,21 @@ def main():
     p = subprocess.run([sys.executable, tool, fa, fb, "--ref", "ref", "--pred", "m"], capture_output=True, text=True)
     check(p.returncode == 1 and "not measured on the same views" in p.stderr,
           f"command line, a view missing: exit {p.returncode}, {p.stderr.strip()}")
+    # an eval_bake.py JSON: one row per asset, rough_psnr / metal_psnr / relight_psnr
+    bake = [dict(asset=a, predictor=n, albedo_psnr=v, albedo_ssim=0.5, rough_psnr=v + 1, metal_psnr=v + 2,
+                 relight_psnr=v + d) for a, v in zip("pqrs", (10.0, 12.0, 9.0, 15.0))
+            for n, d in (("lit", 0.0), ("mv", 0.5))]
+    fk = os.path.join(work, "bake.json")
+    with open(fk, "w") as f:
+        json.dump(dict(config={}, overall={}, rows=bake), f)
+    p = subprocess.run([sys.executable, tool, fk, "--ref", "lit", "--json", fo], capture_output=True, text=True)
+    ok = p.returncode == 0
+    if ok:
+        with open(fo) as f:
+            j = json.load(f)["intervals"]["mv"]
+        ok = (abs(j["rerender_psnr"]["mean"] - 0.5) < 1e-12 and j["rerender_psnr"]["lo"] == j["rerender_psnr"]["hi"]
+              and j["albedo_psnr"]["mean"] == 0.0 and j["roughness_psnr"]["assets"] == 4)
+    check(ok, f"an eval_bake.py JSON: relighting as the re-render column (rc {p.returncode}) {p.stderr.strip()}")
     p = subprocess.run([sys.executable, tool, fa, "--ref", "nobody"], capture_output=True, text=True)
     check(p.returncode == 1 and "no views of predictor nobody" in p.stderr, "command line, an unknown reference")
 
