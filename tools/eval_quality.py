@@ -35,6 +35,8 @@ What it does
      per asset), and writes the JSON
      (--json), contact sheets (--sheets DIR: one PNG per view, one row per predictor: input over gray |
      pred albedo | pred roughness | pred metallic | gt albedo | gt roughness | gt metallic).
+     tools/eval_ci.py reads that JSON: each predictor's difference to another, paired view by view, with a
+     Student-t interval over the assets (how far the difference could move on other assets like these).
   --decompose also reports the albedo PSNR after the best least-squares gain per view (one for all channels:
   the exposure, which the input's auto-exposure hides, taken out of the error) and after the best gain per view
   and channel (exposure and white balance): how much of a predictor's albedo error is global brightness and
