@@ -326,6 +326,12 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
         check "batch mesh with models: 3 assets, the two models loaded once ($(grep -c 'supermat mesh: loaded' log2) loads)" [ "$(grep -c 'supermat mesh: loaded' log2)" -eq 2 ]
         check "batch mesh with models: textures as supermat mesh bakes them" cmp -s mmref_baseColor.png mmout/asset_2_baseColor.png
         check "batch mesh with models: metallicRoughness as supermat mesh bakes it" cmp -s mmref_metallicRoughness.png mmout/asset_2_metallicRoughness.png
+        # mesh flags without a value are passed on too (--keep-observed: the refined maps only where no view saw)
+        "$BIN" mesh "${NET[@]}" --keep-observed mm/asset_2.gltf mmko.gltf >/dev/null 2>&1 || bad "reference mesh run, --keep-observed"
+        "$BIN" batch mesh "${NET[@]}" --keep-observed --out mmko mm > /dev/null 2>&1; rc=$?
+        ko_ok=0
+        [ $rc -eq 0 ] && cmp -s mmko_baseColor.png mmko/asset_2_baseColor.png && ! cmp -s mmko_baseColor.png mmref_baseColor.png && ko_ok=1
+        check "batch mesh --keep-observed: exit 0 (got $rc), textures as supermat mesh --keep-observed bakes them, not the full refinement's" [ $ko_ok -eq 1 ]
         "$BIN" pack --model "$TINY_MV" --out mv.packed.safetensors >/dev/null && "$BIN" pack --model "$TINY_UV" --out uv.packed.safetensors >/dev/null || bad "pack the tiny models"
         "$BIN" batch mesh --mv-model mv.packed.safetensors --albedo-refine uv.packed.safetensors --rm-refine uv.packed.safetensors \
             --size 64 --views-size 64 --work-size native --threads 1 --jobs 2 --out mmpk mm > /dev/null 2> log3; rc=$?

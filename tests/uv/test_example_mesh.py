@@ -14,6 +14,10 @@ examples/mesh/studio_small_03_256.hdr, two views, the truth's exposure): PSNR of
 render over its pixels, floors from the first measurement (2026-11-27: the bake 15.66 dB, the input as given
 14.62), and a malformed asset argument refused.
 
+`supermat mesh --refine` (the UV-refine defaults too, models/supermat_refine_*_default.safetensors, 2026-11-29):
+albedo 7.81, roughness 10.25 dB on this example (every texel seen by a view; the refinement trades 1.5 dB of
+albedo for 0.55 of roughness here, which is why the default bake does not refine): floors 7.5 / 9.9.
+
 usage: test_example_mesh.py SUPERMAT OUT_DIR
 """
 import os
@@ -28,6 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 EX = os.path.join(HERE, "..", "..", "examples", "mesh", "lit", "example_pbr")
 ALBEDO_FLOOR, ALBEDO_OVER_LIT, ROUGH_FLOOR = 8.9, 1.0, 9.3
 RELIGHT_FLOOR, RELIGHT_OVER_INPUT = 15.0, 0.5
+REFINED_ALBEDO_FLOOR, REFINED_ROUGH_FLOOR = 7.5, 9.9   # --refine, first measured 2026-11-29 (Zen 5): 7.81 / 10.25
 TOOLS = os.path.join(HERE, "..", "..", "tools")
 HDRI = os.path.join(HERE, "..", "..", "examples", "mesh", "studio_small_03_256.hdr")
 TRUTH = os.path.join(HERE, "..", "..", "examples", "mesh", "example_pbr.gltf")
@@ -67,6 +72,19 @@ def main():
     check(alb >= ALBEDO_FLOOR and alb >= lit + ALBEDO_OVER_LIT,
           f"albedo >= {ALBEDO_FLOOR} dB and >= the lit texture + {ALBEDO_OVER_LIT} dB")
     check(rough >= ROUGH_FLOOR, f"roughness >= {ROUGH_FLOOR} dB")
+    # `supermat mesh --refine`: the UV-refine defaults too (models/supermat_refine_*_default.safetensors)
+    r = subprocess.run([sm, "mesh", "--refine", "--size", "256", EX + "_lit.gltf", os.path.join(out, "refined.gltf")],
+                       env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    check(r.returncode == 0 and "supermat_refine_albedo_default.safetensors" in r.stderr
+          and "supermat_refine_rm_default.safetensors" in r.stderr,
+          "supermat mesh --refine bakes the example with both refine defaults " + r.stderr[-300:])
+    if r.returncode == 0:
+        ralb = psnr(read(os.path.join(out, "refined_baseColor.png"), "RGB"), read(EX + "_truth_albedo.png", "RGB"))
+        rmr = read(os.path.join(out, "refined_metallicRoughness.png"), "RGB")
+        rrough = psnr(rmr[..., 1], read(EX + "_truth_roughness.png", "L"))
+        print(f"     --refine: albedo {ralb:.2f} dB, roughness {rrough:.2f}")
+        check(not np.array_equal(rmr, mr) and ralb >= REFINED_ALBEDO_FLOOR and rrough >= REFINED_ROUGH_FLOOR,
+              f"--refine: other maps than without, albedo >= {REFINED_ALBEDO_FLOOR} dB, roughness >= {REFINED_ROUGH_FLOOR} dB")
     # the demo's relighting
     rl = os.path.join(out, "relit")
     cmd = [sys.executable, os.path.join(TOOLS, "relight_demo.py"), "--hdri", HDRI, "--out", rl, "--views", "2"]

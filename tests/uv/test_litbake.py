@@ -304,8 +304,8 @@ def main():
                 open(os.path.join(d_flags, n), "rb").read() == open(os.path.join(d_none, n), "rb").read() for n in names)
             check(same, f"supermat mesh without model flags = --mv-model $SUPERMAT_MODEL --no-refine, byte for byte ({names}): "
                         f"{r1.stderr[-300:]} {r2.stderr[-300:]}")
-            # the mesh defaults beside the default model: with the three files there, no model flags = the flags
-            # naming them; with the multi-view one alone (or --no-refine), that model without refinement
+            # the mesh defaults beside the default model: with the three files there, no model flags = the
+            # multi-view one without refinement, --refine = the flags naming all three
             def mesh_bake(args, env=None, tag="b"):
                 d = os.path.join(out, "md_" + tag)
                 shutil.rmtree(d, ignore_errors=True)
@@ -325,13 +325,27 @@ def main():
                 os.symlink(os.path.abspath(t), os.path.join(md, n))
             env = dict(os.environ, SUPERMAT_MODEL=os.path.join(md, "supermat_default.safetensors"))
             full = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4], "--rm-refine", sys.argv[4]], tag="full")
-            got = mesh_bake([], env, "full_default")
-            check(full is not None and full == got, "the three mesh defaults beside the default model: no model flags = "
+            got = mesh_bake(["--refine"], env, "full_default")
+            check(full is not None and full == got, "the three mesh defaults beside the default model: --refine = "
                                                     "--mv-model MV --albedo-refine UV --rm-refine UV, byte for byte")
+            got = mesh_bake(["--mv-model", sys.argv[3], "--refine"], env, "full_mv_refine")
+            check(full is not None and full == got, "--mv-model MV --refine: that view model and the refine defaults, "
+                                                    "byte for byte")
             mv_only = mesh_bake(["--mv-model", sys.argv[3], "--no-refine"], tag="mv")
-            got = mesh_bake(["--no-refine"], env, "mv_default_nr")
+            got = mesh_bake([], env, "mv_default")
             check(mv_only is not None and mv_only == got and mv_only != full,
-                  "no model flags with --no-refine: the multi-view default alone, byte for byte")
+                  "no model flags, the refine defaults there too: the multi-view default alone, byte for byte")
+            got = mesh_bake(["--no-refine"], env, "mv_default_nr")
+            check(mv_only is not None and mv_only == got, "no model flags with --no-refine: the same bytes")
+            got = mesh_bake(["--mv-model", sys.argv[3]], tag="mv_alone")
+            check(mv_only is not None and mv_only == got, "--mv-model MV and no refine flag: = --no-refine, byte for byte")
+            for bad, what in ((["--refine", "--no-refine"], "--no-refine"), (["--refine", "--passthrough"], "--passthrough"),
+                              (["--refine", "--albedo-refine", sys.argv[4], "--mv-model", sys.argv[3]], "--albedo-refine"),
+                              (["--keep-observed"], "--keep-observed")):
+                rb = subprocess.run([sys.argv[5], "mesh"] + bad + [lit, os.path.join(out, "bad.gltf")], env=env,
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+                check(rb.returncode == 2 and what in rb.stderr and not os.path.exists(os.path.join(out, "bad.gltf")),
+                      f"supermat mesh {' '.join(bad[:2])}: usage error naming {what}, nothing written")
             # one refine network alone: its map is the full bake's, the other map the view model's (the two
             # refinements are independent); beside the default model, only the file that is there is used
             alb_only = mesh_bake(["--mv-model", sys.argv[3], "--albedo-refine", sys.argv[4]], tag="alb")
@@ -344,12 +358,16 @@ def main():
                   and rm_only[bcn] == mv_only[bcn] and full[mrn] != mv_only[mrn],
                   "--rm-refine alone: the metallic-roughness of the full bake, the albedo of --no-refine")
             os.unlink(os.path.join(md, "supermat_refine_rm_default.safetensors"))
-            got = mesh_bake([], env, "alb_default")
+            got = mesh_bake(["--refine"], env, "alb_default")
             check(alb_only is not None and alb_only == got, "only the albedo refine default beside the default model: "
-                  "no model flags = --albedo-refine alone, byte for byte")
+                  "--refine = --albedo-refine alone, byte for byte")
             os.unlink(os.path.join(md, "supermat_refine_albedo_default.safetensors"))
-            got = mesh_bake([], env, "mv_default")
+            got = mesh_bake([], env, "mv_default_alone")
             check(mv_only == got, "only the multi-view default beside the default model: it bakes without refinement")
+            rn = subprocess.run([sys.argv[5], "mesh", "--refine", lit, os.path.join(out, "nr.gltf")] + small, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            check(rn.returncode == 1 and "no UV-refine default" in rn.stderr and not os.path.exists(os.path.join(out, "nr.gltf")),
+                  "--refine with no refine default beside the default model: exit 1, a message, nothing written")
             # --keep-observed: the refined maps fill only the texels no view saw; the seen ones stay the
             # back-projection's (--detail off: the detail step would mix neighbours in)
             lit_dbg = os.path.join(out, "keep_dbg")
@@ -401,9 +419,10 @@ def main():
         r = subprocess.run([mesh_exe, "--no-refine", "--passthrough", "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, universal_newlines=True)
         check(r.returncode == 2 and "--no-refine" in r.stderr, "supermat mesh --no-refine --passthrough: usage error")
-        r = subprocess.run([mesh_exe, "--mv-model", sys.argv[3], "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
+        r = subprocess.run([mesh_exe, "--mv-model", sys.argv[3], "--keep-observed", "a.gltf", "b.gltf"], stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, universal_newlines=True)
-        check(r.returncode == 2, "supermat mesh --mv-model without refine models or --no-refine: usage error")
+        check(r.returncode == 2 and "--keep-observed" in r.stderr,
+              "supermat mesh --mv-model --keep-observed without a refine network: usage error")
 
     # 4. failures
     r = run([os.path.join(out, "asset", "quad.gltf"), bake, "--hdri", const, "--size", "16"], 1)

@@ -437,7 +437,7 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
 
 static const char cli_usage_batch[] =
     "usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
-    "       supermat batch mesh [--mv-model F ([--albedo-refine F] [--rm-refine F] | --no-refine) | --passthrough] --out DIR\n"
+    "       supermat batch mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --passthrough] --out DIR\n"
     "                           [mesh options] [batch options] INPUT...\n"
     "       supermat batch --merge --out DIR [INPUT...]\n"
     "\n"
@@ -468,8 +468,9 @@ static const char cli_usage_batch[] =
     "\n"
     "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
     "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
-    "--mv-model, --albedo-refine, --rm-refine, --no-refine, --passthrough, --size, --views-size, --work-size, --threads, --gutter,\n"
-    "--edge-reject, --weight, --supersample, --detail go to `supermat mesh`; each process loads the models once.\n"
+    "--mv-model, --refine, --albedo-refine, --rm-refine, --no-refine, --keep-observed, --passthrough, --size, --views-size,\n"
+    "--work-size, --threads, --gutter, --edge-reject, --weight, --supersample, --detail go to `supermat mesh`; each process\n"
+    "loads the models once.\n"
     "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
     "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
     "\n"
@@ -700,7 +701,10 @@ static int cli_batch(int argc, char **argv) {
                                                      "--work-size", "--gutter", "--edge-reject", "--weight", "--supersample", "--detail"};
             size_t q;
             int hit = 0;
-            if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine")) { fwd[nfwd++] = argv[i]; continue; }
+            if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine") || !strcmp(a, "--refine") || !strcmp(a, "--keep-observed")) {
+                fwd[nfwd++] = argv[i];
+                continue;
+            }
             for (q = 0; q < sizeof with_value / sizeof with_value[0]; q++)
                 if (!strcmp(a, with_value[q])) {
                     if (i + 1 >= argc) { free(inputs); free(fwd); return cli_usage_error(cmd, "option '%s' needs a value", a); }

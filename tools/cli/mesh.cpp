@@ -1,6 +1,6 @@
 /* supermat mesh: bake PBR textures for a glTF asset with supermat_uv.h (C++11, tinygltf).
  *
- *   supermat mesh --mv-model F [--albedo-refine F] [--rm-refine F] IN.gltf OUT.gltf
+ *   supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf
  *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
  *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]
  *
@@ -493,20 +493,22 @@ void remove_tree(const std::string &root) {
 
 int usage() {
     std::fprintf(stderr,
-                 "usage: supermat mesh [--mv-model F ([--albedo-refine F] [--rm-refine F] | --no-refine)] IN.gltf OUT.gltf\n"
+                 "usage: supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf\n"
                  "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
                  "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]\n"
                  "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
                  "                  view, no cross-view attention: the paper's ablation)\n"
-                 "  no model flags  the mesh defaults in the default model's folder (as `supermat image` finds\n"
+                 "  no model flags  the view model in the default model's folder (as `supermat image` finds\n"
                  "                  it): " MESH_DEFAULT_MV " (else the default model,\n"
-                 "                  view by view), " MESH_DEFAULT_BC " and\n"
-                 "                  " MESH_DEFAULT_RM " where present; with\n"
-                 "                  --no-refine: the view model alone\n"
+                 "                  view by view), without refinement (measured better than with the refine\n"
+                 "                  networks trained here: README, mesh defaults)\n"
+                 "  --refine        also the UV-refine defaults in that folder, " MESH_DEFAULT_BC "\n"
+                 "                  and " MESH_DEFAULT_RM " (each where present;\n"
+                 "                  neither: exit 1); with --mv-model too, that view model\n"
                  "  --albedo-refine F, --rm-refine F  the UV-refine networks, either or both (the same file may\n"
-                 "                  serve both); a map without one is the view model's, as with --no-refine\n"
+                 "                  serve both; with --mv-model); a map without one is the view model's\n"
                  "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
-                 "  --no-refine     the view model alone (no refine flags): its back-projected maps,\n"
+                 "  --no-refine     the view model alone (what no refine flag does): its back-projected maps,\n"
                  "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
                  "                  the paper's ablation without refinement)\n"
                  "  --keep-observed the refined maps fill only the texels no view saw; the others keep the\n"
@@ -676,7 +678,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
-    int passthrough = 0, no_refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
+    int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     g_max_memory = 0;
     for (int i = 1; i < argc; i++) {
@@ -721,6 +723,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             else if (w != "average") return usage();
         } else if (a == "--passthrough") passthrough = 1;
         else if (a == "--no-refine") no_refine = 1;
+        else if (a == "--refine") refine = 1;
         else if (a == "--keep-observed") keep_observed = 1;
         else if (a == "--force" || a == "--skip-existing") {
             int want = a == "--force" ? 1 : 2;
@@ -739,13 +742,19 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
         return 1;
     }
-    if (no_refine && (passthrough || bc_path || rm_path)) {
-        std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --albedo-refine, --rm-refine or --passthrough)\n");
+    if (no_refine && (passthrough || bc_path || rm_path || refine)) {
+        std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --refine, --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
     }
+    if (refine && (passthrough || bc_path || rm_path)) {
+        std::fprintf(stderr, "supermat mesh: --refine takes the default refine networks: not with %s\n",
+                     passthrough ? "--passthrough" : "--albedo-refine or --rm-refine (name both files instead)");
+        return 2;
+    }
+    if (!passthrough && !refine && !bc_path && !rm_path) no_refine = 1; /* no refine flag: the view model alone */
     if (keep_observed && (passthrough || no_refine)) {
         std::fprintf(stderr, "supermat mesh: --keep-observed keeps the seen texels out of the refinement: not with %s\n",
-                     passthrough ? "--passthrough" : "--no-refine");
+                     passthrough ? "--passthrough" : "no refine network (--refine, --albedo-refine or --rm-refine)");
         return 2;
     }
     if (!passthrough && !mv_path && (bc_path || rm_path)) {
@@ -754,31 +763,32 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     }
     static char default_path[4096];
     static std::string default_mv, default_bc, default_rm;
-    if (!passthrough && !mv_path) {
-        /* no model flags: the mesh defaults beside the default model (SuperMatMV, the two UV-refine networks),
-           where they are; else the default single-view model, view by view, without refinement */
+    if (!passthrough && (!mv_path || refine)) {
+        /* the mesh defaults beside the default model: with no --mv-model its SuperMatMV where it is (else the
+           default single-view model, view by view); with --refine the two UV-refine networks where they are */
         const char *from = nullptr;
         if (!supermat_cli_default_model(default_path, sizeof default_path, &from)) return 1; /* it said why */
         std::string dir = dir_of(default_path);
         default_mv = dir + "/" MESH_DEFAULT_MV;
         default_bc = dir + "/" MESH_DEFAULT_BC;
         default_rm = dir + "/" MESH_DEFAULT_RM;
-        bool have_mv = access(default_mv.c_str(), R_OK) == 0;
-        bool have_bc = !no_refine && access(default_bc.c_str(), R_OK) == 0;
-        bool have_rm = !no_refine && access(default_rm.c_str(), R_OK) == 0;
-        mv_path = have_mv ? default_mv.c_str() : default_path;
+        bool have_mv = !mv_path && access(default_mv.c_str(), R_OK) == 0;
+        bool have_bc = refine && access(default_bc.c_str(), R_OK) == 0;
+        bool have_rm = refine && access(default_rm.c_str(), R_OK) == 0;
+        if (refine && !have_bc && !have_rm) {
+            std::fprintf(stderr, "supermat mesh: --refine: no UV-refine default in %s (%s, %s)\n", dir.c_str(), MESH_DEFAULT_BC, MESH_DEFAULT_RM);
+            return 1;
+        }
+        bool defaulted_mv = !mv_path;
+        if (!mv_path) mv_path = have_mv ? default_mv.c_str() : default_path;
         if (have_bc) bc_path = default_bc.c_str();
         if (have_rm) rm_path = default_rm.c_str();
-        if (!have_bc && !have_rm) no_refine = 1;
         if (isatty(STDERR_FILENO)) {
             std::string by = have_bc && have_rm ? default_bc + " and " + default_rm : have_bc ? default_bc : have_rm ? default_rm : "";
-            std::fprintf(stderr, "models (%s): %s%s%s%s\n", from, mv_path, have_mv ? " (multi-view)" : " (single view, view by view)",
+            std::fprintf(stderr, "models (%s): %s%s%s%s\n", from, mv_path,
+                         !defaulted_mv ? "" : have_mv ? " (multi-view)" : " (single view, view by view)",
                          by.empty() ? ", no refinement" : ", refined by ", by.c_str());
         }
-    }
-    if (!passthrough && !no_refine && !bc_path && !rm_path) {
-        std::fprintf(stderr, "supermat mesh: give --albedo-refine and / or --rm-refine with --mv-model (or --no-refine)\n");
-        return 2;
     }
     auto t0 = std::chrono::steady_clock::now();
 
