@@ -60,7 +60,10 @@ if [ "$THREADS" -ge 2 ]; then
   rc_bc=0
   wait "$pid" || rc_bc=$?
   tail -n 2 "$WORK/refine_bc.log" "$WORK/refine_rm.log"
-  [ "$rc_bc" -eq 0 ] && [ "$rc_rm" -eq 0 ] || { echo "train_refine_default: training failed (bc $rc_bc, rm $rc_rm; logs in $WORK)" >&2; exit 1; }
+  if [ "$rc_bc" -ne 0 ] || [ "$rc_rm" -ne 0 ]; then
+    echo "train_refine_default: training failed (bc $rc_bc, rm $rc_rm; logs in $WORK)" >&2
+    exit 1
+  fi
 else
   echo "== the two networks one after the other: albedo $STEPS_BC steps, roughness / metallic $STEPS_RM"
   "${R[@]}" --out "$WORK/refine_bc" --phases bc --steps "$STEPS_BC" --threads "$THREADS"
