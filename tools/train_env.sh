@@ -1,7 +1,8 @@
-# Sourced by tools/train_default.sh and tools/train_mv_default.sh (not run on its own): from the repository
-# root, the variables both read (MIRROR_DIR, HARNESS_DEPS, WORK required; THREADS, AMP), the Debian packages
-# training needs (OpenBLAS: without it torch's Linear layers run on the reference BLAS, many times slower), and
-# the CC0 Poly Haven maps of github pmndrs/drei-assets extracted to $WORK/hdri (the only lighting).
+# Sourced by tools/train_default.sh, train_mv_default.sh and train_refine_default.sh (not run on its own): from the
+# repository root, the variables they read (MIRROR_DIR, HARNESS_DEPS, WORK required; THREADS, AMP), the Debian packages
+# training needs (OpenBLAS: without it torch's Linear layers run on the reference BLAS, many times slower) and those a
+# script names in TRAIN_PACKAGES before sourcing this, and the CC0 Poly Haven maps of github pmndrs/drei-assets
+# extracted to $WORK/hdri (the only lighting).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 : "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets/repo}"
@@ -15,7 +16,8 @@ AMP="${AMP:-$(grep -qwE 'amx_bf16|avx512_bf16' /proc/cpuinfo 2>/dev/null && echo
 PY=/usr/bin/python3
 
 need=()
-for p in python3-torch python3-numpy python3-pil libopenblas0-pthread cmake make gcc g++ libstb-dev; do
+# shellcheck disable=SC2086   # TRAIN_PACKAGES: more packages a script needs, set before sourcing this file
+for p in python3-torch python3-numpy python3-pil libopenblas0-pthread cmake make gcc g++ libstb-dev ${TRAIN_PACKAGES:-}; do
   dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
 done
 if [ ${#need[@]} -gt 0 ]; then
