@@ -9,6 +9,8 @@
 #   MIRROR_DIR    folder with the bare git mirror of github pmndrs/drei-assets (MIRROR_DIR/pmndrs+drei-assets/repo,
 #                 as the search tool's `fetch` lays it out): its CC0 Poly Haven hdri/*.hdr are the only lighting
 #   HARNESS_DEPS  the reference harness' extracted diffusers / SuperMat sources (../shared/reference/README.md)
+#   SUPERMAT_REFERENCE  the reference harness folder itself (default ../shared/reference beside the repository;
+#                 checked before any data is rendered)
 #   WORK          where data, checkpoints and logs go (outside the repository); run the same command again
 #                 to resume: finished data shards and training phases are kept, the others restart from
 #                 their last checkpoint
