@@ -26,6 +26,8 @@
 # it gives a model of the same recipe, not the same file.  Measured parts here (2 cores, AVX512_BF16): data
 # about 100 min, vae_colour 55 min, latent cache about 35 min, ft 25 min; not replayed end to end here: the
 # end-to-end phases at batch 32 take about 15 s a step on 2 cores (about 4.5 h for 1084 steps).
+# From an empty WORK (2026-11-29, Zen 5, 2 cores, AVX512_BF16): the third version in about 3.3 h (data 42 min,
+# VAE 29 min, latent cache 18 min, UNet 67 min, second set 13 min, fine-tuning 20 min; the README's training row).
 # shellcheck source=tools/train_env.sh
 source "$(dirname "${BASH_SOURCE[0]}")/train_env.sh"
 COUNT="${COUNT:-20000}"
