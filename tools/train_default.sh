@@ -23,9 +23,9 @@
 # cut by wall-clock budgets); STAGE4 replays it on the CPU with the step counts those budgets set (the logs:
 # ft 242 of 242, ft_e2e 730 of a 797-step schedule, e2e_more 354 of 354) and render counts (4175, 2075: the
 # device kept the shards its 16 processes finished in time, which need not be shards 0..N-1 exactly), so
-# it gives a model of the same recipe, not the same file.  Measured parts here (2 cores, AVX512_BF16): data
-# about 100 min, vae_colour 55 min, latent cache about 35 min, ft 25 min; not replayed end to end here: the
-# end-to-end phases at batch 32 take about 15 s a step on 2 cores (about 4.5 h for 1084 steps).
+# it gives a model of the same recipe, not the same file.  Measured (2026-11-29, Zen 5, 2 cores, AVX512_BF16):
+# data 48 min, vae_colour 39 min, latent cache 18 min, ft 11 min, the seed-13 cache and 242 steps 10 min, then
+# the end-to-end phases at batch 32 at 7.3 s a step (bf16 autocast): about 2.2 h for their 1084 steps.
 # From an empty WORK (2026-11-29, Zen 5, 2 cores, AVX512_BF16): the third version in about 3.3 h (data 42 min,
 # VAE 29 min, latent cache 18 min, UNet 67 min, second set 13 min, fine-tuning 20 min; the README's training row).
 # shellcheck source=tools/train_env.sh
