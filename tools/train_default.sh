@@ -25,7 +25,8 @@
 # device kept the shards its 16 processes finished in time, which need not be shards 0..N-1 exactly), so
 # it gives a model of the same recipe, not the same file.  Measured (2026-11-29, Zen 5, 2 cores, AVX512_BF16):
 # data 48 min, vae_colour 39 min, latent cache 18 min, ft 11 min, the seed-13 cache and 242 steps 10 min, then
-# the end-to-end phases at batch 32 at 7.3 s a step (bf16 autocast): about 2.2 h for their 1084 steps.
+# the end-to-end phases at batch 32 at 6.6-7.6 s a step (bf16 autocast): 2.1 h for their 1084 steps (4.2 h in all);
+# the result scored 14.38 dB held-out albedo against the shipped fourth version's 14.46 (docs/default_model.md).
 # From an empty WORK (2026-11-29, Zen 5, 2 cores, AVX512_BF16): the third version in about 3.3 h (data 42 min,
 # VAE 29 min, latent cache 18 min, UNet 67 min, second set 13 min, fine-tuning 20 min; the README's training row).
 # shellcheck source=tools/train_env.sh
