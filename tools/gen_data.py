@@ -42,7 +42,11 @@ at ROC AUC 0.72 (400 renders), while real assets' metals are as often the roughe
 material's albedo, with probability P, a photographic crop of one of the training environment maps (the same
 CC0 images that light the scenes; hue turned and saturation scaled at random, squeezed into the albedo range,
 projected along a random axis; its roughness follows the photo's luminance a little); drawn from each
-material's own stream, so P = 0 reproduces the earlier sets exactly.  Shading: tools/smrender.py (Cook-Torrance GGX,
+material's own stream, so P = 0 reproduces the earlier sets exactly.  --assembly P makes an object, with
+probability P, an assembly of 3-7 parts instead (a body and attached parts: surfaces of revolution, capped
+cylinders, boxes, ellipsoids, tori, capsules; sharp or slightly smoothed unions; most parts with a material of
+their own), drawn from a stream of its own, so P = 0 reproduces the earlier sets and P > 0 keeps every other
+sample.  Shading: tools/smrender.py (Cook-Torrance GGX,
 Smith, Schlick + Lambert, split-sum prefiltered environment).
 """
 import argparse
@@ -166,7 +170,7 @@ def sdf_shape(sh, p):
     if k == "ellipsoid":
         k0 = np.linalg.norm(q / sh["r"], axis=-1)
         k1 = np.linalg.norm(q / (sh["r"] * sh["r"]), axis=-1)
-        return k0 * (k0 - 1) / np.maximum(k1, 1e-9)
+        return k0 * (k0 - 1) / np.maximum(k1, 1e-9) * sh.get("lip", 1.0)
     if k == "torus":
         xz = np.sqrt(q[..., 0] ** 2 + q[..., 2] ** 2) - sh["R"]
         return np.sqrt(xz * xz + q[..., 1] ** 2) - sh["r"]
@@ -176,6 +180,16 @@ def sdf_shape(sh, p):
     if k == "capsule":
         y = np.clip(q[..., 1], -sh["h"], sh["h"])
         return np.sqrt(q[..., 0] ** 2 + (q[..., 1] - y) ** 2 + q[..., 2] ** 2) - sh["r"]
+    if k == "lathe":     # a surface of revolution about y: bottles, vases, knobs, fruit
+        rho = np.sqrt(q[..., 0] ** 2 + q[..., 2] ** 2)
+        t = np.clip((q[..., 1] + sh["h"]) / (2 * sh["h"]), 0, 1)
+        r = sh["r0"] * (1 + sum(a * np.sin((j + 1) * np.pi * t + ph) for j, (a, ph) in enumerate(sh["harm"])))
+        r = np.maximum(r, sh["rmin"])
+        return np.maximum((rho - r) * sh["lip"], np.abs(q[..., 1]) - sh["h"])
+    if k == "cylinder":  # capped, its rims rounded by rr (0: sharp)
+        rho = np.sqrt(q[..., 0] ** 2 + q[..., 2] ** 2)
+        d = np.stack([rho - sh["r"] + sh["rr"], np.abs(q[..., 1]) - sh["h"] + sh["rr"]], -1)
+        return np.linalg.norm(np.maximum(d, 0), axis=-1) + np.minimum(d.max(-1), 0) - sh["rr"]
     d = np.linalg.norm(q, axis=-1) - sh["r"]
     return (d - sh["amp"] * (2 * fbm(q * sh["freq"], sh["seed"], 3) - 1)) * 0.7
 
@@ -212,6 +226,72 @@ class Obj:
         for e in ds[1:]:
             d = smin(d, e, self.k * self.scale)
         return d
+
+
+def make_part(rng, s):
+    """One part of an assembly (--assembly), its size scaled by s: the kinds above plus lathes and cylinders."""
+    kind = str(rng.choice(["lathe", "cylinder", "roundbox", "ellipsoid", "superquadric", "torus", "capsule"],
+                          p=[0.25, 0.2, 0.2, 0.1, 0.1, 0.08, 0.07]))
+    sh = {"kind": kind, "rot": R.random_rotation(rng), "off": np.zeros(3, np.float32)}
+    if kind == "lathe":
+        h, r0 = float(rng.uniform(0.25, 0.7) * s), float(rng.uniform(0.15, 0.45) * s)
+        harm = [(float(rng.uniform(-0.3, 0.3) / (j + 1)), float(rng.uniform(0, 2 * np.pi))) for j in range(3)]
+        slope = r0 * np.pi * sum(abs(a) * (j + 1) for j, (a, _) in enumerate(harm)) / (2 * h)
+        sh.update(h=h, r0=r0, harm=harm, rmin=0.03 * s, lip=float(0.9 / np.sqrt(1 + slope * slope)))
+        rmax = r0 * (1 + sum(abs(a) for a, _ in harm))
+        sh["bound"], sh["ext"] = float(np.hypot(h, rmax)), float(max(h, rmax) * 0.8)
+    elif kind == "cylinder":
+        sh["r"], sh["h"] = float(rng.uniform(0.12, 0.45) * s), float(rng.uniform(0.05, 0.6) * s)
+        sh["rr"] = float(rng.choice([0.0, rng.uniform(0.05, 0.3)]) * min(sh["r"], sh["h"]))
+        sh["bound"], sh["ext"] = float(np.hypot(sh["r"], sh["h"])), float(max(sh["r"], sh["h"]) * 0.8)
+    elif kind == "roundbox":
+        sh["b"] = (rng.uniform(0.05, 0.6, 3) * s).astype(np.float32)
+        sh["rr"] = float(rng.uniform(0.0, 0.5) * sh["b"].min())
+        sh["b"] = (sh["b"] - sh["rr"]).astype(np.float32)
+        sh["bound"], sh["ext"] = float(np.linalg.norm(sh["b"]) + sh["rr"]), float(sh["b"].max() * 0.8)
+    elif kind in ("ellipsoid", "superquadric"):
+        sh["r"] = (rng.uniform(0.15, 0.6) * rng.uniform(0.4, 1.0, 3) * s).astype(np.float32)
+        # the ellipsoid's distance bound is steeper than 1 off flat ones, where the tracer's steps would
+        # overshoot: scaled by the shortest radius over the longest (exact for old sets: they have no "lip")
+        sh["lip"] = float(sh["r"].min() / sh["r"].max())
+        sh["e"] = float(rng.uniform(2.5, 6.0))
+        sh["bound"] = float(sh["r"].max() * (1.8 if kind == "superquadric" else 1.0))
+        sh["ext"] = float(sh["r"].max() * 0.8)
+    elif kind == "torus":
+        sh["R"], sh["r"] = float(rng.uniform(0.2, 0.5) * s), float(rng.uniform(0.03, 0.15) * s)
+        sh["bound"], sh["ext"] = sh["R"] + sh["r"], sh["R"]
+    else:
+        sh["h"], sh["r"] = float(rng.uniform(0.1, 0.5) * s), float(rng.uniform(0.05, 0.25) * s)
+        sh["bound"], sh["ext"] = sh["h"] + sh["r"], sh["h"] + sh["r"] * 0.5
+    return sh
+
+
+class Assembly(Obj):
+    """--assembly: a body and 2-6 attached parts (sharp or slightly smoothed unions), most with a material of their
+    own, as real assets are made of parts: a lathe-turned bottle with a cap, a box with knobs and a handle."""
+
+    def __init__(self, rng):
+        n = int(rng.integers(3, 8))
+        body = make_part(rng, 1.0)
+        self.shapes = [body]
+        for _ in range(n - 1):
+            part = make_part(rng, float(rng.uniform(0.2, 0.6)))
+            u = rng.normal(size=3)
+            part["off"] = (u / np.linalg.norm(u) * body["ext"] * rng.uniform(0.6, 1.1)).astype(np.float32)
+            self.shapes.append(part)
+        self.k = 0.0 if rng.random() < 0.6 else float(rng.uniform(0.01, 0.05))
+        self.rot = R.random_rotation(rng)
+        bound = max(np.linalg.norm(s["off"]) + s["bound"] for s in self.shapes)
+        self.scale = float(rng.uniform(0.6, 0.95) / bound)
+        self.center = np.array([*rng.uniform(-0.08, 0.08, 2), 0], np.float32)
+
+
+def assembly_materials(rng, n, *args):
+    """The materials of an assembly's n parts: each part's own, or (30 %) a copy of an earlier part's."""
+    mats = []
+    for k in range(n):
+        mats.append(mats[int(rng.integers(k))] if k and rng.random() < 0.3 else make_material(rng, *args))
+    return mats
 
 
 def frame(obj, extent, n=40):
@@ -503,11 +583,16 @@ def shade_facing(gb, env, rot):
 
 
 def render_sample(rng, envs, size, ss=2, mode_p=MODE_P, floor=0.0, anodised=ANODISED, photo=0.0, photos=None,
-                  facing=False, dark=0.0, mrough=0.0):
+                  facing=False, dark=0.0, mrough=0.0, assembly=0.0, arng=None):
     obj = Obj(rng)
     mats = [make_material(rng, mode_p, floor, anodised, photo, photos, dark, mrough) for _ in obj.shapes]
     if rng.random() < 0.3:  # one material for the whole group
         mats = [mats[0]] * len(mats)
+    if assembly > 0 and arng is not None and arng.random() < assembly:
+        # --assembly: an object of parts instead, from a stream of its own (arng), so that the main stream's
+        # draws, hence every other sample and every set made without it, stay the same
+        obj = Assembly(arng)
+        mats = assembly_materials(arng, len(obj.shapes), mode_p, floor, anodised, photo, photos, dark, mrough)
     frame(obj, rng.uniform(0.55, 0.92))
     S = size * ss
     xs = (np.arange(S, dtype=np.float32) + 0.5) / S * 2 - 1
@@ -725,9 +810,11 @@ def make_shard(args, shard):
         rng = np.random.default_rng([args.seed, i])
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
             render = render_views if args.views == 6 else render_sample
+            extra = {} if args.views == 6 else {"assembly": args.assembly,
+                                                  "arng": np.random.default_rng([args.seed, i, 0x6173])}
             s = render(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
                        anodised=args.anodised, photo=args.photo, photos=photos, facing=args.shading == "facing",
-                       dark=args.dark_metal, mrough=args.metal_rough)
+                       dark=args.dark_metal, mrough=args.metal_rough, **extra)
             if s is not None and s["rgba"][..., 3].astype(np.float32).mean() > 0.05 * 255:
                 break
         samples.append(s)
@@ -797,7 +884,12 @@ def main():
     ap.add_argument("--photo", type=float, default=0.0,
                     help="probability that a material's albedo is a photographic crop of a training environment map "
                          "(hue-turned and resaturated at random; default 0: the procedural palettes only)")
+    ap.add_argument("--assembly", type=float, default=0.0,
+                    help="probability that an object is an assembly of 3-7 parts (lathes, cylinders, boxes, ...), most "
+                         "with a material of their own, drawn from a stream of its own (default 0: the earlier sets)")
     args = ap.parse_args()
+    if not 0 <= args.assembly <= 1 or (args.assembly > 0 and args.views == 6):
+        raise SystemExit("gen_data: --assembly wants [0, 1], single views only")
     if not 0 <= args.albedo_floor < 1 or not 0 <= args.anodised <= 1 or not 0 <= args.photo <= 1 or \
             not 0 <= args.dark_metal <= 1 or not 0 <= args.metal_rough <= 1:
         raise SystemExit("gen_data: --albedo-floor wants [0, 1), --anodised, --photo, --dark-metal and --metal-rough [0, 1]")
@@ -814,7 +906,7 @@ def main():
     for p in paths:  # prefilter once (cached beside the map) before the workers start
         R.EnvLight(p)
     meta = {"size": args.size, "count": args.count, "seed": args.seed, "shard": args.shard, "mode_probs": args.mode_probs,
-            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo, "dark_metal": args.dark_metal, "metal_rough": args.metal_rough, "views": args.views, "shading": args.shading,
+            "albedo_floor": args.albedo_floor, "anodised": args.anodised, "photo": args.photo, "dark_metal": args.dark_metal, "metal_rough": args.metal_rough, "assembly": args.assembly, "views": args.views, "shading": args.shading,
             "envs": [os.path.basename(p) for p in paths], "hdri_dir": os.path.abspath(args.hdri_dir), "held_out": list(HELD_OUT)}
     with open(os.path.join(args.out, "meta.json"), "w") as f:
         json.dump(meta, f, indent=1)
