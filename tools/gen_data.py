@@ -808,10 +808,11 @@ def make_shard(args, shard):
     first = shard * args.shard
     for i in range(first, min(first + args.shard, args.count)):
         rng = np.random.default_rng([args.seed, i])
+        # --assembly's own stream, made once per sample so that a retry draws another object from it too
+        extra = {} if args.views == 6 else {"assembly": args.assembly,
+                                              "arng": np.random.default_rng([args.seed, i, 0x6173])}
         for _ in range(8):  # an object that misses the frame (rare) is drawn again from the same stream
             render = render_views if args.views == 6 else render_sample
-            extra = {} if args.views == 6 else {"assembly": args.assembly,
-                                                  "arng": np.random.default_rng([args.seed, i, 0x6173])}
             s = render(rng, envs, args.size, mode_p=args.mode_probs, floor=args.albedo_floor,
                        anodised=args.anodised, photo=args.photo, photos=photos, facing=args.shading == "facing",
                        dark=args.dark_metal, mrough=args.metal_rough, **extra)

@@ -65,7 +65,7 @@ def main():
     # 1. slopes and zero sets
     worst_part = worst_obj = 0.0
     zero_lathe = zero_cyl = exact_cyl = 0.0
-    kinds, nparts, near, fresh, total = {}, [], True, 0, 0
+    kinds, nparts, near = {}, [], True
     for i in range(300):
         a = G.Assembly(np.random.default_rng([3, i]))
         nparts.append(len(a.shapes))
@@ -130,16 +130,17 @@ def main():
     check(same0, "--assembly 0 gives the sample of no option, bit for bit (4 samples)")
     check(stream, "--assembly 1 leaves the main stream where it was (light, white balance, next draw)")
     check(differs, "--assembly 1 draws another object (4 samples)")
+    fresh = total = 0
+    one_each = True
     for i in range(200):
         r = np.random.default_rng([31, i])
         a = G.Assembly(r)
         mats = G.assembly_materials(r, len(a.shapes))
-        check_len = len(mats) == len(a.shapes)
-        if not check_len:
-            check(False, f"assembly {i}: {len(mats)} materials for {len(a.shapes)} parts")
+        one_each &= len(mats) == len(a.shapes)
         fresh += len({id(m) for m in mats})
         total += len(mats)
     frac = fresh / total
+    check(one_each, "one material per part (200 assemblies)")
     check(0.6 <= frac <= 0.85, f"{100 * frac:.1f} % of the parts' materials are their own (60-85 %)")
 
     # 3. the command line
