@@ -55,6 +55,8 @@
  *   session_desc.mv_attention  own-view or strided keys at the highest resolution (SuperMatMV)
  *   session_desc.detail_sigma  not a speed lever and not official: the albedo keeps the picture's own
  *                           detail (picture x low-pass(albedo) / low-pass(picture)); for small networks
+ *   session_desc.chroma_weight  not a speed lever and not official: the albedo takes the picture's
+ *                           chromaticity at the network's luminance; for small networks
  *
  * WHAT IT DOES NOT DO
  *   - No file I/O, no image decoding: give it pixels at the size you want processed (the official
@@ -461,6 +463,17 @@ typedef struct supermat_session_desc {
        smooth at that scale: the network sets the level and colour, the picture the detail (`supermat
        image` uses 1/64, chosen on validation assets: README). 0 = off; at most 1. */
     float detail_sigma;
+    /* supermat / supermat-mv, not in the official computation, after detail_sigma: the albedo takes the
+       input picture's chromaticity and keeps the network's luminance. Per pixel of alpha > 0 (every
+       pixel without alpha), in linear light, with A the albedo, I the input colour (sRGB-encoded as
+       given), L(x) = 0.2126 r + 0.7152 g + 0.0722 b and k = chroma_weight:
+           A' = (1 - k) A + k (L(A) I + e A) / (L(I) + e),  e = 0.002,
+       each channel clamped to [0, 1]; at k = 1 and L(I) >> e, A' = L(A) I / L(I): the picture's colour
+       at the network's brightness (e hands near-black picture pixels the network's own colour). For
+       networks whose colours are washed out (the small default model's are: README); it also brings
+       the lighting's colour cast and coloured reflections into the albedo. `supermat image` uses 1,
+       chosen on validation assets. 0 = off; at most 1. */
+    float chroma_weight;
 } supermat_session_desc;
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -5040,6 +5053,7 @@ struct supermat_session {
     int tile, overlap, skip_bg; /* VAE tiles (pixels; 0 = whole image), background skipping */
     int mv_att, mv_stride;
     float detail;               /* detail_sigma */
+    float chroma;               /* chroma_weight */
 };
 
 static void supermat__session_options(supermat_session *S, const supermat_session_desc *d) {
@@ -5049,6 +5063,7 @@ static void supermat__session_options(supermat_session *S, const supermat_sessio
     S->skip_bg = d->skip_background != 0;
     S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
     S->detail = d->detail_sigma;
+    S->chroma = d->chroma_weight;
 }
 
 static int supermat__views(const supermat_session_desc *d) {
@@ -5294,6 +5309,26 @@ static void supermat__detail(const supermat_image *in, float sigma, float *alb, 
     }
 }
 
+/* chroma_weight (see supermat_session_desc): the albedo (raw decode, [-1, 1], w x h x 3) of one view takes
+   its input picture's chromaticity with weight k, at the albedo's own luminance */
+static void supermat__chroma(const supermat_image *in, float k, float *alb, int w, int h) {
+    const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722;
+    size_t n = (size_t)w * h, i;
+    for (i = 0; i < n; i++) {
+        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w), c;
+        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+        double A[3], I[3], la, li;
+        if (!(a > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
+        for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[i * 3 + c] * 0.5 + 0.5); I[c] = supermat__lin(supermat__px(in, x, y, c)); }
+        la = kr * A[0] + kg * A[1] + kb * A[2];
+        li = kr * I[0] + kg * I[1] + kb * I[2];
+        for (c = 0; c < 3; c++) {
+            double v = (1.0 - k) * A[c] + k * (la * I[c] + e * A[c]) / (li + e);
+            alb[i * 3 + c] = (float)(supermat__srgb(v) * 2.0 - 1.0); /* supermat__srgb clamps to [0, 1] */
+        }
+    }
+}
+
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
                               supermat_flops *fl) {
@@ -5411,6 +5446,8 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         supermat__put(X, g1);
         supermat__put(X, g0);
     }
+    if (S->chroma > 0.0f && !uv && dec[0].d && supermat__live(X)) /* chroma_weight: the picture's colour */
+        for (i = 0; i < V; i++) supermat__chroma(supermat__view_in(rd, i), S->chroma, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h);
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -5451,6 +5488,10 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma %g: from 0 (off) to 1", (double)d->detail_sigma);
         if (d->detail_sigma > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma: a UV-refine model has no input picture to keep detail from");
+        if (!(d->chroma_weight >= 0.0f && d->chroma_weight <= 1.0f))
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight %g: from 0 (off) to 1", (double)d->chroma_weight);
+        if (d->chroma_weight > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight: a UV-refine model has no input picture to take colour from");
     }
     return SUPERMAT_SUCCESS;
 }

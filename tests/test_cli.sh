@@ -700,6 +700,15 @@ check "views: 36 files (18 PNG, 18 PFM)" [ "$(find "$OV" -type f | wc -l)" -eq 3
 golden "views albedo vs golden mv6_64/albedo.npy" "$DATA/golden/mv6_64/albedo.npy" "$OV"/color_000{0,1,2,3,4,5}_albedo.pfm
 golden "views roughness vs golden mv6_64/orm.npy G" --channel 1 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_roughness.pfm
 golden "views metallic vs golden mv6_64/orm.npy B" --channel 2 "$DATA/golden/mv6_64/orm.npy" "$OV"/color_000{0,1,2,3,4,5}_metallic.pfm
+# --chroma: off by default in views (the goldens above are the official computation); asked for, it changes
+# every view's albedo and nothing else
+OVC=$T/views6_chroma
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OVC" --chroma 1 "${VIEWS[@]}"
+check "views --chroma 1 exits 0" [ $RC -eq 0 ]
+for k in 0 5; do
+    check "views --chroma 1: view $k's albedo changed" bash -c "! cmp -s '$OVC/color_000${k}_albedo.png' '$OV/color_000${k}_albedo.png'"
+    check "views --chroma 1: view $k's roughness and metallic unchanged" bash -c "cmp -s '$OVC/color_000${k}_roughness.png' '$OV/color_000${k}_roughness.png' && cmp -s '$OVC/color_000${k}_metallic.png' '$OV/color_000${k}_metallic.png'"
+done
 # --conv: the Winograd lever from the command line, against the same official goldens
 OVW=$T/views6_wf4
 run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$OVW" --float --conv winograd-f4 "${VIEWS[@]}"
@@ -1014,23 +1023,45 @@ check "bench --image without truth: no gt_psnr column" bash -c "! grep -q gt_psn
 
 # bench --image against ground truth: `supermat image`'s PNGs of the same model are the truth, so the
 # f32 row (the same computation, quantised the same way) is at the cap; bench measures the network's maps,
-# so the truth is made with --detail off (image's default keeps the picture's detail in the albedo)
+# so the truth is made with --detail off --chroma off (image's default keeps the picture's detail and
+# colour in the albedo)
 GT=$T/gt
-run image --model "$MODEL" --detail off --out "$GT" "$SPHERE"
+run image --model "$MODEL" --detail off --chroma off --out "$GT" "$SPHERE"
 check "image for the truth maps exits 0" [ $RC -eq 0 ]
 # --detail: image's default (1/64) changes the albedo only; a value out of range is a usage error
 DT=$T/detail_default
-run image --model "$MODEL" --out "$DT" "$SPHERE"
+run image --model "$MODEL" --chroma off --out "$DT" "$SPHERE"
 check "image with the default --detail exits 0" [ $RC -eq 0 ]
 check "image: the default --detail changes the albedo" bash -c "! cmp -s '$DT/sphere_64_albedo.png' '$GT/sphere_64_albedo.png'"
 check "image: the default --detail leaves roughness and metallic" bash -c "cmp -s '$DT/sphere_64_roughness.png' '$GT/sphere_64_roughness.png' && cmp -s '$DT/sphere_64_metallic.png' '$GT/sphere_64_metallic.png'"
-run image --model "$MODEL" --detail 0.015625 --out "$T/detail_explicit" "$SPHERE"
+run image --model "$MODEL" --detail 0.015625 --chroma off --out "$T/detail_explicit" "$SPHERE"
 check "image --detail 0.015625 = the default" cmp -s "$T/detail_explicit/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
 run image --model "$MODEL" --detail 1.5 --out "$T/detail_bad" "$SPHERE"
 check "image --detail 1.5 exits 2" [ $RC -eq 2 ]
 check "image --detail 1.5 explains" grep -q -- "--detail" "$T/err"
 run refine --detail 0.1 --map "$SPHERE" --mask "$SPHERE" --position "$SPHERE" --out "$T/detail_refine"
 check "refine --detail exits 2 (a UV map has no picture)" [ $RC -eq 2 ]
+# --chroma: image's default (1, after the detail step) changes the albedo only; 0 and off are the same;
+# a value out of range is a usage error; views' default is off
+CH=$T/chroma_default
+run image --model "$MODEL" --out "$CH" "$SPHERE"
+check "image with the default --chroma exits 0" [ $RC -eq 0 ]
+check "image: the default --chroma changes the albedo" bash -c "! cmp -s '$CH/sphere_64_albedo.png' '$DT/sphere_64_albedo.png'"
+check "image: the default --chroma leaves roughness and metallic" bash -c "cmp -s '$CH/sphere_64_roughness.png' '$DT/sphere_64_roughness.png' && cmp -s '$CH/sphere_64_metallic.png' '$DT/sphere_64_metallic.png'"
+run image --model "$MODEL" --chroma 1 --detail 0.015625 --out "$T/chroma_explicit" "$SPHERE"
+check "image --chroma 1 --detail 0.015625 = the default" cmp -s "$T/chroma_explicit/sphere_64_albedo.png" "$CH/sphere_64_albedo.png"
+run image --model "$MODEL" --chroma 0 --out "$T/chroma_zero" "$SPHERE"
+check "image --chroma 0 = --chroma off" cmp -s "$T/chroma_zero/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
+run image --model "$MODEL" --chroma 0.5 --out "$T/chroma_half" "$SPHERE"
+check "image --chroma 0.5 differs from 0 and 1" bash -c "! cmp -s '$T/chroma_half/sphere_64_albedo.png' '$DT/sphere_64_albedo.png' && ! cmp -s '$T/chroma_half/sphere_64_albedo.png' '$CH/sphere_64_albedo.png'"
+for bad in 1.5 -0.1 nan grey; do
+    run image --model "$MODEL" --chroma "$bad" --out "$T/chroma_bad" "$SPHERE"
+    check "image --chroma $bad exits 2" [ $RC -eq 2 ]
+    check "image --chroma $bad explains" grep -q -- "--chroma" "$T/err"
+done
+check "image --chroma bad: nothing written" bash -c "! ls '$T/chroma_bad'/*.png >/dev/null 2>&1"
+run refine --chroma 1 --map "$SPHERE" --mask "$SPHERE" --position "$SPHERE" --out "$T/chroma_refine"
+check "refine --chroma exits 2 (a UV map has no picture)" [ $RC -eq 2 ]
 
 TRUTH=(--truth-albedo "$GT/sphere_64_albedo.png" --truth-roughness "$GT/sphere_64_roughness.png" --truth-metallic "$GT/sphere_64_metallic.png")
 BG=$T/bench_gt.json

@@ -54,7 +54,7 @@ static void cap_fn(void *user, supermat_stage st, int b, float *d, int n, int h,
     }
 }
 
-typedef struct opts { int tile, overlap, skip, ww, wh, mv_att, stride, threads; unsigned outputs; float detail; } opts;
+typedef struct opts { int tile, overlap, skip, ww, wh, mv_att, stride, threads; unsigned outputs; float detail, chroma; } opts;
 
 /* one single-view run: fills albedo (RGB) / orm (RGB) float outputs and the capture */
 static int run1(supermat_model *m, const opts *o, int w, int h, const unsigned char *px, int ch, float *albedo, float *orm,
@@ -68,6 +68,7 @@ static int run1(supermat_model *m, const opts *o, int w, int h, const unsigned c
     sd.model = m; sd.width = w; sd.height = h; sd.threads = o->threads ? o->threads : 2; sd.outputs = o->outputs;
     sd.vae_tile = o->tile; sd.vae_overlap = o->overlap; sd.skip_background = o->skip; sd.work_width = o->ww; sd.work_height = o->wh;
     sd.detail_sigma = o->detail;
+    sd.chroma_weight = o->chroma;
     if (supermat_session_create(&sd, &s, &err)) { TU_CHECK(0, "session: %s", err.message); return -1; }
     memset(&rd, 0, sizeof rd);
     rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
@@ -544,6 +545,73 @@ static void test_detail(supermat_model *m, supermat_model *uv, const unsigned ch
     }
 }
 
+/* ---- chroma_weight: the albedo with it against this file's float64 reference of the documented formula,
+   computed from the same session's albedo without it (and with detail_sigma on both, so that the order of
+   the two steps is checked); roughness / metallic untouched; alpha-0 pixels as decoded; RGB input weighs
+   every pixel ---- */
+static void test_chroma(supermat_model *m, supermat_model *uv, const unsigned char *img4) {
+    static unsigned char img3[S * S * 3];
+    static float a0[S * S * 3], a1[S * S * 3], o0[S * S * 3], o1[S * S * 3];
+    static const float wt[3] = {0.5f, 1.0f, 1.0f}, det[3] = {0.0f, 0.0f, 1.0f / 64.0f};
+    int ch, k, i, c;
+    for (i = 0; i < S * S; i++) for (c = 0; c < 3; c++) img3[i * 3 + c] = img4[i * 4 + c];
+    for (ch = 3; ch <= 4; ch++) {
+        const unsigned char *img = ch == 4 ? img4 : img3;
+        for (k = 0; k < 3; k++) {
+            opts o;
+            double worst = 0.0, moved = 0.0;
+            int bg_same = 1, changed = 0, fgn = 0;
+            memset(&o, 0, sizeof o);
+            o.detail = det[k];
+            if (run1(m, &o, S, S, img, ch, a0, o0, NULL, NULL, NULL)) return;
+            o.chroma = wt[k];
+            if (run1(m, &o, S, S, img, ch, a1, o1, NULL, NULL, NULL)) return;
+            for (i = 0; i < S * S; i++) {
+                double A[3], I[3], la, li;
+                if (ch == 4 && img[i * 4 + 3] == 0) {
+                    for (c = 0; c < 3; c++) bg_same &= a1[i * 3 + c] == a0[i * 3 + c];
+                    continue;
+                }
+                fgn++;
+                for (c = 0; c < 3; c++) { A[c] = dl_lin(a0[i * 3 + c]); I[c] = dl_lin(img[i * ch + c] / 255.0); }
+                la = 0.2126 * A[0] + 0.7152 * A[1] + 0.0722 * A[2];
+                li = 0.2126 * I[0] + 0.7152 * I[1] + 0.0722 * I[2];
+                for (c = 0; c < 3; c++) {
+                    double want = dl_srgb((1.0 - wt[k]) * A[c] + wt[k] * (la * I[c] + 0.002 * A[c]) / (li + 0.002));
+                    double e = fabs(want - a1[i * 3 + c]);
+                    if (e > worst) worst = e;
+                    moved += fabs((double)a1[i * 3 + c] - a0[i * 3 + c]);
+                    changed += a1[i * 3 + c] != a0[i * 3 + c];
+                }
+            }
+            TU_CHECK(worst < 2e-5 && changed > 0, "chroma %g (detail %g), %d channels: albedo worst %.3g from the float64 reference (%d values changed)",
+                     (double)wt[k], (double)det[k], ch, worst, changed);
+            TU_CHECK(bg_same, "chroma %g: alpha-0 pixels as decoded", (double)wt[k]);
+            TU_CHECK(!memcmp(o0, o1, sizeof o0), "chroma %g: roughness / metallic untouched", (double)wt[k]);
+            printf("chroma %g (detail %g), %d-channel input: albedo within %.2g of the float64 reference, %d values changed, mean |change| %.3f\n",
+                   (double)wt[k], (double)det[k], ch, worst, changed, fgn ? moved / (3.0 * fgn) : 0.0);
+        }
+    }
+    { /* bad values, and a UV-refine model (no picture) */
+        static const float bad[3] = {-0.5f, 1.5f, (float)NAN};
+        supermat_session_desc sd;
+        supermat_session *s = NULL;
+        supermat_error err;
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = S; sd.height = S;
+        for (k = 0; k < 3; k++) {
+            sd.chroma_weight = bad[k];
+            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "chroma_weight"),
+                     "chroma_weight %g: INVALID_ARGUMENT", (double)bad[k]);
+        }
+        if (uv) {
+            sd.model = uv; sd.chroma_weight = 1.0f;
+            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "chroma_weight"),
+                     "chroma_weight with a UV-refine model: INVALID_ARGUMENT");
+        }
+    }
+}
+
 int main(int argc, char **argv) {
     static unsigned char img[S * S * 4];
     unsigned char *d0 = NULL, *d1 = NULL, *d2 = NULL;
@@ -553,7 +621,7 @@ int main(int argc, char **argv) {
     test_layout();
     test_resample_props();
     tu_disc_rgba(img, S, S, 18, 20, 13);
-    if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); test_detail(m, uv, img); }
+    if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); test_detail(m, uv, img); test_chroma(m, uv, img); }
     if (uv) test_skip_uv(uv);
     if (mv) test_mv_window(mv);
     if (m && mv) test_errors(m, mv);

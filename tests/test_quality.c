@@ -1,7 +1,7 @@
 /* The CI quality floor (a regression guard for the default model): runs a model on an evaluation slice
    and checks the mean masked PSNR of each map against a committed floor.
 
-   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA]
+   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT]]
 
    SLICE_DIR/index.txt   one stem per line (blank lines and lines starting with # are skipped)
    SLICE_DIR/<stem>.png            the input picture, RGBA (straight alpha)
@@ -12,7 +12,8 @@
                          a comment; all three maps are required
 
    For each stem the model computes all three maps with default settings (with DETAIL_SIGMA: and
-   session_desc.detail_sigma, what `supermat image` does by default); they are quantised to 8 bits
+   session_desc.detail_sigma; with CHROMA_WEIGHT: and session_desc.chroma_weight; 1/64 and 1 are what
+   `supermat image` does by default); they are quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
    >= 128 and over their channels, values in [0, 1] (v / 255), capped at 100 dB. The table lists each
@@ -161,21 +162,26 @@ int main(int argc, char **argv) {
     supermat_session *sess = NULL;
     supermat_error err;
     supermat_result r;
-    float detail = 0.0f;
+    float detail = 0.0f, chroma = 0.0f;
 
-    if (argc != 4 && argc != 5) {
-        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA]\n", argv[0]);
+    if (argc < 4 || argc > 6) {
+        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT]]\n", argv[0]);
         return 2;
     }
-    if (argc == 5) {
+    if (argc >= 5) {
         char *end = NULL;
         detail = strtof(argv[4], &end);
-        if (!end || *end || !(detail > 0.0f && detail <= 1.0f)) { printf("usage: DETAIL_SIGMA '%s': a number in (0, 1]\n", argv[4]); return 2; }
+        if (!end || *end || !(detail >= 0.0f && detail <= 1.0f)) { printf("usage: DETAIL_SIGMA '%s': a number in [0, 1]\n", argv[4]); return 2; }
+    }
+    if (argc == 6) {
+        char *end = NULL;
+        chroma = strtof(argv[5], &end);
+        if (!end || *end || !(chroma > 0.0f && chroma <= 1.0f)) { printf("usage: CHROMA_WEIGHT '%s': a number in (0, 1]\n", argv[5]); return 2; }
     }
     model_path = argv[1];
     dir = argv[2];
     floor_path = argv[3];
-    printf("quality: model %s, slice %s, floor %s, detail_sigma %g\n", model_path, dir, floor_path, (double)detail);
+    printf("quality: model %s, slice %s, floor %s, detail_sigma %g, chroma_weight %g\n", model_path, dir, floor_path, (double)detail, (double)chroma);
     TU_CHECK(q_read_floor(floor_path, floors) == 0, "the floor file '%s' is not usable", floor_path);
     nstems = q_read_index(dir, &stems);
     TU_CHECK(nstems > 0, "the slice %s is %s", dir, nstems < 0 ? "unreadable (no index.txt)" : "empty: index.txt lists no stem");
@@ -217,7 +223,7 @@ int main(int argc, char **argv) {
             supermat_session_destroy(sess);
             sess = NULL;
             memset(&sd, 0, sizeof sd);
-            sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail;
+            sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail; sd.chroma_weight = chroma;
             r = supermat_session_create(&sd, &sess, &err);
             TU_CHECK(r == SUPERMAT_SUCCESS, "%s: session %dx%d: %s [%s]", stems[s], w, h, err.message, supermat_result_string(r));
             if (r != SUPERMAT_SUCCESS) { sess = NULL; ok = 0; }

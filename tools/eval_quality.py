@@ -19,7 +19,8 @@ What it does
      This is the recipe of the training-data generator (tools/gen_data.py), which uses the same module;
   4. runs the predictors on each input: `--model NAME=FILE` models through `supermat image --native --float`
      (PFM maps, PNG if no PFM; its defaults, so since 2026-11-27 with --detail 1/64: the albedo keeps the
-     picture's detail; --image-args "--detail off" for the network's maps alone), and the baselines
+     picture's detail, and since 2026-11-30 with --chroma 1: it takes the picture's colour at its own
+     luminance; --image-args "--detail off --chroma off" for the network's maps alone), and the baselines
        input_as_albedo  albedo = the input's RGB, roughness / metallic = dataset means,
        dataset_mean     every map = its dataset mean (--dataset-stats JSON: albedo_srgb_mean [3],
                         rough_mean, metal_mean; default 0.5 gray / 0.5 / 0.0),
@@ -498,7 +499,8 @@ def read_map(out_dir, stem, name):
 
 
 def run_model(supermat, model, inputs, out_dir, threads, extra=()):
-    """Maps of every input (stem -> paths) by `supermat image` (its defaults, --detail included, and `extra`)."""
+    """Maps of every input (stem -> paths) by `supermat image` (its defaults, --detail and --chroma included, and
+    `extra`)."""
     os.makedirs(out_dir, exist_ok=True)
     cmd = [supermat, "image", "--force", "--native", "--model", model, "--out", out_dir, "--float", "--threads", str(threads)]
     cmd += list(extra)
@@ -839,7 +841,7 @@ def main():
     ap.add_argument("--work", help="folder for the inputs and predicted maps (default: a temporary one)")
     ap.add_argument("--threads", type=int, default=0, help="supermat threads (default 0 = all cores)")
     ap.add_argument("--image-args", default="", help="more `supermat image` options for --model runs, e.g. "
-                    "\"--detail off\" (the maps without the picture's detail) or \"--work-size 128\" (after --native)")
+                    "\"--detail off --chroma off\" (the network's maps alone) or \"--work-size 128\" (after --native)")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--decompose", action="store_true",
                     help="also the albedo PSNR after the best gain per view (the unknown exposure taken out) and "

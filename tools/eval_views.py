@@ -10,7 +10,8 @@ For each asset (FILE.gltf, or FILE.gltf#NODE) and input map (--env-in, or all th
   2. predicts: --mv-model NAME=FILE models with `supermat views` (the six views together, their cameras in a
      meta.json of the official format), --model NAME=FILE single-view models with `supermat image` view by
      view (the paper's ablation: no multi-view attention), baseline input_as_albedo; --args "..." go to both
-     commands (their --detail defaults differ: image 1/64, views off; pass one to compare like with like);
+     commands (their --detail and --chroma defaults differ: image 1/64 and 1, views off; pass both to compare
+     like with like);
   3. masked PSNR / SSIM per map over each view's object, averaged over the views, per asset and overall.
 
   /usr/bin/python3 tools/eval_views.py --assets WaterBottle.gltf ... --hdri-dir HDRI \\
@@ -79,7 +80,8 @@ def main():
     ap.add_argument("--work", help="keep the views and maps here")
     ap.add_argument("--json")
     ap.add_argument("--args", default="", help="more options for both `supermat views` and `supermat image`, e.g. "
-                    "\"--detail off\" (image's default keeps the picture's detail, views' does not) or \"--detail 0.015625\"")
+                    "\"--detail off --chroma off\" (image's default keeps the picture's detail and colour, views' does not) "
+                    "or \"--detail 0.015625 --chroma 1\"")
     args = ap.parse_args()
     if not args.mv_model and not args.model and not args.baselines:
         ap.error("nothing to measure")

@@ -329,7 +329,8 @@ def run_supermat_maps(args, opts, picture, name):
     out = os.path.join(args.work, "supermat_" + name)
     shutil.rmtree(out, ignore_errors=True)
     cmd = [args.supermat, "image", "--model", args.model, "--native", "--float", "--threads", str(args.threads),
-           "--detail", "off", "--out", out] + opts + [picture]  # the official computation (image's default adds the detail step)
+           "--detail", "off", "--chroma", "off", "--out", out] + opts + [picture]  # the official computation (image's
+    # default adds the detail and colour steps)
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     stem = os.path.splitext(os.path.basename(picture))[0]
     return {m: read_pfm(os.path.join(out, f"{stem}_{m}.pfm")) for m in ("albedo", "roughness", "metallic")}

@@ -464,7 +464,7 @@ static const char cli_usage_batch[] =
     "  --retry-failed    run the items the journal says failed again\n"
     "  --fail-fast       stop at the first failed item (default: go on, exit 1 at the end)\n"
     "  --json FILE       a summary: items, done, failed, skipped, seconds, journal\n"
-    "  --outputs, --float, --native, --work-size, --detail, --threads, --kernel, --weights   as `supermat image`\n"
+    "  --outputs, --float, --native, --work-size, --detail, --chroma, --threads, --kernel, --weights   as `supermat image`\n"
     "\n"
     "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
     "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
@@ -674,6 +674,7 @@ static int cli_batch(int argc, char **argv) {
     char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
 
     cli_detail = -1.0f;
+    cli_chroma = -1.0f;
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
     if (argc >= 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"))) { fputs(cli_usage_batch, stdout); return CLI_OK; }

@@ -108,6 +108,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         sd.max_memory = cli_session_budget(X->model);
         cli_set_work(&sd, X->ws, w, h);
         sd.detail_sigma = cli_detail >= 0.0f ? cli_detail : 1.0f / 64.0f;
+        sd.chroma_weight = cli_chroma >= 0.0f ? cli_chroma : 1.0f;
         r = supermat_session_create(&sd, &X->sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[600];
@@ -176,6 +177,7 @@ static int cli_image(int argc, char **argv) {
     cli_model_ref mref;
 
     cli_detail = -1.0f;
+    cli_chroma = -1.0f;
     memset(&X, 0, sizeof X);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }

@@ -31,6 +31,7 @@ static int cli_refine(int argc, char **argv) {
     supermat_session *sess = NULL;
 
     cli_detail = -1.0f;
+    cli_chroma = -1.0f;
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         int k, hit = 0;
@@ -57,6 +58,7 @@ static int cli_refine(int argc, char **argv) {
         }
     }
     if (cli_detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
+    if (cli_chroma > 0.0f) return cli_usage_error(cmd, "--chroma: a UV map has no picture to take colour from (image and views take it)");
     if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) return rc;
     model_path = mref.path;
     for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);

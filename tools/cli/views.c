@@ -215,6 +215,7 @@ static int cli_views(int argc, char **argv) {
     supermat_session *sess = NULL;
 
     cli_detail = -1.0f;
+    cli_chroma = -1.0f;
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
     for (i = 2; i < argc; i++) {
@@ -305,6 +306,7 @@ static int cli_views(int argc, char **argv) {
         sd.max_memory = cli_session_budget(model);
         cli_set_work(&sd, ws, w, h);
         sd.detail_sigma = cli_detail > 0.0f ? cli_detail : 0.0f;
+        sd.chroma_weight = cli_chroma > 0.0f ? cli_chroma : 0.0f;
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[64];
