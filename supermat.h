@@ -5256,11 +5256,17 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
 }
 
 /* detail_sigma (see supermat_session_desc): one box pass of half-width r over the 2 channels of g, rows
-   (dir 0) or columns (dir 1), in place through a line copy (tmp: max(w, h) x 2), zero outside, sums in double */
-static void supermat__detail_box(float *g, float *tmp, int w, int h, int r, int dir) {
-    int len = dir ? h : w, lines = dir ? w : h, l, k;
+   (dir 0) or columns (dir 1), in place through a line copy (a thread's max(w, h) x 2 floats of tmp), zero
+   outside, sums in double; a task is SUPERMAT__BOX_LINES neighbouring lines */
+#define SUPERMAT__BOX_LINES 16
+typedef struct supermat__box { float *g, *tmp; int w, h, r, dir; } supermat__box;
+static void supermat__detail_box_task(void *user, int task, int thread) {
+    const supermat__box *B = (const supermat__box *)user;
+    int w = B->w, h = B->h, r = B->r, dir = B->dir, len = dir ? h : w, lines = dir ? w : h, l, k;
+    int l1 = (task + 1) * SUPERMAT__BOX_LINES < lines ? (task + 1) * SUPERMAT__BOX_LINES : lines;
     size_t step = dir ? (size_t)w * 2 : 2, lstep = dir ? 2 : (size_t)w * 2;
-    for (l = 0; l < lines; l++) {
+    float *g = B->g, *tmp = B->tmp + (size_t)thread * (size_t)(w > h ? w : h) * 2;
+    for (l = task * SUPERMAT__BOX_LINES; l < l1; l++) {
         float *d = g + l * lstep;
         double a0 = 0.0, a1 = 0.0;
         for (k = 0; k < len; k++) { tmp[2 * k] = d[k * step]; tmp[2 * k + 1] = d[k * step + 1]; }
@@ -5272,61 +5278,118 @@ static void supermat__detail_box(float *g, float *tmp, int w, int h, int r, int 
         }
     }
 }
+static void supermat__detail_box(supermat__ctx *X, float *g, float *tmp, int w, int h, int r, int dir) {
+    supermat__box B;
+    int lines = dir ? w : h;
+    B.g = g; B.tmp = tmp; B.w = w; B.h = h; B.r = r; B.dir = dir;
+    supermat__par(X, (lines + SUPERMAT__BOX_LINES - 1) / SUPERMAT__BOX_LINES, supermat__detail_box_task, &B);
+}
 static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; /* NaN -> 0 */ return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 
-/* the albedo (raw decode, [-1, 1], w x h x 3) of one view keeps its input picture's detail, a channel at a
-   time; g: w x h x 2 (the albedo's and the picture's channel, weighted), tmp: max(w, h) x 2 */
-static void supermat__detail(const supermat_image *in, float sigma, float *alb, int w, int h, float *g, float *tmp) {
-    size_t n = (size_t)w * h, i;
+/* The detail and colour steps, a row of pixels a task. Linear light of the picture: an 8-bit picture's
+   256 values from a table (the same doubles supermat__lin gives for them), a float picture's through
+   supermat__lin. */
+typedef struct supermat__post {
+    const supermat_image *in;
+    float *alb, *g;   /* the albedo (raw decode, [-1, 1], w x h x 3); detail: its w x h x 2 plane */
+    int w, h, c;      /* c: the detail step's colour channel */
+    float k;          /* chroma_weight */
+    double gr, *rs;   /* detail: the whole image's ratio; per-row sums of the plane's two channels (h x 2) */
+    const double *lut; /* 256 entries for an 8-bit picture, else NULL */
+} supermat__post;
+static double supermat__post_lin(const supermat__post *P, int x, int y, int c) {
+    const supermat_image *in = P->in;
+    if (P->lut) {
+        size_t stride = in->stride ? in->stride : (size_t)in->width * in->channels;
+        return P->lut[((const unsigned char *)in->pixels)[(size_t)y * stride + (size_t)x * in->channels + c]];
+    }
+    return supermat__lin(supermat__px(in, x, y, c));
+}
+static float supermat__post_alpha(const supermat__post *P, int x, int y) {
+    float a = P->in->channels == 4 ? supermat__px(P->in, x, y, 3) : 1.0f;
+    return a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
+}
+/* detail, one row: the plane's two channels (alpha x linear albedo, alpha x linear picture) and their row sums */
+static void supermat__detail_in_task(void *user, int y, int thread) {
+    const supermat__post *P = (const supermat__post *)user;
+    double sa = 0.0, si = 0.0;
+    int x;
+    (void)thread;
+    for (x = 0; x < P->w; x++) {
+        size_t i = (size_t)y * P->w + x;
+        float a = supermat__post_alpha(P, x, y);
+        P->g[2 * i] = a > 0.0f ? (float)(a * supermat__lin(P->alb[i * 3 + P->c] * 0.5 + 0.5)) : 0.0f;
+        P->g[2 * i + 1] = a > 0.0f ? (float)(a * supermat__post_lin(P, x, y, P->c)) : 0.0f;
+        sa += P->g[2 * i]; si += P->g[2 * i + 1];
+    }
+    P->rs[2 * y] = sa; P->rs[2 * y + 1] = si;
+}
+/* detail, one row: the albedo channel from the picture and the ratio of the low-passed planes */
+static void supermat__detail_out_task(void *user, int y, int thread) {
+    const supermat__post *P = (const supermat__post *)user;
+    int x;
+    (void)thread;
+    for (x = 0; x < P->w; x++) {
+        size_t i = (size_t)y * P->w + x;
+        double q;
+        if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue;
+        q = P->g[2 * i + 1] > 1e-6f ? (double)P->g[2 * i] / P->g[2 * i + 1] : P->gr;
+        q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+        P->alb[i * 3 + P->c] = (float)(supermat__srgb(supermat__post_lin(P, x, y, P->c) * q) * 2.0 - 1.0);
+    }
+}
+/* the albedo of one view keeps its input picture's detail, a channel at a time; g: w x h x 2, tmp: max(w, h) x 2
+   a thread, rs: h x 2 doubles */
+static void supermat__detail(supermat__ctx *X, const supermat_image *in, float sigma, float *alb, int w, int h, float *g, float *tmp,
+                             double *rs, const double *lut) {
     double s = (double)sigma * (w > h ? w : h);
-    int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass;
+    int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass, y;
+    supermat__post P;
     if (r < 1) r = 1;
+    memset(&P, 0, sizeof P);
+    P.in = in; P.alb = alb; P.g = g; P.w = w; P.h = h; P.rs = rs;
+    P.lut = in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     for (c = 0; c < 3; c++) {
-        double sa = 0.0, si = 0.0, gr;
-        for (i = 0; i < n; i++) {
-            int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
-            float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
-            a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
-            g[2 * i] = a > 0.0f ? (float)(a * supermat__lin(alb[i * 3 + c] * 0.5 + 0.5)) : 0.0f;
-            g[2 * i + 1] = a > 0.0f ? (float)(a * supermat__lin(supermat__px(in, x, y, c))) : 0.0f;
-            sa += g[2 * i]; si += g[2 * i + 1];
-        }
-        gr = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
+        double sa = 0.0, si = 0.0;
+        P.c = c;
+        supermat__par(X, h, supermat__detail_in_task, &P);
+        for (y = 0; y < h; y++) { sa += rs[2 * y]; si += rs[2 * y + 1]; } /* rows in order: the same sum on any thread count */
+        P.gr = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
         for (pass = 0; pass < 3; pass++) {
-            supermat__detail_box(g, tmp, w, h, r, 0);
-            supermat__detail_box(g, tmp, w, h, r, 1);
+            supermat__detail_box(X, g, tmp, w, h, r, 0);
+            supermat__detail_box(X, g, tmp, w, h, r, 1);
         }
-        for (i = 0; i < n; i++) {
-            int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
-            float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
-            double q;
-            if (!(a > 0.0f)) continue;
-            q = g[2 * i + 1] > 1e-6f ? (double)g[2 * i] / g[2 * i + 1] : gr;
-            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-            alb[i * 3 + c] = (float)(supermat__srgb(supermat__lin(supermat__px(in, x, y, c)) * q) * 2.0 - 1.0);
-        }
+        supermat__par(X, h, supermat__detail_out_task, &P);
     }
 }
 
-/* chroma_weight (see supermat_session_desc): the albedo (raw decode, [-1, 1], w x h x 3) of one view takes
-   its input picture's chromaticity with weight k, at the albedo's own luminance */
-static void supermat__chroma(const supermat_image *in, float k, float *alb, int w, int h) {
-    const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722;
-    size_t n = (size_t)w * h, i;
-    for (i = 0; i < n; i++) {
-        int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w), c;
-        float a = in->channels == 4 ? supermat__px(in, x, y, 3) : 1.0f;
+/* chroma_weight (see supermat_session_desc), one row: the albedo takes its input picture's chromaticity with
+   weight k, at the albedo's own luminance */
+static void supermat__chroma_task(void *user, int y, int thread) {
+    const supermat__post *P = (const supermat__post *)user;
+    const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722, k = P->k;
+    int x, c;
+    (void)thread;
+    for (x = 0; x < P->w; x++) {
+        float *alb = P->alb + ((size_t)y * P->w + x) * 3;
         double A[3], I[3], la, li;
-        if (!(a > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
-        for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[i * 3 + c] * 0.5 + 0.5); I[c] = supermat__lin(supermat__px(in, x, y, c)); }
+        if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
+        for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[c] * 0.5 + 0.5); I[c] = supermat__post_lin(P, x, y, c); }
         la = kr * A[0] + kg * A[1] + kb * A[2];
         li = kr * I[0] + kg * I[1] + kb * I[2];
         for (c = 0; c < 3; c++) {
             double v = (1.0 - k) * A[c] + k * (la * I[c] + e * A[c]) / (li + e);
-            alb[i * 3 + c] = (float)(supermat__srgb(v) * 2.0 - 1.0); /* supermat__srgb clamps to [0, 1] */
+            alb[c] = (float)(supermat__srgb(v) * 2.0 - 1.0); /* supermat__srgb clamps to [0, 1] */
         }
     }
+}
+static void supermat__chroma(supermat__ctx *X, const supermat_image *in, float k, float *alb, int w, int h, const double *lut) {
+    supermat__post P;
+    memset(&P, 0, sizeof P);
+    P.in = in; P.alb = alb; P.w = w; P.h = h; P.k = k;
+    P.lut = in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
+    supermat__par(X, h, supermat__chroma_task, &P);
 }
 
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
@@ -5439,15 +5502,23 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     }
     for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
     supermat__put(X, fg);
-    if (S->detail > 0.0f && !uv && dec[0].d) { /* detail_sigma: the albedo keeps its picture's detail */
-        float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2);
-        if (supermat__live(X))
-            for (i = 0; i < V; i++) supermat__detail(supermat__view_in(rd, i), S->detail, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, g0, g1);
-        supermat__put(X, g1);
-        supermat__put(X, g0);
+    if ((S->detail > 0.0f || S->chroma > 0.0f) && !uv && dec[0].d) { /* planned too: the detail step's memory */
+        double lut[256];
+        for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
+        if (S->detail > 0.0f) { /* detail_sigma: the albedo keeps its picture's detail */
+            int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1; /* the plan sets it too */
+            float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2 * T);
+            double *rs = (double *)supermat__get(X, (size_t)S->h * 4); /* h x 2 doubles */
+            if (supermat__live(X))
+                for (i = 0; i < V; i++)
+                    supermat__detail(X, supermat__view_in(rd, i), S->detail, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, g0, g1, rs, lut);
+            supermat__put(X, (float *)rs);
+            supermat__put(X, g1);
+            supermat__put(X, g0);
+        }
+        if (S->chroma > 0.0f && supermat__live(X)) /* chroma_weight: the picture's colour */
+            for (i = 0; i < V; i++) supermat__chroma(X, supermat__view_in(rd, i), S->chroma, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, lut);
     }
-    if (S->chroma > 0.0f && !uv && dec[0].d && supermat__live(X)) /* chroma_weight: the picture's colour */
-        for (i = 0; i < V; i++) supermat__chroma(supermat__view_in(rd, i), S->chroma, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h);
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -5515,6 +5586,7 @@ static supermat_result supermat__plan(supermat_session *S, int threads, supermat
     memset(&X, 0, sizeof X);
     X.plan = 1;
     X.err = err;
+    X.thr.max_threads = threads; /* no parallel_for: only what a thread count sizes (the detail step's line buffers) reads it */
     X.mv_att = S->mv_att; X.mv_stride = S->mv_stride;
     supermat__forward(&X, S, NULL, dec, &S->flops);
     for (b = m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
