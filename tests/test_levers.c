@@ -458,6 +458,26 @@ static void test_errors(supermat_model *m, supermat_model *mv) {
     }
 }
 
+/* detail_sigma (chroma 0) or chroma_weight (chroma 1): out-of-range and NaN values, and any value > 0 with a
+   UV-refine model (no picture), are INVALID_ARGUMENT naming the field */
+static void refused_values(supermat_model *m, supermat_model *uv, int chroma) {
+    static const float bad[3] = {-0.5f, 1.5f, (float)NAN};
+    const char *name = chroma ? "chroma_weight" : "detail_sigma";
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_error err;
+    int k;
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = S; sd.height = S;
+    for (k = 0; k < 4; k++) {
+        float v = k < 3 ? bad[k] : chroma ? 1.0f : 0.1f;
+        if (k == 3) { if (!uv) break; sd.model = uv; }
+        if (chroma) sd.chroma_weight = v; else sd.detail_sigma = v;
+        TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, name),
+                 "%s %g%s: INVALID_ARGUMENT", name, (double)v, k == 3 ? " with a UV-refine model" : "");
+    }
+}
+
 /* ---- detail_sigma: the albedo with it against this file's float64 reference of the documented formula,
    computed from the same session's albedo without it; roughness / metallic untouched; alpha-0 pixels as
    decoded; RGB input (no alpha) weighs every pixel ---- */
@@ -525,24 +545,7 @@ static void test_detail(supermat_model *m, supermat_model *uv, const unsigned ch
                    (double)sig[k], r, ch, worst, changed, clipped);
         }
     }
-    { /* bad values, and a UV-refine model (no picture) */
-        static const float bad[3] = {-0.5f, 1.5f, (float)NAN};
-        supermat_session_desc sd;
-        supermat_session *s = NULL;
-        supermat_error err;
-        memset(&sd, 0, sizeof sd);
-        sd.model = m; sd.width = S; sd.height = S;
-        for (k = 0; k < 3; k++) {
-            sd.detail_sigma = bad[k];
-            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "detail_sigma"),
-                     "detail_sigma %g: INVALID_ARGUMENT", (double)bad[k]);
-        }
-        if (uv) {
-            sd.model = uv; sd.detail_sigma = 0.1f;
-            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "detail_sigma"),
-                     "detail_sigma with a UV-refine model: INVALID_ARGUMENT");
-        }
-    }
+    refused_values(m, uv, 0);
 }
 
 /* ---- chroma_weight: the albedo with it against this file's float64 reference of the documented formula,
@@ -592,24 +595,7 @@ static void test_chroma(supermat_model *m, supermat_model *uv, const unsigned ch
                    (double)wt[k], (double)det[k], ch, worst, changed, fgn ? moved / (3.0 * fgn) : 0.0);
         }
     }
-    { /* bad values, and a UV-refine model (no picture) */
-        static const float bad[3] = {-0.5f, 1.5f, (float)NAN};
-        supermat_session_desc sd;
-        supermat_session *s = NULL;
-        supermat_error err;
-        memset(&sd, 0, sizeof sd);
-        sd.model = m; sd.width = S; sd.height = S;
-        for (k = 0; k < 3; k++) {
-            sd.chroma_weight = bad[k];
-            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "chroma_weight"),
-                     "chroma_weight %g: INVALID_ARGUMENT", (double)bad[k]);
-        }
-        if (uv) {
-            sd.model = uv; sd.chroma_weight = 1.0f;
-            TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "chroma_weight"),
-                     "chroma_weight with a UV-refine model: INVALID_ARGUMENT");
-        }
-    }
+    refused_values(m, uv, 1);
 }
 
 int main(int argc, char **argv) {

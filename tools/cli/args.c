@@ -390,6 +390,16 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
 static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
 static supermat_compute cli_compute = SUPERMAT_COMPUTE_F32;
 static int cli_compute_given; /* --compute was on the command line */
+/* 'off' (0) or a number from 0 to 1 (--detail, --chroma); what: what the number is, for the message */
+static int cli_parse_unit(const char *cmd, const char *opt, const char *s, const char *what, float *out) {
+    char *end = NULL;
+    *out = strcmp(s, "off") ? strtof(s, &end) : 0.0f;
+    if (strcmp(s, "off") && (!end || end == s || *end || !(*out >= 0.0f && *out <= 1.0f))) {
+        cli_usage_error(cmd, "%s: 'off' or %s from 0 to 1, not '%s'", opt, what, s);
+        return -1;
+    }
+    return 0;
+}
 static int cli_parse_compute(const char *cmd, const char *s) {
     cli_compute_given = 1;
     if (!strcmp(s, "f32")) cli_compute = SUPERMAT_COMPUTE_F32;

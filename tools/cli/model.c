@@ -164,26 +164,10 @@ static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want
     int m;
     if (want_float && !strcmp(argv[*i], "--float")) { *want_float = 1; return 1; }
     if (work_opt && (m = cli_work_opt(cmd, argc, argv, i, work_opt)) != 0) return m;
-    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--detail", &v)) != 0) {
-        char *end = NULL;
-        if (m < 0) return -1;
-        cli_detail = strcmp(v, "off") ? strtof(v, &end) : 0.0f;
-        if (strcmp(v, "off") && (!end || *end || !(cli_detail >= 0.0f && cli_detail <= 1.0f))) {
-            cli_usage_error(cmd, "--detail: 'off' or a fraction of the picture's size from 0 to 1, not '%s'", v);
-            return -1;
-        }
-        return 1;
-    }
-    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--chroma", &v)) != 0) {
-        char *end = NULL;
-        if (m < 0) return -1;
-        cli_chroma = strcmp(v, "off") ? strtof(v, &end) : 0.0f;
-        if (strcmp(v, "off") && (!end || *end || !(cli_chroma >= 0.0f && cli_chroma <= 1.0f))) {
-            cli_usage_error(cmd, "--chroma: 'off' or a weight from 0 to 1, not '%s'", v);
-            return -1;
-        }
-        return 1;
-    }
+    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--detail", &v)) != 0)
+        return m < 0 || cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &cli_detail) ? -1 : 1;
+    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--chroma", &v)) != 0)
+        return m < 0 || cli_parse_unit(cmd, "--chroma", v, "a weight", &cli_chroma) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--threads", &v)) != 0)
         return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
