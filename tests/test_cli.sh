@@ -16,7 +16,10 @@
 # an older sheet untouched; bad rows, --cell and --labels: exit 2). A PNG write that fails (a file size
 # limit) exits 1 and leaves no file, for `sheet` and `image`. The overwrite policy: existing outputs
 # (files, live and dangling symbolic links) refused before any work, --skip-existing, --force (a link is
-# replaced, its target untouched), `convert` likewise.
+# replaced, its target untouched), `convert` likewise. `convert --from`: another work size written into a
+# converted file (plain and pre-packed; the header kept at its length or grown by 64 bytes, the maps those of
+# --work-size on the original), and its refusals (no --work-size, checkpoint options, onto itself, over a
+# file, a cut file, a checkpoint).
 # Then the same for the multi-view and UV-refine models: converts both, runs `views` (6 views, 3 views,
 # one view with a numeric index and a flat matrix) and `refine`, compares their --float maps with the
 # official goldens (max abs error 1e-4, tests/pfm_npy_diff.c built with ${CC:-cc}), checks the camera
@@ -183,6 +186,49 @@ run info "$T/tiny_ws128.safetensors"
 check "info: --work-size 128 recorded" grep -Eq '^work size +128x128' "$T/out"
 run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --work-size 100
 check "convert --work-size 100 exits 2" [ $RC -eq 2 ]
+# convert --from: an already converted file with another work size, the tensors byte for byte
+run convert --from "$T/tiny_ws128.safetensors" --work-size 64 --out "$T/tiny_ws64.safetensors"
+check "convert --from --work-size 64 exits 0" [ $RC -eq 0 ]
+absent "$T/tiny_ws64.safetensors.tmp"
+run info "$T/tiny_ws64.safetensors"
+check "convert --from: --work-size 64 recorded" grep -Eq '^work size +64x64' "$T/out"
+check "convert --from: the same size (the header padded back to its length)" [ "$(stat -c %s "$T/tiny_ws64.safetensors")" = "$(stat -c %s "$T/tiny_ws128.safetensors")" ]
+HL=$(od -An -tu8 -N8 "$T/tiny_ws128.safetensors" | tr -d ' ')
+check "convert --from: the tensor bytes after the header are the original's" \
+    cmp -s <(tail -c +$((HL + 9)) "$T/tiny_ws128.safetensors") <(tail -c +$((HL + 9)) "$T/tiny_ws64.safetensors")
+check "convert --from: the header differs (the value)" bash -c "! cmp -s '$T/tiny_ws128.safetensors' '$T/tiny_ws64.safetensors'"
+run image --model "$T/tiny_ws64.safetensors" --out "$T/from64" --float "$SPHERE"
+run image --model "$T/tiny_ws128.safetensors" --out "$T/from64b" --float --work-size 64 "$SPHERE"
+check "convert --from: its default work size gives the maps of --work-size 64 on the original" \
+    cmp -s "$T/from64/sphere_64_albedo.pfm" "$T/from64b/sphere_64_albedo.pfm"
+run convert --from "$T/tiny_ws64.safetensors" --work-size 16384 --out "$T/tiny_ws16k.safetensors"
+check "convert --from: a longer value exits 0" [ $RC -eq 0 ]
+D16K=$(( $(stat -c %s "$T/tiny_ws16k.safetensors") - $(stat -c %s "$T/tiny_ws64.safetensors") ))
+check "convert --from: a longer value keeps the header's length (in its padding) or grows it by 64 bytes, not $D16K" \
+    [ "$D16K" -eq 0 -o "$D16K" -eq 64 ]
+run info "$T/tiny_ws16k.safetensors"
+check "convert --from: --work-size 16384 recorded" grep -Eq '^work size +16384x16384' "$T/out"
+run convert --from "$T/tiny_ws16k.safetensors" --work-size native --out "$T/tiny_wsnone.safetensors"
+run info "$T/tiny_wsnone.safetensors"
+check "convert --from --work-size native records none" grep -Eq '^work size +none' "$T/out"
+run convert --from "$T/tiny_ws64.safetensors" --out "$T/never.safetensors"
+check "convert --from without --work-size exits 2" [ $RC -eq 2 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 64 --dtype f16 --out "$T/never.safetensors"
+check "convert --from with --dtype exits 2" [ $RC -eq 2 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 64 --out "$T/tiny_ws64.safetensors"
+check "convert --from onto itself exits 1" [ $RC -eq 1 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 32 --out "$T/tiny_ws128.safetensors"
+check "convert --from over an existing file exits 1" [ $RC -eq 1 ]
+run info "$T/tiny_ws128.safetensors"
+check "convert --from over an existing file: kept as it was" grep -Eq '^work size +128x128' "$T/out"
+head -c 4096 "$T/tiny_ws64.safetensors" > "$T/cut.safetensors"
+run convert --from "$T/cut.safetensors" --work-size 64 --out "$T/never.safetensors"
+check "convert --from a cut file exits 1" [ $RC -eq 1 ]
+check "convert --from a cut file: the message names it" grep -q "cut.safetensors" "$T/err"
+run convert --from "$DATA/tiny/supermat.pth" --work-size 64 --out "$T/never.safetensors"
+check "convert --from a checkpoint (not a model file) exits 1" [ $RC -eq 1 ]
+absent "$T/never.safetensors"
+absent "$T/never.safetensors.tmp"
 
 # ---- --weights (GEMM weight storage) ----------------------------------------------------------
 run info --weights int8 "$MODEL"
@@ -436,6 +482,10 @@ check "convert --packed writes a pre-packed file" grep -q "^pre-packed    yes" "
 absent "$PK/conv.packed.safetensors.tmp"
 run image --model "$PK/conv.packed.safetensors" --out "$PK/e" --float "$SPHERE"
 check "convert --packed: the same albedo as the unpacked file" cmp -s "$PK/a/sphere_64_albedo.pfm" "$PK/e/sphere_64_albedo.pfm"
+run convert --from "$PK/conv.packed.safetensors" --work-size 16384 --out "$PK/conv16k.packed.safetensors"
+check "convert --from a pre-packed file exits 0" [ $RC -eq 0 ]
+run image --model "$PK/conv16k.packed.safetensors" --native --out "$PK/f" --float "$SPHERE"
+check "convert --from a pre-packed file (its header rewritten): its panels in place, the same albedo" cmp -s "$PK/a/sphere_64_albedo.pfm" "$PK/f/sphere_64_albedo.pfm"
 run pack --model "$MODEL" --out "$PK/tiny.wf4.safetensors" --weights f16 --conv winograd-f4
 check "pack --weights f16 --conv winograd-f4 exits 0" [ $RC -eq 0 ]
 run image --model "$PK/tiny.wf4.safetensors" --out "$PK/c" "$SPHERE"

@@ -1281,6 +1281,110 @@ static void test_errors(const char *dir, const char *base) {
     TU_CHECK(r != 0 && strstr(err, "no/such/dir"), "unwritable output: %s", err);
 }
 
+/* sm_work_size_header on hand-made files: the value replaced, added where absent, the header kept at its length
+   or grown by 64 bytes, the data offset, and every malformed header refused with a message */
+static int tc_has(const unsigned char *p, size_t n, const char *s) { /* s in p[0..n), p not NUL-terminated */
+    size_t k = strlen(s), i;
+    for (i = 0; i + k <= n; i++) if (!memcmp(p + i, s, k)) return 1;
+    return 0;
+}
+static void tc_ws_file(tc_buf *b, const char *json, size_t pad_to, const char *data) {
+    size_t n = strlen(json);
+    b->n = 0;
+    tc_u64(b, (uint64_t)(n > pad_to ? n : pad_to));
+    tc_str(b, json);
+    while (n++ < pad_to) tc_u8(b, ' ');
+    tc_str(b, data);
+}
+static void test_work_size_header(void) {
+    static const char *const meta = "{\"__metadata__\":{\"supermat.format_version\":\"1\",\"pipeline.work_size\":\"128\"},"
+                                    "\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}";
+    static const char *const nokey = "{\"__metadata__\":{\"supermat.format_version\":\"1\"},"
+                                     "\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}";
+    tc_buf b;
+    unsigned char *h = NULL;
+    size_t hs = 0, off = 0, len;
+    char err[512], v[32];
+    int r, i;
+    memset(&b, 0, sizeof b);
+    tc_ws_file(&b, meta, 128, "DATA");
+    len = b.n;
+    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    TU_CHECK(r == 0 && hs == 136 && off == 136, "same-length value: r %d, header %zu bytes, data at %zu: %s", r, hs, off, err);
+    if (!r) {
+        tc_buf o;
+        memset(&o, 0, sizeof o);
+        tc_put(&o, h, hs);
+        tc_put(&o, b.p + off, len - off);
+        TU_CHECK(supermat_safetensors_metadata(o.p, o.n, "pipeline.work_size", v, sizeof v) >= 0 && !strcmp(v, "256"), "value read back: '%s'", v);
+        TU_CHECK(supermat_safetensors_metadata(o.p, o.n, "supermat.format_version", v, sizeof v) >= 0 && !strcmp(v, "1"), "other metadata kept");
+        TU_CHECK(memcmp(o.p + o.n - 4, "DATA", 4) == 0, "the data after the header as it was");
+        free(o.p);
+    }
+    free(h); h = NULL;
+    r = sm_work_size_header(b.p, b.n, 8, &h, &hs, &off, err, sizeof err); /* shorter: padded back to the same length */
+    TU_CHECK(r == 0 && hs == 136 && h && h[8 + 127] == ' ', "shorter value: r %d, header %zu bytes", r, hs);
+    free(h); h = NULL;
+    r = sm_work_size_header(b.p, b.n, -1, &h, &hs, &off, err, sizeof err); /* none: recorded as 0 */
+    TU_CHECK(r == 0 && h && tc_has(h + 8, hs - 8, "\"pipeline.work_size\":\"0\""), "native records 0: %s", err);
+    free(h); h = NULL;
+    tc_ws_file(&b, meta, strlen(meta), "DATA"); /* no padding: a longer value grows the header by 64 bytes */
+    r = sm_work_size_header(b.p, b.n, 16384, &h, &hs, &off, err, sizeof err);
+    TU_CHECK(r == 0 && hs == strlen(meta) + 64 + 8 && off == strlen(meta) + 8, "longer value: r %d, header %zu bytes (want %zu)", r, hs, strlen(meta) + 72);
+    free(h); h = NULL;
+    tc_ws_file(&b, nokey, 0, "DATA"); /* the key absent and no padding: added, the header grown by 64 bytes */
+    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    TU_CHECK(r == 0 && hs == 8 + strlen(nokey) + 64 && off == 8 + strlen(nokey), "key added, grown: r %d, header %zu bytes: %s", r, hs, err);
+    free(h); h = NULL;
+    tc_ws_file(&b, nokey, 128, "DATA"); /* with 27 bytes of padding: the 27 bytes of the key take its place */
+    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    TU_CHECK(r == 0 && hs == 8 + 128 && off == 136, "key added in the padding: r %d, header %zu bytes: %s", r, hs, err);
+    if (!r) {
+        tc_buf o;
+        memset(&o, 0, sizeof o);
+        tc_put(&o, h, hs);
+        tc_put(&o, b.p + off, b.n - off);
+        TU_CHECK(supermat_safetensors_metadata(o.p, o.n, "pipeline.work_size", v, sizeof v) >= 0 && !strcmp(v, "256"), "added value read back: '%s'", v);
+        TU_CHECK(supermat_safetensors_metadata(o.p, o.n, "supermat.format_version", v, sizeof v) >= 0 && !strcmp(v, "1"), "format_version kept after the added key");
+        free(o.p);
+    }
+    free(h); h = NULL;
+    {   /* refusals: each returns an error, a message, and no header */
+        static const char *const bad[] = {
+            "{\"__metadata__\":{\"pipeline.work_size\":\"128\"}}",                                  /* not a supermat file */
+            "{\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}",                      /* no metadata */
+            "{\"__metadata__\":{\"supermat.format_version\":\"1\",\"pipeline.work_size\":128}}",     /* not a string */
+            "{\"__metadata__\":{\"supermat.format_version\":\"1\"",                                 /* cut JSON */
+            "[1,2,3]",                                                                               /* not an object */
+            "{\"__metadata__\":[]}",
+        };
+        for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++) {
+            tc_ws_file(&b, bad[i], 0, "DATA");
+            err[0] = 0;
+            r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+            TU_CHECK(r < 0 && err[0] && !h, "bad header %d refused: r %d, '%s'", i, r, err);
+            free(h); h = NULL;
+        }
+        tc_ws_file(&b, meta, 128, "DATA");
+        for (i = 0; i < 3; i++) {  /* bad work sizes */
+            static const int ws[3] = {0, 12, 16392};
+            r = sm_work_size_header(b.p, b.n, ws[i], &h, &hs, &off, err, sizeof err);
+            TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && !h, "work size %d refused: r %d", ws[i], r);
+            free(h); h = NULL;
+        }
+        for (len = 0; len < 8 + 128; len += 7) { /* every cut inside the length or the header */
+            r = sm_work_size_header(b.p, len, 256, &h, &hs, &off, err, sizeof err);
+            TU_CHECK(r < 0 && !h, "a file cut at %zu bytes refused: r %d", len, r);
+            free(h); h = NULL;
+        }
+        b.p[7] = 0x7f; /* a length beyond the file */
+        r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && !h, "a length beyond the file refused: r %d", r);
+        free(h); h = NULL;
+    }
+    free(b.p);
+}
+
 int main(int argc, char **argv) {
     const char *data = argc > 1 ? argv[1] : "tests/data", *twins = argc > 2 ? argv[2] : NULL;
     char dir[400], base[450], ck[500], twin[500], out[300], err[512];
@@ -1301,6 +1405,8 @@ int main(int argc, char **argv) {
 
     printf("reader on hand-made checkpoints\n");
     test_reader_small();
+    printf("work size rewritten (sm_work_size_header)\n");
+    test_work_size_header();
     printf("values against torch\n");
     test_known_values(dir);
     printf("truncation and corruption sweeps\n");

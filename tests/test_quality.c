@@ -1,7 +1,7 @@
 /* The CI quality floor (a regression guard for the default model): runs a model on an evaluation slice
    and checks the mean masked PSNR of each map against a committed floor.
 
-   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT]]
+   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE]]]
 
    SLICE_DIR/index.txt   one stem per line (blank lines and lines starting with # are skipped)
    SLICE_DIR/<stem>.png            the input picture, RGBA (straight alpha)
@@ -13,7 +13,10 @@
 
    For each stem the model computes all three maps with default settings (with DETAIL_SIGMA: and
    session_desc.detail_sigma; with CHROMA_WEIGHT: and session_desc.chroma_weight; 1/64 and 1 are what
-   `supermat image` does by default); they are quantised to 8 bits
+   `supermat image` does by default; with WORK_SIZE N: the network at N x N, session_desc.work_width /
+   work_height, the maps resampled back to the picture's size; `model`: at the model file's
+   pipeline.work_size, as `supermat image` runs it; 0 or absent: at the picture's own size); they are
+   quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
    >= 128 and over their channels, values in [0, 1] (v / 255), capped at 100 dB. The table lists each
@@ -163,9 +166,10 @@ int main(int argc, char **argv) {
     supermat_error err;
     supermat_result r;
     float detail = 0.0f, chroma = 0.0f;
+    int work = 0, work_from_model = 0;
 
-    if (argc < 4 || argc > 6) {
-        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT]]\n", argv[0]);
+    if (argc < 4 || argc > 7) {
+        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE|model]]]\n", argv[0]);
         return 2;
     }
     if (argc >= 5) {
@@ -173,15 +177,24 @@ int main(int argc, char **argv) {
         detail = strtof(argv[4], &end);
         if (!end || *end || !(detail >= 0.0f && detail <= 1.0f)) { printf("usage: DETAIL_SIGMA '%s': a number in [0, 1]\n", argv[4]); return 2; }
     }
-    if (argc == 6) {
+    if (argc >= 6) {
         char *end = NULL;
         chroma = strtof(argv[5], &end);
-        if (!end || *end || !(chroma > 0.0f && chroma <= 1.0f)) { printf("usage: CHROMA_WEIGHT '%s': a number in (0, 1]\n", argv[5]); return 2; }
+        if (!end || *end || !(chroma >= 0.0f && chroma <= 1.0f)) { printf("usage: CHROMA_WEIGHT '%s': a number in [0, 1]\n", argv[5]); return 2; }
+    }
+    if (argc == 7) {
+        char *end = NULL;
+        long v;
+        if (!strcmp(argv[6], "model")) work_from_model = 1;
+        else {
+            v = strtol(argv[6], &end, 10);
+            if (!end || *end || v < 0 || v > 16384 || v % 8) { printf("usage: WORK_SIZE '%s': 0, a multiple of 8 up to 16384, or model\n", argv[6]); return 2; }
+            work = (int)v;
+        }
     }
     model_path = argv[1];
     dir = argv[2];
     floor_path = argv[3];
-    printf("quality: model %s, slice %s, floor %s, detail_sigma %g, chroma_weight %g\n", model_path, dir, floor_path, (double)detail, (double)chroma);
     TU_CHECK(q_read_floor(floor_path, floors) == 0, "the floor file '%s' is not usable", floor_path);
     nstems = q_read_index(dir, &stems);
     TU_CHECK(nstems > 0, "the slice %s is %s", dir, nstems < 0 ? "unreadable (no index.txt)" : "empty: index.txt lists no stem");
@@ -190,6 +203,15 @@ int main(int argc, char **argv) {
     file = tu_load(model_path, &file_size);
     TU_CHECK(file != NULL, "cannot read the model '%s'", model_path);
     if (!file) { for (s = 0; s < nstems; s++) free(stems[s]); free(stems); return tu_finish("quality"); }
+    if (work_from_model) { /* as the CLI: the size the file records, 0 = none */
+        char v[32] = "";
+        work = supermat_safetensors_metadata(file, file_size, "pipeline.work_size", v, sizeof v) >= 0 ? atoi(v) : 0;
+        TU_CHECK(work >= 0 && work % 8 == 0, "model '%s': pipeline.work_size '%s' is not a multiple of 8", model_path, v);
+        if (work < 0 || work % 8) work = 0;
+    }
+    printf("quality: model %s, slice %s, floor %s, detail_sigma %g, chroma_weight %g, network at %s", model_path, dir, floor_path,
+           (double)detail, (double)chroma, work ? "" : "the picture's size\n");
+    if (work) printf("%dx%d%s\n", work, work, work_from_model ? " (the model file's work size)" : "");
     memset(&md, 0, sizeof md);
     md.data = file;
     md.size = file_size;
@@ -224,6 +246,7 @@ int main(int argc, char **argv) {
             sess = NULL;
             memset(&sd, 0, sizeof sd);
             sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail; sd.chroma_weight = chroma;
+            sd.work_width = sd.work_height = work;
             r = supermat_session_create(&sd, &sess, &err);
             TU_CHECK(r == SUPERMAT_SUCCESS, "%s: session %dx%d: %s [%s]", stems[s], w, h, err.message, supermat_result_string(r));
             if (r != SUPERMAT_SUCCESS) { sess = NULL; ok = 0; }

@@ -12,6 +12,7 @@
  *   >>clip       the CLIP text encoder, once, for the empty prompt
  *   >>writer     the safetensors writer and the model metadata
  *   >>convert    sm_convert
+ *   >>worksize   sm_work_size_header: a converted file's work size rewritten
  *   >>main       the stand-alone tool (SM_CONVERT_MAIN)
  */
 
@@ -2588,6 +2589,78 @@ done:
     free(ctx);
     free(ot);
     free(ms);
+    return r;
+}
+
+/* >>worksize : a converted model file's pipeline.work_size, rewritten without the checkpoint */
+int sm_work_size_header(const void *file, size_t size, int work_size, unsigned char **header, size_t *header_size,
+                        size_t *data_offset, char *err, size_t cap) {
+    const unsigned char *f = (const unsigned char *)file;
+    const char *js;
+    supermat_json_tok *tok = NULL;
+    sm__sbuf b;
+    uint64_t hlen, nlen;
+    int nt, meta, v, r = 0;
+    char val[32];
+    memset(&b, 0, sizeof b);
+    if (header) *header = NULL;
+    if (!f || !header || !header_size || !data_offset)
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_work_size_header: NULL argument");
+    if (work_size < -1 || work_size == 0 || work_size > 16384 || (work_size > 0 && work_size % 8))
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384, or -1 (none)", work_size);
+    if (size < 8) return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%zu bytes: too short for a safetensors file", size);
+    hlen = sm__u64(f);
+    if (hlen < 2 || hlen > size - 8 || hlen > (uint64_t)INT32_MAX / 2)
+        return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "header length %llu does not fit the %zu-byte file",
+                       (unsigned long long)hlen, size);
+    js = (const char *)f + 8;
+    nt = supermat_json_parse(js, (size_t)hlen, NULL, 0);
+    if (nt < 1) return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "the header is not valid JSON");
+    tok = (supermat_json_tok *)malloc(sizeof *tok * (size_t)nt);
+    if (!tok) return sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (%d header tokens)", nt);
+    if (supermat_json_parse(js, (size_t)hlen, tok, nt) != nt || tok[0].type != SUPERMAT_JSON_OBJECT) {
+        r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "the header is not a JSON object");
+        goto done;
+    }
+    meta = supermat_json_find(js, tok, 0, "__metadata__");
+    if (meta < 0 || tok[meta].type != SUPERMAT_JSON_OBJECT || supermat_json_find(js, tok, meta, "supermat.format_version") < 0) {
+        r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "not a supermat model file (no supermat.format_version in its metadata)");
+        goto done;
+    }
+    snprintf(val, sizeof val, "\"%d\"", work_size < 0 ? 0 : work_size);
+    v = supermat_json_find(js, tok, meta, "pipeline.work_size");
+    if (v >= 0) { /* the value's text, quotes included, replaced */
+        if (tok[v].type != SUPERMAT_JSON_STRING) {
+            r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "pipeline.work_size is not a string");
+            goto done;
+        }
+        sm__sb_put(&b, js, (size_t)tok[v].start - 1);
+        sm__sb_str(&b, val);
+        sm__sb_put(&b, js + tok[v].end + 1, (size_t)hlen - (size_t)tok[v].end - 1);
+    } else { /* the key added first in the metadata object (it has at least format_version, so a comma follows) */
+        sm__sb_put(&b, js, (size_t)tok[meta].start + 1);
+        sm__sb_str(&b, "\"pipeline.work_size\":");
+        sm__sb_str(&b, val);
+        sm__sb_str(&b, ",");
+        sm__sb_put(&b, js + tok[meta].start + 1, (size_t)hlen - (size_t)tok[meta].start - 1);
+    }
+    /* the tensors' offsets count from the end of the header: the data is copied as it is, and the header
+       keeps its length or grows by 64 bytes at a time, so every tensor keeps its alignment in the file
+       (a pre-packed file's 64-byte panels too); padded with spaces */
+    while (b.n > 0 && (b.p[b.n - 1] == ' ' || b.p[b.n - 1] == '\n' || b.p[b.n - 1] == '\t' || b.p[b.n - 1] == '\r')) b.n--; /* old padding reused */
+    nlen = hlen;
+    while (nlen < b.n) nlen += 64;
+    while (!b.oom && b.n < nlen) sm__sb_put(&b, " ", 1);
+    if (b.oom) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (header of %llu bytes)", (unsigned long long)nlen); goto done; }
+    *header = (unsigned char *)malloc((size_t)nlen + 8);
+    if (!*header) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (header of %llu bytes)", (unsigned long long)nlen); goto done; }
+    for (v = 0; v < 8; v++) (*header)[v] = (unsigned char)(nlen >> (8 * v));
+    memcpy(*header + 8, b.p, (size_t)nlen);
+    *header_size = (size_t)nlen + 8;
+    *data_offset = (size_t)hlen + 8;
+done:
+    free(tok);
+    free(b.p);
     return r;
 }
 

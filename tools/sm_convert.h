@@ -66,6 +66,16 @@ typedef struct sm_convert_desc {
    act_fn, transformer_layers_per_block, vae.act_fn, supermat.source). */
 int sm_convert(const sm_convert_desc *desc, char *err, size_t err_cap);
 
+/* The work size of an already converted model file (the metadata pipeline.work_size, see desc->work_size:
+   N a multiple of 8 up to 16384, or -1 = none, recorded as 0), without its checkpoint: `file` is the whole
+   model file in memory (a supermat model file: its metadata has supermat.format_version). Returns 0 and a
+   malloc'ed new header (*header, *header_size bytes: the 8-byte length and the JSON, every other byte of
+   the header unchanged); the new file is that header followed by file[*data_offset .. size), the tensor
+   bytes as they are. The header keeps its length or grows by a multiple of 64 bytes, so every tensor, and
+   a pre-packed file's panels, keeps its alignment. */
+int sm_work_size_header(const void *file, size_t size, int work_size, unsigned char **header, size_t *header_size,
+                        size_t *data_offset, char *err, size_t err_cap);
+
 /* ---- the PyTorch checkpoint reader (zip + pickle, no Python) ---------------------------------- */
 typedef struct sm_pth sm_pth;
 

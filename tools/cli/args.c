@@ -36,6 +36,7 @@ static const char cli_usage_main[] =
 
 static const char cli_usage_convert[] =
     "usage: supermat convert --unet FILE.pth --base DIR --out FILE.safetensors [options]\n"
+    "       supermat convert --from MODEL.safetensors --work-size N|native --out FILE.safetensors\n"
     "\n"
     "Turns an official SuperMat checkpoint (torch.save format) plus a Stable Diffusion 2.1 folder in\n"
     "diffusers layout (unet/config.json, vae/, text_encoder/, scheduler/) into the one model file that\n"
@@ -56,6 +57,9 @@ static const char cli_usage_convert[] =
     "  --work-size N     the square size `image`, `views` and `refine` resize pictures to by default, as\n"
     "                    the official scripts do (default: theirs, 512; uv-refine 1024); `native` = none:\n"
     "                    each picture at its own size (for a model trained at one size, give that size)\n"
+    "  --from MODEL      instead of a checkpoint: an already converted model file (pre-packed or not),\n"
+    "                    written again with the --work-size given and nothing else changed (its tensors\n"
+    "                    byte for byte; both files are checked to load)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
