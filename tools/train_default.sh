@@ -29,6 +29,9 @@
 # the result scored 14.38 dB held-out albedo against the shipped fourth version's 14.46 (docs/default_model.md).
 # From an empty WORK (2026-11-29, Zen 5, 2 cores, AVX512_BF16): the third version in about 3.3 h (data 42 min,
 # VAE 29 min, latent cache 18 min, UNet 67 min, second set 13 min, fine-tuning 20 min; the README's training row).
+# The network's work size recorded in the file: 256 since 2026-12-01 (trained at 128x128 renders; on the six
+# validation assets every map is better with the network at 256, README *The network at 256*); the files shipped
+# before were converted with --work-size 128, and `supermat convert --from FILE --work-size N` changes it.
 # shellcheck source=tools/train_env.sh
 source "$(dirname "${BASH_SOURCE[0]}")/train_env.sh"
 COUNT="${COUNT:-20000}"
@@ -42,7 +45,7 @@ gen() {  # gen OUT SEED COUNT extra args...
 }
 convert() {  # convert RUN OUT
   build/supermat convert --force --kind supermat --unet "$1/release/supermat.pth" --base "$1/release/base" \
-      --precision f16 --work-size 128 --out "$2"
+      --precision f16 --work-size 256 --out "$2"
 }
 MODES=0.62,0.12,0.13,0.13   # material modes of the sets with fewer metals (gen_data.py --mode-probs)
 
