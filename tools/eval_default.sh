@@ -20,7 +20,8 @@
 # Each asset is seen in VIEWS views under each of the three held-out maps and re-rendered under the next one
 # (eval_quality.py --env-in all); baseline (b) takes the generator's statistics from 400 renders of seed 0
 # (tools/gen_data.py, about a minute). Writes WORK/<SET>.json (eval_quality.py), WORK/<SET>_vs_a.json and
-# WORK/<SET>_vs_b.json (eval_ci.py). On 2026-11-29 (Zen 5, 2 threads) the held-out set took about 2 minutes.
+# WORK/<SET>_vs_b.json (eval_ci.py). On 2026-11-29 (Zen 5, 2 threads) the held-out set took about 2 minutes with
+# the network at 128²; on 2026-12-01 (AMX Xeon, 2 threads) about 4 minutes at the default model's 256², all eleven 6 min 49 s.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 : "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets and sbtron+glTF-Sample-Models}"
