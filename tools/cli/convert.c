@@ -20,6 +20,7 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
     snprintf(what, sizeof what, "model '%s'", from);
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size; /* borrowed until the model is destroyed, just below */
+    md.copy_data = ((uintptr_t)file % 64) != 0; /* a small file is read into malloc'ed memory: a pre-packed one needs 64-byte alignment */
     if ((sr = supermat_model_create(&md, &model, &e)) != SUPERMAT_SUCCESS) { cli_lib_error(what, sr, &e); cli_free_file(file); return CLI_FAIL; }
     supermat_model_destroy(model);
     model = NULL;
@@ -42,6 +43,7 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
         if (o.err == 0 && fflush(o.f) != 0) o.err = errno ? errno : -1;
         if (o.err == 0 && cli_read_file(o.tmp, &nf, &nsize) == CLI_OK) {
             md.data = nf; md.size = nsize;
+            md.copy_data = ((uintptr_t)nf % 64) != 0;
             if ((sr = supermat_model_create(&md, &model, &e)) != SUPERMAT_SUCCESS) cli_lib_error("convert --from: the file written", sr, &e);
             else if (supermat_safetensors_metadata(nf, nsize, "pipeline.work_size", ws, sizeof ws) < 0 || atoi(ws) != (work_size < 0 ? 0 : work_size))
                 cli_error("convert --from: the file written does not record work size %d", work_size < 0 ? 0 : work_size);
