@@ -59,7 +59,7 @@ static const char cli_usage_convert[] =
     "                    each picture at its own size (for a model trained at one size, give that size)\n"
     "  --from MODEL      instead of a checkpoint: an already converted model file (pre-packed or not),\n"
     "                    written again with the --work-size given and nothing else changed (its tensors\n"
-    "                    byte for byte; both files are checked to load)\n"
+    "                    byte for byte; the file written is checked to load)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 

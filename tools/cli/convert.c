@@ -3,27 +3,21 @@
 
 /* >>convert */
 /* `supermat convert --from MODEL.safetensors --work-size N|native --out FILE`: the same model file with another
-   recorded work size (sm_work_size_header), checked to load before and after; the tensors copied byte for byte */
+   recorded work size (sm_work_size_header), the tensors copied byte for byte; the file written is loaded once
+   (as FILE.tmp, before the rename), which checks the input's tensors too */
 static int cli_convert_from(const char *from, const char *outp, int work_size) {
     const char *cmd = "convert";
-    unsigned char *file = NULL, *hdr = NULL;
-    size_t size = 0, hsize = 0, off = 0;
+    unsigned char *file = NULL, *hdr = NULL, *nf = NULL;
+    size_t size = 0, hsize = 0, off = 0, nsize = 0;
     supermat_model_desc md;
     supermat_model *model = NULL;
     supermat_error e;
     supermat_result sr;
     char err[1024], what[CLI_PATH_CAP + 64];
     cli_out o;
-    int r, rc;
+    int r, rc, ok = 0;
     if (!strcmp(from, outp)) { cli_error("%s: --out '%s' is the --from file itself: write the new file beside it", cmd, outp); return CLI_FAIL; }
     if (cli_read_file(from, &file, &size)) return CLI_FAIL;
-    snprintf(what, sizeof what, "model '%s'", from);
-    memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; /* borrowed until the model is destroyed, just below */
-    md.copy_data = ((uintptr_t)file % 64) != 0; /* a small file is read into malloc'ed memory: a pre-packed one needs 64-byte alignment */
-    if ((sr = supermat_model_create(&md, &model, &e)) != SUPERMAT_SUCCESS) { cli_lib_error(what, sr, &e); cli_free_file(file); return CLI_FAIL; }
-    supermat_model_destroy(model);
-    model = NULL;
     if ((r = sm_work_size_header(file, size, work_size, &hdr, &hsize, &off, err, sizeof err)) != 0) {
         cli_error("convert: '%s': %s [%s]", from, err, supermat_result_string((supermat_result)r));
         cli_free_file(file);
@@ -35,28 +29,22 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
     cli_out_write(&o, file + off, size - off);
     free(hdr);
     cli_free_file(file);
-    {   /* the new file as written (FILE.tmp, before the rename) must load and record what was asked */
-        unsigned char *nf = NULL;
-        size_t nsize = 0;
-        char ws[32];
-        int ok = 0;
-        if (o.err == 0 && fflush(o.f) != 0) o.err = errno ? errno : -1;
-        if (o.err == 0 && cli_read_file(o.tmp, &nf, &nsize) == CLI_OK) {
-            md.data = nf; md.size = nsize;
-            md.copy_data = ((uintptr_t)nf % 64) != 0;
-            if ((sr = supermat_model_create(&md, &model, &e)) != SUPERMAT_SUCCESS) cli_lib_error("convert --from: the file written", sr, &e);
-            else if (supermat_safetensors_metadata(nf, nsize, "pipeline.work_size", ws, sizeof ws) < 0 || atoi(ws) != (work_size < 0 ? 0 : work_size))
-                cli_error("convert --from: the file written does not record work size %d", work_size < 0 ? 0 : work_size);
-            else ok = 1;
-            supermat_model_destroy(model);
-            cli_free_file(nf);
-        }
-        rc = cli_out_close(&o, ok || o.err); /* a failed write: cli_out_close says why */
-        if (!ok && rc == CLI_OK) rc = CLI_FAIL;
+    if (o.err == 0 && fflush(o.f) != 0) o.err = errno ? errno : -1;
+    if (o.err == 0 && cli_read_file(o.tmp, &nf, &nsize) == CLI_OK) {
+        snprintf(what, sizeof what, "model '%s' (written again as '%s')", from, outp);
+        memset(&md, 0, sizeof md);
+        md.data = nf; md.size = nsize;
+        md.copy_data = ((uintptr_t)nf % 64) != 0; /* a file under 1 MiB is read into malloc'ed memory: a pre-packed one needs 64-byte alignment */
+        if ((sr = supermat_model_create(&md, &model, &e)) != SUPERMAT_SUCCESS) cli_lib_error(what, sr, &e);
+        else ok = 1;
+        supermat_model_destroy(model);
+        cli_free_file(nf);
     }
+    rc = cli_out_close(&o, ok || o.err); /* a failed write: cli_out_close says why */
+    if (!ok && rc == CLI_OK) rc = CLI_FAIL;
     if (rc == CLI_OK) {
-        if (work_size < 0) printf("wrote %s (%.1f MiB): %s with no work size (each picture at its own size)\n", outp, cli_mib((double)(hsize + size - off)), from);
-        else printf("wrote %s (%.1f MiB): %s with work size %dx%d\n", outp, cli_mib((double)(hsize + size - off)), from, work_size, work_size);
+        if (work_size < 0) printf("wrote %s (%.1f MiB): %s with no work size (each picture at its own size)\n", outp, cli_mib((double)nsize), from);
+        else printf("wrote %s (%.1f MiB): %s with work size %dx%d\n", outp, cli_mib((double)nsize), from, work_size, work_size);
     }
     return rc;
 }
