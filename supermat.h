@@ -2185,7 +2185,7 @@ static void supermat__gemm_task(void *user, int index, int thread) {
 #endif
         for (p = p0; p < p1; p++) {
             size_t boff = ((size_t)p * g->K + k0) * SUPERMAT__NR;
-            const float *bp = g->B + (g->fmt ? 0 : boff);
+            const float *bp = g->fmt ? NULL : g->B + boff; /* packed f32 panels; the widened formats set it below (g->B is NULL for them) */
             int n0 = p * SUPERMAT__NR, nr = SUPERMAT__MIN(SUPERMAT__NR, g->N - n0);
             if (g->fmt == 3) { /* widen this panel's K block once for all the rows of the task, a scale group at a time */
                 float *wb = buf + (size_t)SUPERMAT__MC * SUPERMAT__KC;
