@@ -31,6 +31,7 @@
 #endif
 #include "sm_convert.h"
 
+#include <errno.h>
 #include <float.h>
 #include <limits.h>
 #include <math.h>
@@ -40,6 +41,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#if !defined(_WIN32)
+#include <fcntl.h>
+#include <unistd.h>
+#endif
 
 #if !defined(SM_CONVERT_NO_PTHREADS) && (defined(__unix__) || defined(__APPLE__))
 #define SM__HAS_PTHREADS 1
@@ -2098,13 +2103,30 @@ static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__o
     if (hb.oom) { free(hb.p); return sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory for the output header"); }
     hl = hb.n;
     for (k = 0; k < 8; k++) len8[k] = (unsigned char)(hl >> (8 * k));
-    tmp = (char *)malloc(plen + 5);
+    tmp = (char *)malloc(plen + 64);
     inb = (unsigned char *)malloc(SM__CHUNK);
     outb = (unsigned char *)malloc(SM__CHUNK * 2);
     if (!tmp || !inb || !outb) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory"); goto done; }
+#if defined(_WIN32)
     memcpy(tmp, outpath, plen);
     memcpy(tmp + plen, ".tmp", 5);
     f = fopen(tmp, "wb");
+#else
+    { /* a new temporary file beside OUT, never an existing file or a planted link (O_EXCL | O_NOFOLLOW): the name
+         tools/cli/smio.h gives its temporary files, so a killed run's file is removed by a later one */
+        const char *slash = strrchr(outpath, '/');
+        size_t dl = slash ? (size_t)(slash - outpath) + 1 : 0;
+        int fd = -1, k;
+        for (k = 0; k < 100 && fd < 0; k++) {
+            memcpy(tmp, outpath, dl);
+            snprintf(tmp + dl, plen + 64 - dl, ".%.180s.%ld-%x.supermat.tmp", outpath + dl, (long)getpid(), (unsigned)(rand() & 0xffffff));
+            fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0666);
+            if (fd < 0 && errno != EEXIST) break;
+        }
+        f = fd >= 0 ? fdopen(fd, "wb") : NULL;
+        if (!f && fd >= 0) { close(fd); remove(tmp); }
+    }
+#endif
     if (!f) { r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: cannot create", tmp); goto done; }
     if (fwrite(len8, 1, 8, f) != 8 || fwrite(hb.p, 1, hb.n, f) != hb.n) { r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error", tmp); goto done; }
     for (i = 0; i < nt && !r; i++) {
@@ -2119,6 +2141,9 @@ static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__o
         }
     }
     if (!r && (fflush(f) != 0 || ferror(f))) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", tmp);
+#if !defined(_WIN32)
+    if (!r && fsync(fileno(f)) != 0 && errno != EINVAL) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", tmp);
+#endif
     if (fclose(f) != 0 && !r) r = sm__err(err, cap, SUPERMAT_ERROR_INTERNAL, "%s: write error (disk full?)", tmp);
     f = NULL;
     if (!r) r = sm__validate_output(tmp, err, cap);

@@ -31,6 +31,7 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #ifdef __linux__
 #include <sys/prctl.h>
@@ -143,7 +144,14 @@ static int cli_walk(cli_blist *L, const char *root, const char *rel, const struc
                 }
             }
         } else if (S_ISREG(st.st_mode) && cli_is_picture_name(e->d_name)) {
-            rc = cli_blist_add(L, path, rel, outputs, want_float);
+            struct stat lst;
+            char *real_root = NULL;
+            int in = 1;
+            if (!cli_allow_outside && lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode) && (real_root = realpath(root, NULL)) != NULL)
+                in = smio_inside(real_root, path, NULL) == 1;
+            free(real_root);
+            if (in) rc = cli_blist_add(L, path, rel, outputs, want_float);
+            else fprintf(stderr, "supermat: warning: '%s' is a symbolic link to a file outside '%s': left out (--allow-outside-refs takes it)\n", path, root);
         }
         free(path);
     }
@@ -289,13 +297,15 @@ static int cli_manifest_member(void *user, const char *key, const char *v) {
 static int cli_add_input(cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float);
 
 static int cli_manifest(cli_blist *L, const char *cmd, const char *path, const struct stat *out_st, unsigned outputs, int want_float) {
-    FILE *f = fopen(path, "r");
+    char why[256];
+    int fd = smio_open_regular(path, 0, why, sizeof why);
+    FILE *f = fd >= 0 ? fdopen(fd, "r") : NULL;
     char *line = NULL;
     size_t cap = 0;
     long no = 0;
     ssize_t got;
     int rc = CLI_OK;
-    if (!f) { cli_error("cannot read the list '%s': %s", path, strerror(errno)); return CLI_FAIL; }
+    if (!f) { if (fd >= 0) close(fd); cli_error("cannot read the list '%s': it %s", path, why); return CLI_FAIL; }
     while (rc == CLI_OK && (got = getline(&line, &cap, f)) >= 0) {
         char *s = line, *e;
         no++;
@@ -322,10 +332,16 @@ static int cli_manifest(cli_blist *L, const char *cmd, const char *path, const s
     return rc;
 }
 
+static char *cli_batch_out_real; /* the output folder, resolved: outputs are never taken as inputs */
 static int cli_add_input(cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float) {
     struct stat st;
     if (in[0] == '@') return cli_manifest(L, cmd, in + 1, out_st, outputs, want_float);
     if (stat(in, &st) != 0) { cli_error("'%s': %s", in, strerror(errno)); return CLI_FAIL; }
+    if (cli_batch_out_real && smio_inside(cli_batch_out_real, in, NULL) == 1)
+        return cli_usage_error(cmd, "%s '%s' is %s the output folder '%s': what the batch writes there would be read as %s on the next "
+                               "run; give --out a folder outside it", S_ISDIR(st.st_mode) ? "the input folder" : "the input",
+                               in, S_ISDIR(st.st_mode) ? "(or is inside)" : "inside", cli_batch_out_real,
+                               cli_batch_mesh_mode ? "assets" : "pictures");
     if (S_ISDIR(st.st_mode)) return cli_walk(L, in, "", out_st, 0, outputs, want_float);
     return cli_blist_add(L, in, "", outputs, want_float);
 }
@@ -355,11 +371,19 @@ static int cli_journal_member(void *user, const char *key, const char *v) {
    the middle of a write, is left out); 0, or -1 when the file cannot be read (a missing one is empty) */
 typedef void (*cli_journal_fn)(void *user, const cli_jrec *r, const char *line);
 static int cli_journal_read(const char *path, cli_journal_fn f, void *user) {
-    FILE *fp = fopen(path, "r");
+    char why[256];
+    int fd = smio_open_regular(path, 1, why, sizeof why); /* the batch's own file: never a link, never a FIFO */
+    FILE *fp = fd >= 0 ? fdopen(fd, "r") : NULL;
     char *line = NULL;
     size_t cap = 0;
     ssize_t got;
-    if (!fp) return errno == ENOENT ? 0 : -1;
+    if (!fp) {
+        if (fd < 0 && errno == ENOENT) return 0;
+        if (fd >= 0) close(fd);
+        errno = EINVAL;
+        cli_error("cannot read the journal '%s': it %s", path, why);
+        return -2;
+    }
     while ((got = getline(&line, &cap, fp)) >= 0) {
         cli_jrec r;
         if (got == 0 || line[got - 1] != '\n') break; /* torn */
@@ -539,7 +563,9 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
         for (j = i + 1; j < nn; j++) if (strcmp(names[j], names[i]) < 0) { char *t = names[i]; names[i] = names[j]; names[j] = t; }
     }
     for (i = 0; i < nn && rc == CLI_OK; i++) {
-        if (cli_journal_read(names[i], cli_merge_rec, &M) != 0) { cli_error("cannot read '%s': %s", names[i], strerror(errno)); rc = CLI_FAIL; }
+        int jr = cli_journal_read(names[i], cli_merge_rec, &M);
+        if (jr == -2) rc = CLI_FAIL;
+        else if (jr != 0) { cli_error("cannot read '%s': %s", names[i], strerror(errno)); rc = CLI_FAIL; }
         shards++;
     }
     if (rc == CLI_OK && M.oom) { cli_error("out of memory"); rc = CLI_FAIL; }
@@ -586,57 +612,21 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
 }
 
 #ifdef SUPERMAT_CLI_MESH
-/* removes a folder and everything below it (no links followed); only the mesh jobs stage folders */
-static void cli_rmtree(const char *path) {
-    DIR *d = opendir(path);
-    struct dirent *e;
-    if (d) {
-        while ((e = readdir(d)) != NULL) {
-            struct stat st;
-            char *p;
-            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
-            if (!(p = cli_join(path, e->d_name, ""))) continue;
-            if (lstat(p, &st) == 0 && S_ISDIR(st.st_mode)) cli_rmtree(p);
-            else remove(p);
-            free(p);
-        }
-        closedir(d);
-    }
-    rmdir(path);
-}
-#endif
-
-#ifdef SUPERMAT_CLI_MESH
 int supermat_cli_mesh(int argc, char **argv); /* tools/cli/mesh.cpp */
 void supermat_cli_mesh_keep_models(int keep);   /* the models stay loaded from one asset to the next */
 #endif
-/* one asset through `supermat mesh ARGS --force IN DIR/<stem>.<ext>`; a staging folder a killed run left
-   beside it (.supermat-mesh-<pid>.tmp of a process that is gone) is removed first */
+/* one asset through `supermat mesh ARGS --force IN DIR/<stem>.<ext>` (which removes the staging folders
+   and temporary files that killed runs left in DIR: smio_clean_stale) */
 static int cli_batch_mesh_item(char **fwd, int nfwd, const cli_bitem *it, const char *dir) {
 #ifdef SUPERMAT_CLI_MESH
     char *out, **av;
     int rc, n = 0, k;
-    DIR *d = opendir(dir);
-    if (d) {
-        struct dirent *e;
-        long pid;
-        char tail[8];
-        while ((e = readdir(d)) != NULL)
-            if (sscanf(e->d_name, ".supermat-mesh-%ld.%3s", &pid, tail) == 2 && !strcmp(tail, "tmp") && pid > 0 && kill((pid_t)pid, 0) != 0 &&
-                errno == ESRCH) {
-                char *stage = cli_join(dir, e->d_name, "");
-                if (stage) {
-                    cli_rmtree(stage);
-                    free(stage);
-                }
-            }
-        closedir(d);
-    }
     out = cli_join(dir, it->stem, cli_ext_of(it->input));
-    av = (char **)malloc(sizeof(char *) * (size_t)(nfwd + 4));
+    av = (char **)malloc(sizeof(char *) * (size_t)(nfwd + 5));
     if (!out || !av) { free(out); free(av); cli_error("out of memory"); return CLI_FAIL; }
     for (k = 0; k < nfwd; k++) av[n++] = fwd[k];
     av[n++] = (char *)"--force";
+    if (cli_allow_outside) av[n++] = (char *)"--allow-outside-refs";
     av[n++] = it->input;
     av[n++] = out;
     av[n] = NULL;
@@ -762,6 +752,8 @@ static int cli_batch(int argc, char **argv) {
 
     if (!merge && (rc = cli_mkdirs(out_dir)) != CLI_OK) { free(inputs); return rc; }
     if (stat(out_dir, &out_st) == 0) have_out_st = 1;
+    if (!merge) cli_batch_out_real = realpath(out_dir, NULL);
+    cli_out_root = out_dir; /* below DIR, no link is followed */
     for (i = 0; i < ninputs && rc == CLI_OK; i++) rc = cli_add_input(&L, cmd, inputs[i], have_out_st ? &out_st : NULL, outputs, want_float);
     have_inputs = ninputs > 0;
     free(inputs);
@@ -796,9 +788,12 @@ static int cli_batch(int argc, char **argv) {
         jpath = cli_join(out_dir, name, ".jsonl");
         if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); free(fwd); return CLI_FAIL; }
     }
-    if (cli_journal_read(jpath, cli_journal_status, &L) != 0) {
-        cli_error("cannot read the journal '%s': %s", jpath, strerror(errno));
-        rc = CLI_FAIL;
+    {
+        int jr = cli_journal_read(jpath, cli_journal_status, &L);
+        if (jr != 0) { /* -2: it said why */
+            if (jr != -2) cli_error("cannot read the journal '%s': %s", jpath, strerror(errno));
+            rc = CLI_FAIL;
+        }
     }
     for (k = 0; k < L.n; k++) {
         if ((int)(k % (size_t)shard_n) != shard_i) continue;
@@ -820,9 +815,20 @@ static int cli_batch(int argc, char **argv) {
         if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
         if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
     }
-    if (rc == CLI_OK && left && (fd = open(jpath, O_RDWR | O_APPEND | O_CREAT, 0644)) < 0) {
-        cli_error("cannot open the journal '%s': %s", jpath, strerror(errno));
+    if (rc == CLI_OK && left && (fd = open(jpath, O_RDWR | O_APPEND | O_CREAT | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC, 0644)) < 0) {
+        cli_error("cannot open the journal '%s': %s", jpath, errno == ELOOP ? "it is a symbolic link (never followed)" : strerror(errno));
         rc = CLI_FAIL;
+    }
+    if (rc == CLI_OK && fd >= 0) { /* a regular file, and this batch's alone: a second batch on DIR refuses to start */
+        struct stat jst;
+        if (fstat(fd, &jst) != 0 || !S_ISREG(jst.st_mode)) {
+            cli_error("the journal '%s' is %s, not a regular file", jpath, smio_kind(jst.st_mode));
+            rc = CLI_FAIL;
+        } else if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            cli_error("another batch is writing into '%s' (its journal '%s' is locked): one batch per output folder and shard", out_dir, jpath);
+            rc = CLI_FAIL;
+        } else
+            (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
     }
     if (rc == CLI_OK && fd >= 0) { /* a line torn by a kill gets its end, so the next record starts a line of its own */
         struct stat jst;
@@ -876,7 +882,7 @@ static int cli_batch(int argc, char **argv) {
                 s0 = cli_now();
                 cli_last_error[0] = 0;
                 if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
-                else if ((r = cli_mkdirs(dir)) == CLI_OK) {
+                else if ((r = cli_mkdirs_below(out_dir, it->sub)) == CLI_OK) {
                     if (!cli_batch_mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
                     else r = cli_batch_mesh_item(fwd, nfwd, it, dir);
                 }
@@ -910,7 +916,8 @@ static int cli_batch(int argc, char **argv) {
             free(pids);
             /* the workers' records: read the journal again */
             for (k = 0; k < L.n; k++) L.v[k].status = 0;
-            if (cli_journal_read(jpath, cli_journal_status, &L) != 0) { cli_error("cannot read the journal '%s'", jpath); rc = CLI_FAIL; }
+            int jr = cli_journal_read(jpath, cli_journal_status, &L);
+            if (jr != 0) { if (jr != -2) cli_error("cannot read the journal '%s'", jpath); rc = CLI_FAIL; }
             ran_done = ran_failed = 0;
             {
                 size_t d = 0, f = 0;

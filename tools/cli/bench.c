@@ -793,14 +793,19 @@ static int cli_bench_image(const cli_bench_opts *o) {
         int iw, ih, c;
         if (!p) continue;
         in.any_truth = 1;
-        if (!stbi_info(p, &iw, &ih, &c)) {
-            cli_error("cannot read the %s truth '%s': %s", cli_bi_map_names[k], p, cli_stbi_reason());
+        char what[64];
+        int ok, keep16 = cli_accept16;
+        snprintf(what, sizeof what, "the %s truth", cli_bi_map_names[k]);
+        cli_accept16 = 1; /* a 16-bit truth is refused below, with its reason */
+        ok = cli_pic_info(p, what, &iw, &ih, &c);
+        cli_accept16 = keep16;
+        if (!ok) {
             rc = CLI_FAIL;
         } else if (iw != w || ih != h) {
             cli_error("the %s truth '%s' is %dx%d but the image '%s' is %dx%d: a truth map must have the image's size "
                       "(supermat does not resize)", cli_bi_map_names[k], p, iw, ih, path0, w, h);
             rc = CLI_FAIL;
-        } else if (stbi_is_16_bit(p)) {
+        } else if (cli_pic_is16) {
             cli_error("the %s truth '%s' has 16 bits per channel: give an 8-bit PNG (the maps are compared as "
                       "`supermat image` writes them, 8-bit)", cli_bi_map_names[k], p);
             rc = CLI_FAIL;

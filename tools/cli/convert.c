@@ -15,6 +15,7 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
     supermat_result sr;
     char err[1024], what[CLI_PATH_CAP + 64];
     cli_out o;
+    char *tmp_path = NULL;
     int r, rc, ok = 0;
     if (!strcmp(from, outp)) { cli_error("%s: --out '%s' is the --from file itself: write the new file beside it", cmd, outp); return CLI_FAIL; }
     if (cli_read_file(from, &file, &size)) return CLI_FAIL;
@@ -30,7 +31,9 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
     free(hdr);
     cli_free_file(file);
     if (o.err == 0 && fflush(o.f) != 0) o.err = errno ? errno : -1;
-    if (o.err == 0 && cli_read_file(o.tmp, &nf, &nsize) == CLI_OK) {
+    tmp_path = o.err == 0 ? cli_out_tmp_path(&o) : NULL;
+    if (o.err == 0 && !tmp_path) cli_error("out of memory");
+    if (tmp_path && cli_read_file(tmp_path, &nf, &nsize) == CLI_OK) {
         snprintf(what, sizeof what, "model '%s' (written again as '%s')", from, outp);
         memset(&md, 0, sizeof md);
         md.data = nf; md.size = nsize;
@@ -40,6 +43,7 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
         supermat_model_destroy(model);
         cli_free_file(nf);
     }
+    free(tmp_path);
     rc = cli_out_close(&o, ok || o.err); /* a failed write: cli_out_close says why */
     if (!ok && rc == CLI_OK) rc = CLI_FAIL;
     if (rc == CLI_OK) {

@@ -91,7 +91,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         if (a == CLI_SKIPPED) { fprintf(stderr, "kept the maps of '%s' (they exist; --skip-existing)\n", input); return CLI_SKIPPED; }
     }
     if (!cli_pic_info(input, "image", &w, &h, &c)) return CLI_FAIL;
-    if (stbi_is_16_bit(input)) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
+    if (cli_pic_is16) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
     else px = cli_load(input, &w, &h, &c, 4);
     if (!px && !fin) { cli_error("cannot read image '%s': %s", input, cli_stbi_reason()); return CLI_FAIL; }
     if (w % 8 || h % 8) {

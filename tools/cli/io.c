@@ -13,22 +13,24 @@ static void cli_free_file(void *p) {
     free(p);
 }
 
-/* Reads (or maps) a whole file (64-bit sizes). 0 on success, else prints an error and returns CLI_FAIL. */
+/* Reads (or maps) a whole file (64-bit sizes): only a regular file (smio.h: a FIFO, a device or a folder
+   is refused without blocking). 0 on success, else prints an error and returns CLI_FAIL. */
 static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
-    FILE *f = fopen(path, "rb");
     struct stat st;
     unsigned char *buf;
-    size_t n, got = 0;
+    size_t n;
+    char why[256];
+    int fd = smio_open_regular(path, 0, why, sizeof why);
     *data = NULL; *size = 0;
-    if (!f) { cli_error("cannot open '%s': %s", path, strerror(errno)); return CLI_FAIL; }
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        cli_error("'%s' is not a regular file", path);
-        fclose(f);
+    if (fd < 0) {
+        if (errno == ENOENT) cli_error("cannot open '%s': %s", path, strerror(ENOENT));
+        else cli_error("cannot open '%s': it %s", path, why);
         return CLI_FAIL;
     }
+    if (fstat(fd, &st) != 0) { cli_error("cannot read '%s': %s", path, strerror(errno)); close(fd); return CLI_FAIL; }
     if (st.st_size < 0 || (uint64_t)st.st_size > (uint64_t)(SIZE_MAX - 64)) {
         cli_error("'%s' is too large for this machine's address space", path);
-        fclose(f);
+        close(fd);
         return CLI_FAIL;
     }
     n = (size_t)st.st_size;
@@ -36,29 +38,24 @@ static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
         int i;
         for (i = 0; i < 8 && cli_maps[i].p; i++) {}
         if (i < 8) {
-            void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fileno(f), 0);
+            void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
             if (m != MAP_FAILED) {
                 cli_maps[i].p = m; cli_maps[i].n = n;
-                fclose(f);
+                close(fd);
                 *data = (unsigned char *)m; *size = n;
                 return CLI_OK;
             }
         }
     }
     buf = (unsigned char *)malloc(n ? n : 1);
-    if (!buf) { cli_error("out of memory reading '%s' (%.1f MiB)", path, cli_mib((double)n)); fclose(f); return CLI_FAIL; }
-    while (got < n) {
-        size_t chunk = n - got > ((size_t)1 << 30) ? ((size_t)1 << 30) : n - got, r = fread(buf + got, 1, chunk, f);
-        if (r == 0) break;
-        got += r;
-    }
-    if (got != n || ferror(f)) {
-        cli_error("cannot read '%s': %s", path, ferror(f) ? strerror(errno) : "the file got shorter while reading");
+    if (!buf) { cli_error("out of memory reading '%s' (%.1f MiB)", path, cli_mib((double)n)); close(fd); return CLI_FAIL; }
+    if (smio_read_all(fd, buf, n) != 0) {
+        cli_error("cannot read '%s': %s", path, errno ? strerror(errno) : "the file got shorter while reading");
         free(buf);
-        fclose(f);
+        close(fd);
         return CLI_FAIL;
     }
-    fclose(f);
+    close(fd);
     *data = buf; *size = n;
     return CLI_OK;
 }
@@ -84,6 +81,15 @@ static int cli_mkdirs(const char *dir) {
     }
     free(p);
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)) { cli_error("'%s' is not a folder", dir); return CLI_FAIL; }
+    return CLI_OK;
+}
+
+/* the folders rel below the output folder root, made where missing, none of them through a link */
+static int cli_mkdirs_below(const char *root, const char *rel) {
+    char msg[1024];
+    int fd = smio_dir_open(root, rel, 1, msg, sizeof msg);
+    if (fd < 0) { cli_error("%s", msg); return CLI_FAIL; }
+    close(fd);
     return CLI_OK;
 }
 
@@ -156,11 +162,73 @@ static int cli_out_allowed(const char *path) {
     return CLI_FAIL;
 }
 
-/* Output files are written to PATH.tmp and renamed to PATH once complete and closed without error:
-   a failed write leaves neither a half-written PATH nor PATH.tmp (and keeps an older PATH as it was). */
+/* The output folder whose sub-folders a command writes into (`batch`: DIR/<folder>/...): below it every
+   folder is opened without following a link (smio_dir_open), so a link planted there is refused. A path
+   outside it is written in the folder its name says (the user's choice, links included). */
+static const char *cli_out_root;
+static int cli_allow_outside; /* --allow-outside-refs: trusted local use (batch: linked pictures outside the folder) */
+
+/* the folder of path (opened as above) and its last component; -1 and the message when it cannot be */
+static int cli_out_dirfd(const char *path, const char **base, int create) {
+    const char *slash = strrchr(path, '/');
+    size_t rn = cli_out_root ? strlen(cli_out_root) : 0;
+    char msg[1024], *dir;
+    int fd;
+    *base = slash ? slash + 1 : path;
+    if (!slash) return open(".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    dir = (char *)malloc((size_t)(slash - path) + 2);
+    if (!dir) { cli_error("out of memory"); return -1; }
+    memcpy(dir, path, (size_t)(slash - path));
+    dir[slash - path] = 0;
+    if (slash == path) strcpy(dir, "/");
+    while (rn > 1 && cli_out_root[rn - 1] == '/') rn--;
+    if (cli_out_root && rn && !strncmp(dir, cli_out_root, rn) && (dir[rn] == '/' || dir[rn] == 0)) {
+        char *root = (char *)malloc(rn + 1);
+        if (!root) { free(dir); cli_error("out of memory"); return -1; }
+        memcpy(root, cli_out_root, rn);
+        root[rn] = 0;
+        fd = smio_dir_open(root, dir + rn, create, msg, sizeof msg);
+        free(root);
+    } else
+        fd = smio_dir_open(dir, "", 0, msg, sizeof msg);
+    if (fd < 0) cli_error("cannot write '%s': %s", path, msg);
+    free(dir);
+    return fd;
+}
+
+/* The folders whose leftovers of dead runs were removed (smio_clean_stale), once per folder and process */
+typedef struct cli_dir_id { dev_t dev; ino_t ino; } cli_dir_id;
+static cli_dir_id *cli_cleaned;
+static size_t cli_ncleaned, cli_capcleaned;
+static void cli_clean_once(int dirfd) {
+    struct stat st;
+    size_t i;
+    if (fstat(dirfd, &st) != 0) return;
+    for (i = 0; i < cli_ncleaned; i++)
+        if (cli_cleaned[i].dev == st.st_dev && cli_cleaned[i].ino == st.st_ino) return;
+    if (cli_ncleaned == cli_capcleaned) {
+        size_t cap = cli_capcleaned ? 2 * cli_capcleaned : 16;
+        cli_dir_id *v = (cli_dir_id *)realloc(cli_cleaned, cap * sizeof *cli_cleaned);
+        if (!v) return;
+        cli_cleaned = v;
+        cli_capcleaned = cap;
+    }
+    cli_cleaned[cli_ncleaned].dev = st.st_dev;
+    cli_cleaned[cli_ncleaned].ino = st.st_ino;
+    cli_ncleaned++;
+    smio_clean_stale(dirfd);
+}
+
+/* Output files are written to a new temporary file beside PATH (smio_tmp_create: a unique name created
+   with O_EXCL | O_NOFOLLOW, never an existing file or link), fsync()ed, and renamed (or linked) to PATH
+   once complete and closed without error: a failed write leaves neither a half-written PATH nor the
+   temporary file (and keeps an older PATH as it was); a killed run's temporary file is removed by the
+   next run writing into that folder. Neither the rename nor the link follows a link at PATH. */
 typedef struct cli_out {
     FILE *f;
-    char *tmp;       /* PATH.tmp */
+    int dirfd;       /* PATH's folder */
+    const char *base;/* PATH's last component */
+    char tmp[256];   /* the temporary file's name in dirfd */
     const char *path;
     int err;         /* the first errno of a failed write, or -1; 0 while all is well */
     int skip;        /* --skip-existing and PATH exists: nothing is written */
@@ -168,26 +236,35 @@ typedef struct cli_out {
 } cli_out;
 
 static int cli_out_open(cli_out *o, const char *path) {
-    size_t n = strlen(path);
-    int a;
+    int a, fd;
     memset(o, 0, sizeof *o);
+    o->dirfd = -1;
     o->path = path;
     a = cli_out_allowed(path);
     if (a == CLI_FAIL) return CLI_FAIL;
     if (a == CLI_SKIPPED) { o->skip = 1; return CLI_OK; }
     o->replace = cli_policy == CLI_POLICY_FORCE || cli_wrote(path);
-    o->tmp = (char *)malloc(n + 5);
-    if (!o->tmp) { cli_error("out of memory"); return CLI_FAIL; }
-    memcpy(o->tmp, path, n);
-    memcpy(o->tmp + n, ".tmp", 5);
-    o->f = fopen(o->tmp, "wb");
-    if (!o->f) {
-        cli_error("cannot write '%s': %s", o->tmp, strerror(errno));
-        free(o->tmp);
-        o->tmp = NULL;
+    if ((o->dirfd = cli_out_dirfd(path, &o->base, 0)) < 0) return CLI_FAIL;
+    cli_clean_once(o->dirfd);
+    fd = smio_tmp_create(o->dirfd, o->base, o->tmp, sizeof o->tmp);
+    if (fd < 0 || !(o->f = fdopen(fd, "wb"))) {
+        cli_error("cannot write '%s': %s", path, strerror(errno));
+        if (fd >= 0) { close(fd); unlinkat(o->dirfd, o->tmp, 0); }
+        close(o->dirfd);
+        o->dirfd = -1;
         return CLI_FAIL;
     }
     return CLI_OK;
+}
+
+/* malloc'ed path of the temporary file (to read it back before the rename), or NULL */
+static char *cli_out_tmp_path(const cli_out *o) {
+    size_t d = (size_t)(o->base - o->path);
+    char *p = (char *)malloc(d + strlen(o->tmp) + 1);
+    if (!p) return NULL;
+    memcpy(p, o->path, d);
+    strcpy(p + d, o->tmp);
+    return p;
 }
 
 static void cli_out_write(cli_out *o, const void *data, size_t n) {
@@ -213,35 +290,38 @@ static int cli_out_close(cli_out *o, int ok) {
     errno = 0;
     if (fflush(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
     errno = 0;
+    if (ok && !o->err && fsync(fileno(o->f)) != 0 && errno != EINVAL && errno != EROFS) o->err = errno ? errno : -1;
+    errno = 0;
     if (fclose(o->f) != 0 && !o->err) o->err = errno ? errno : -1;
     o->f = NULL;
     errno = 0;
     if (ok && !o->err) {
         if (o->replace) {
-            if (rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
-        } else if (link(o->tmp, o->path) == 0) {
-            remove(o->tmp);                    /* PATH is the new file; only the .tmp name goes */
+            if (renameat(o->dirfd, o->tmp, o->dirfd, o->base) != 0) o->err = errno ? errno : -1;
+        } else if (linkat(o->dirfd, o->tmp, o->dirfd, o->base, 0) == 0) {
+            unlinkat(o->dirfd, o->tmp, 0);      /* PATH is the new file; only the temporary name goes */
         } else if (errno == EEXIST) {
             exists = 1;                        /* it appeared while we computed */
         } else {                               /* a file system without hard links: check, then rename */
             struct stat st;
-            if (lstat(o->path, &st) == 0) exists = 1;
-            else if (rename(o->tmp, o->path) != 0) o->err = errno ? errno : -1;
+            if (fstatat(o->dirfd, o->base, &st, AT_SYMLINK_NOFOLLOW) == 0) exists = 1;
+            else if (renameat(o->dirfd, o->tmp, o->dirfd, o->base) != 0) o->err = errno ? errno : -1;
         }
+        if (!o->err && !exists) (void)fsync(o->dirfd); /* the new name on disk too */
     }
     if (exists) {
         cli_error("'%s' appeared while it was being written, and was not written by this run: kept it (--force replaces it)", o->path);
-        remove(o->tmp);
+        unlinkat(o->dirfd, o->tmp, 0);
         rc = CLI_FAIL;
     } else if (!ok || o->err) {
         if (ok) cli_error("cannot write '%s': %s", o->path, o->err > 0 ? strerror(o->err) : "write error");
-        remove(o->tmp);
+        unlinkat(o->dirfd, o->tmp, 0);
         rc = CLI_FAIL;
     } else {
         cli_note_written(o->path);
     }
-    free(o->tmp);
-    o->tmp = NULL;
+    close(o->dirfd);
+    o->dirfd = -1;
     return rc;
 }
 
@@ -450,16 +530,13 @@ static int cli_write_maps(const char *dir, const char *stem, int n, const char *
    - JPEG EXIF orientation (tag 0x0112, 2..8): applied, so the picture is processed upright as viewers
      show it, and sizes are reported after it (5..8 swap width and height). */
 static int cli_accept16;
+static int cli_pic_is16; /* the last picture cli_pic_info read has 16 bits per channel */
 
-/* the EXIF orientation of a JPEG file (1..8), 1 when absent / not a JPEG / unreadable */
-static int cli_exif_orientation(const char *path) {
-    unsigned char b[65536 + 4];
-    size_t n, pos = 2;
-    FILE *f = fopen(path, "rb");
+/* the EXIF orientation of a JPEG file's bytes (1..8), 1 when absent / not a JPEG / unreadable */
+static int cli_exif_orientation(const unsigned char *b, size_t n) {
+    size_t pos = 2;
     int o = 1;
-    if (!f) return 1;
-    n = fread(b, 1, sizeof b, f);
-    fclose(f);
+    if (n > 65536 + 4) n = 65536 + 4; /* EXIF lives in the first segment */
     if (n < 4 || b[0] != 0xFF || b[1] != 0xD8) return 1;
     while (pos + 4 <= n && b[pos] == 0xFF) {
         unsigned marker = b[pos + 1];
@@ -519,29 +596,22 @@ static unsigned char *cli_orient(const unsigned char *px, int w, int h, int ch, 
     return out;
 }
 
-static int cli_is_webp(const char *path) {
-    unsigned char b[12];
-    FILE *f = fopen(path, "rb");
-    size_t n = f ? fread(b, 1, sizeof b, f) : 0;
-    if (f) fclose(f);
-    return n == 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4);
+static int cli_is_webp(const unsigned char *b, size_t n) {
+    return n >= 12 && !memcmp(b, "RIFF", 4) && !memcmp(b + 8, "WEBP", 4);
 }
 
 #ifdef SUPERMAT_CLI_WEBP
 /* a WebP file as `want` channels (0 = 4), like stbi_load (1 gray, 2 gray + alpha, 3 RGB, 4 RGBA; gray as
    stb computes it); *c = 4 (3 without alpha). NULL and a message when it cannot be decoded. */
-static unsigned char *cli_load_webp(const char *path, int *w, int *h, int *c, int want) {
-    unsigned char *data = NULL, *rgba, *out;
-    size_t size = 0, n, i;
+static unsigned char *cli_load_webp(const char *path, const unsigned char *data, size_t size, int *w, int *h, int *c, int want) {
+    unsigned char *rgba, *out;
+    size_t n, i;
     WebPBitstreamFeatures ft;
     int k;
-    if (cli_read_file(path, &data, &size)) return NULL;
     if (WebPGetFeatures(data, size, &ft) != VP8_STATUS_OK || !(rgba = WebPDecodeRGBA(data, size, w, h))) {
-        cli_free_file(data);
         cli_error("cannot decode the WebP picture '%s' (libwebp)", path);
         return NULL;
     }
-    cli_free_file(data);
     *c = ft.has_alpha ? 4 : 3;
     k = want ? want : 4;
     n = (size_t)*w * (size_t)*h;
@@ -559,46 +629,50 @@ static unsigned char *cli_load_webp(const char *path, int *w, int *h, int *c, in
 }
 #endif
 
+/* Every picture is read once into memory by cli_read_file (a regular file, never a FIFO or a device), then
+   checked and decoded from there: stb_image never opens a path itself. */
 /* the picture's bytes checked before stb_image sees them (picture_check.h); 0 and the message when refused */
-static int cli_pic_check(const char *path, const char *what) {
-    unsigned char *data = NULL;
-    size_t size = 0;
-    const char *why;
-    if (cli_read_file(path, &data, &size)) return 0;
-    why = supermat_cli_picture_check(data, size);
-    cli_free_file(data);
+static int cli_pic_bytes_ok(const char *path, const char *what, const unsigned char *data, size_t size) {
+    const char *why = supermat_cli_picture_check(data, size);
     if (why) { cli_error("%s '%s' %s", what, path, why); return 0; }
+    if (size > (size_t)INT_MAX) { cli_error("%s '%s' is %.1f MiB: at most 2 GiB a picture file", what, path, cli_mib((double)size)); return 0; }
     return 1;
 }
 
 /* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
 static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
     struct stat st;
+    unsigned char *data = NULL;
+    size_t size = 0;
+    int ok = 0, is16;
+    cli_pic_is16 = 0;
     if (stat(path, &st) != 0) { cli_error("cannot read %s '%s': %s", what, path, strerror(errno)); return 0; }
     if (S_ISDIR(st.st_mode)) { cli_error("%s '%s' is a folder: give the picture files (e.g. '%s/*.png')", what, path, path); return 0; }
-    if (cli_is_webp(path)) {
+    if (cli_read_file(path, &data, &size)) return 0;
+    if (cli_is_webp(data, size)) {
 #ifdef SUPERMAT_CLI_WEBP
-        unsigned char *data = NULL;
-        size_t size = 0;
         WebPBitstreamFeatures ft;
-        int ok;
-        if (cli_read_file(path, &data, &size)) return 0;
         ok = WebPGetFeatures(data, size, &ft) == VP8_STATUS_OK;
         cli_free_file(data);
         if (!ok) { cli_error("cannot read %s '%s': not a valid WebP file (libwebp)", what, path); return 0; }
         *w = ft.width; *h = ft.height; *c = ft.has_alpha ? 4 : 3;
         return 1;
 #else
+        cli_free_file(data);
         cli_error("%s '%s' is WebP, which this build does not read (built without libwebp-dev): convert it to PNG first (e.g. `dwebp '%s' -o picture.png`, Debian's webp package) or rebuild with libwebp-dev", what, path, path);
         return 0;
 #endif
     }
-    if (!cli_pic_check(path, what)) return 0;
-    if (!stbi_info(path, w, h, c)) {
+    if (!cli_pic_bytes_ok(path, what, data, size)) { cli_free_file(data); return 0; }
+    if (!stbi_info_from_memory(data, (int)size, w, h, c)) {
         cli_error("cannot read %s '%s': %s", what, path, cli_stbi_reason());
+        cli_free_file(data);
         return 0;
     }
-    if (stbi_is_16_bit(path) && !cli_accept16) {
+    is16 = cli_pic_is16 = stbi_is_16_bit_from_memory(data, (int)size);
+    if (cli_exif_orientation(data, size) >= 5) { int t = *w; *w = *h; *h = t; }
+    cli_free_file(data);
+    if (is16 && !cli_accept16) {
         cli_error("%s '%s' has 16 bits per channel, which this command does not read (it would lose 8 of them): "
                   "give an 8-bit PNG (`supermat image` reads 16-bit pictures)", what, path);
         return 0;
@@ -607,7 +681,6 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         cli_error("%s '%s' claims a size of %dx%d pixels: a corrupt picture", what, path, *w, *h);
         return 0;
     }
-    if (cli_exif_orientation(path) >= 5) { int t = *w; *w = *h; *h = t; }
     if (*w > 16384 || *h > 16384) { /* from the header, before decoding: a small file may claim a huge picture */
         cli_error("%s '%s' is %dx%d: at most 16384 pixels a side (the largest a session takes)", what, path, *w, *h);
         return 0;
@@ -620,10 +693,13 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
 static float *cli_load16f(const char *path, int *w, int *h) {
     int c = 0;
     unsigned short *p;
+    unsigned char *data = NULL;
+    size_t size = 0, n, i;
     float *f;
-    size_t n, i;
-    if (!cli_pic_check(path, "picture")) return NULL;
-    p = stbi_load_16(path, w, h, &c, 4);
+    if (cli_read_file(path, &data, &size)) return NULL;
+    if (!cli_pic_bytes_ok(path, "picture", data, size)) { cli_free_file(data); return NULL; }
+    p = stbi_load_16_from_memory(data, (int)size, w, h, &c, 4);
+    cli_free_file(data);
     if (!p) return NULL;
     n = (size_t)*w * (size_t)*h * 4;
     f = (float *)malloc(n * sizeof *f);
@@ -634,13 +710,21 @@ static float *cli_load16f(const char *path, int *w, int *h) {
 
 /* stbi_load, turned upright by the EXIF orientation (JPEG); free with stbi_image_free */
 static unsigned char *cli_load(const char *path, int *w, int *h, int *c, int want) {
-    unsigned char *px;
+    unsigned char *px, *data = NULL;
+    size_t size = 0;
+    int o;
+    if (cli_read_file(path, &data, &size)) return NULL;
 #ifdef SUPERMAT_CLI_WEBP
-    if (cli_is_webp(path)) return cli_load_webp(path, w, h, c, want);
+    if (cli_is_webp(data, size)) {
+        px = cli_load_webp(path, data, size, w, h, c, want);
+        cli_free_file(data);
+        return px;
+    }
 #endif
-    if (!cli_pic_check(path, "picture")) return NULL;
-    px = stbi_load(path, w, h, c, want);
-    int o = px ? cli_exif_orientation(path) : 1;
+    if (!cli_pic_bytes_ok(path, "picture", data, size)) { cli_free_file(data); return NULL; }
+    px = stbi_load_from_memory(data, (int)size, w, h, c, want);
+    o = px ? cli_exif_orientation(data, size) : 1;
+    cli_free_file(data);
     if (px && o > 1) {
         int ow, oh;
         unsigned char *up = cli_orient(px, *w, *h, want ? want : *c, o, &ow, &oh);

@@ -76,6 +76,7 @@ int main(int argc, char **argv) {
             cli_policy = want;
             continue;
         }
+        if (!strcmp(argv[i], "--allow-outside-refs")) { cli_allow_outside = 1; continue; }
         argv[j++] = argv[i];
     }
     if (argc > 2) { argc = j; argv[argc] = NULL; }
@@ -112,6 +113,8 @@ int main(int argc, char **argv) {
 #ifdef SUPERMAT_CLI_MESH
         if (cli_policy != CLI_POLICY_REFUSE) /* the mesh command reads the policy from its arguments */
             argv[argc++] = (char *)(cli_policy == CLI_POLICY_FORCE ? "--force" : "--skip-existing");
+        if (cli_allow_outside) argv[argc++] = (char *)"--allow-outside-refs";
+        argv[argc] = NULL;
         return supermat_cli_mesh(argc - 1, argv + 1);
 #else
         cli_error("this supermat was built without tinygltf (libtinygltf-dev): `mesh` is not available");

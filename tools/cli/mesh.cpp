@@ -32,6 +32,7 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 #include "picture_check.h"
+#include "smio.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -47,6 +48,7 @@
 #include <cstdlib>
 #include <cerrno>
 #include <cstring>
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -245,19 +247,78 @@ float sample_channel(const MatIn &m, double x, double y, int ch) {
     return (float)(r / 255.0);
 }
 
-std::vector<unsigned char> read_whole(const std::string &path) {
+/* a whole regular file (smio.h: a FIFO or a device is refused without blocking; with nofollow a link too);
+   empty when it cannot be read, *why says why */
+std::vector<unsigned char> read_whole(const std::string &path, bool nofollow = false, std::string *why = nullptr) {
     std::vector<unsigned char> b;
-    FILE *f = std::fopen(path.c_str(), "rb");
-    if (!f) return b;
-    std::fseek(f, 0, SEEK_END);
-    long n = std::ftell(f);
-    std::fseek(f, 0, SEEK_SET);
-    if (n > 0) {
-        b.resize((size_t)n);
-        if (std::fread(b.data(), 1, b.size(), f) != b.size()) b.clear();
-    }
-    std::fclose(f);
+    char msg[256];
+    struct stat st;
+    int fd = smio_open_regular(path.c_str(), nofollow ? 1 : 0, msg, sizeof msg);
+    if (fd < 0) { if (why) *why = msg; return b; }
+    if (fstat(fd, &st) == 0 && st.st_size > 0) {
+        b.resize((size_t)st.st_size);
+        if (smio_read_all(fd, b.data(), b.size()) != 0) { b.clear(); if (why) *why = errno ? std::strerror(errno) : "the file got shorter while reading"; }
+    } else if (why)
+        *why = "empty file";
+    close(fd);
     return b;
+}
+
+/* Every file a glTF refers to goes through these callbacks (tinygltf opens nothing itself, and never
+   searches the current folder): the reference must be a relative path (smio_ref_syntax) that, every
+   symbolic link resolved, stays inside the asset's folder (unless --allow-outside-refs), and a regular file.
+   A refused reference is named in `refused`, and the run fails. Writes go through the caller, never here. */
+struct RefFs {
+    std::string base;      /* the folder tinygltf joins references to (the asset's, as given) */
+    std::string real_dir;  /* the same, resolved */
+    bool allow_outside = false;
+    std::vector<std::string> refused;
+    void refuse(const std::string &uri, const std::string &why) {
+        std::string m = "'" + uri + "' " + why;
+        for (const std::string &r : refused) if (r == m) return;
+        refused.push_back(m);
+    }
+    /* the resolved path of a reference tinygltf asks for, or "" (refused or missing) */
+    std::string resolve(const std::string &abs) {
+        std::string prefix = base + (base.empty() || base.back() == '/' ? "" : "/");
+        if (abs.compare(0, prefix.size(), prefix) != 0) return ""; /* not below the asset's folder: never searched */
+        std::string uri = abs.substr(prefix.size());
+        if (const char *why = smio_ref_syntax(uri.c_str())) { refuse(uri, why); return ""; }
+        char *r = nullptr;
+        int in = smio_inside(real_dir.c_str(), abs.c_str(), &r);
+        if (in < 0) return ""; /* missing: tinygltf says so */
+        std::string resolved = r;
+        std::free(r);
+        if (!in && !allow_outside) {
+            refuse(uri, "leads outside the asset's folder '" + real_dir + "' (through '..' or a symbolic link): refused (--allow-outside-refs reads it)");
+            return "";
+        }
+        struct stat st;
+        if (::stat(resolved.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) { refuse(uri, std::string("is ") + smio_kind(st.st_mode) + ", not a regular file: refused"); return ""; }
+        return resolved;
+    }
+};
+bool fs_exists(const std::string &abs, void *user) { return !((RefFs *)user)->resolve(abs).empty(); }
+std::string fs_expand(const std::string &path, void *) { return path; } /* no ~ or $VAR expansion */
+bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &abs, void *user) {
+    std::string r = ((RefFs *)user)->resolve(abs), why;
+    if (r.empty()) { if (err) *err = "refused"; return false; }
+    *out = read_whole(r, true, &why);
+    if (out->empty() && err) *err = why;
+    return !out->empty();
+}
+bool fs_write(std::string *err, const std::string &, const std::vector<unsigned char> &, void *) {
+    if (err) *err = "supermat writes files itself";
+    return false;
+}
+tinygltf::FsCallbacks ref_fs(RefFs *r) {
+    tinygltf::FsCallbacks fs;
+    fs.FileExists = fs_exists;
+    fs.ExpandFilePath = fs_expand;
+    fs.ReadWholeFile = fs_read;
+    fs.WriteWholeFile = fs_write;
+    fs.user_data = r;
+    return fs;
 }
 
 /* A GLB's container, checked before tinygltf reads it: Debian's tinygltf 2.7 bounds the BIN chunk's length
@@ -290,14 +351,16 @@ std::string stem_of(const std::string &p) {
     return d == std::string::npos ? f : f.substr(0, d);
 }
 
+void png_to_vec(void *ctx, void *data, int n);
+bool write_atomic(const std::string &path, const void *data, size_t n);
 bool write_png(const std::string &path, const float *data, int w, int h, int ch) {
-    std::vector<unsigned char> b((size_t)w * h * ch);
+    std::vector<unsigned char> b((size_t)w * h * ch), png;
     for (size_t i = 0; i < b.size(); i++) {
         float v = data[i];
         v = v < 0 ? 0 : v > 1 ? 1 : v;
         b[i] = (unsigned char)(v * 255.0f + 0.5f);
     }
-    return stbi_write_png(path.c_str(), w, h, ch, b.data(), w * ch) != 0;
+    return stbi_write_png_to_func(png_to_vec, &png, w, h, ch, b.data(), w * ch) != 0 && write_atomic(path, png.data(), png.size());
 }
 
 struct Debug {
@@ -335,12 +398,44 @@ int progress_cb(void *user, float f, const char *what) {
 }
 
 /* A file written in full or not at all: fwrite/fflush/fclose all checked. */
+/* n bytes to a new descriptor, fsync()ed and closed: every step checked */
+bool write_fd(int fd, const void *data, size_t n) {
+    const unsigned char *p = (const unsigned char *)data;
+    bool ok = true;
+    while (n > 0 && ok) {
+        ssize_t w = ::write(fd, p, n);
+        if (w < 0 && errno == EINTR) continue;
+        ok = w > 0;
+        if (ok) { p += w; n -= (size_t)w; }
+    }
+    ok = fsync(fd) == 0 && ok;
+    ok = close(fd) == 0 && ok;
+    return ok;
+}
+/* a new file (O_EXCL | O_NOFOLLOW: never an existing file or a link), written in full or not at all */
 bool write_file(const std::string &path, const void *data, size_t n) {
-    FILE *f = std::fopen(path.c_str(), "wb");
-    if (!f) return false;
-    bool ok = (n == 0 || std::fwrite(data, 1, n, f) == n);
-    ok = (std::fflush(f) == 0) && ok;
-    ok = (std::fclose(f) == 0) && ok;
+    int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+    if (fd < 0) return false;
+    if (write_fd(fd, data, n)) return true;
+    unlink(path.c_str());
+    return false;
+}
+
+/* path written as a whole or not at all, in the folder its name says: a new temporary file beside it
+   (O_EXCL | O_NOFOLLOW), fsync, renameat (which replaces a link at path, never follows it) */
+bool write_atomic(const std::string &path, const void *data, size_t n) {
+    size_t s = path.find_last_of('/');
+    std::string dir = s == std::string::npos ? "." : s == 0 ? "/" : path.substr(0, s), name = s == std::string::npos ? path : path.substr(s + 1);
+    char msg[512], tmp[256];
+    int dfd = smio_dir_open(dir.c_str(), "", 0, msg, sizeof msg);
+    if (dfd < 0) return false;
+    int fd = smio_tmp_create(dfd, name.c_str(), tmp, sizeof tmp);
+    bool ok = fd >= 0;
+    if (ok) {
+        ok = write_fd(fd, data, n) && renameat(dfd, tmp, dfd, name.c_str()) == 0;
+        if (!ok) unlinkat(dfd, tmp, 0);
+    }
+    close(dfd);
     return ok;
 }
 void png_to_vec(void *ctx, void *data, int n) {
@@ -475,16 +570,6 @@ void list_files(const std::string &root, const std::string &rel, std::vector<std
     }
     closedir(d);
 }
-void remove_tree(const std::string &root) {
-    std::vector<std::string> files;
-    list_files(root, "", files);
-    for (const std::string &f : files) std::remove((root + "/" + f).c_str());
-    for (size_t k = files.size(); k-- > 0;) { /* sub-folders, deepest first */
-        size_t s = files[k].find_last_of('/');
-        if (s != std::string::npos) rmdir((root + "/" + files[k].substr(0, s)).c_str());
-    }
-    rmdir(root.c_str());
-}
 
 /* the mesh defaults, looked for in the default model's folder (models/, or <prefix>/share/supermat) */
 #define MESH_DEFAULT_MV "supermat_mv_default.safetensors"
@@ -514,6 +599,8 @@ int usage() {
                  "  --keep-observed the refined maps fill only the texels no view saw; the others keep the\n"
                  "                  back-projection (default: refined everywhere, as the official pipeline)\n"
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
+                 "  --allow-outside-refs  trusted assets only: read referenced files outside IN's folder (by '..'\n"
+                 "                  or a symbolic link); absolute paths, schemes and non-regular files stay refused\n"
                  "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
                  "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
                  "                  maps back (default: the size each model file records, as `supermat image`:\n"
@@ -680,6 +767,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
     int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
+    bool allow_outside = false;
     g_max_memory = 0;
     for (int i = 1; i < argc; i++) {
         std::string a = argv[i];
@@ -725,6 +813,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else if (a == "--no-refine") no_refine = 1;
         else if (a == "--refine") refine = 1;
         else if (a == "--keep-observed") keep_observed = 1;
+        else if (a == "--allow-outside-refs") allow_outside = true;
         else if (a == "--force" || a == "--skip-existing") {
             int want = a == "--force" ? 1 : 2;
             if (policy && policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
@@ -737,6 +826,13 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else return usage();
     }
     if (!in || !out) return usage();
+    { /* OUT's folder, before any work: it must exist (and be a folder) */
+        std::string od = dir_of(out);
+        char msg[1024];
+        int fd = smio_dir_open(od.c_str(), "", 0, msg, sizeof msg);
+        if (fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
+        close(fd);
+    }
     if (exists_l(out) && policy != 1) { /* before any work */
         if (policy == 2) { std::fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", out); return 0; }
         std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
@@ -799,22 +895,36 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     raw.model = &model;
     loader.SetImageLoader(raw_image_loader, &raw);
     std::string err, warn, inpath = in, outpath = out;
+    RefFs refs;
+    refs.base = dir_of(inpath);
+    refs.allow_outside = allow_outside;
+    {
+        char *r = realpath(refs.base.c_str(), nullptr);
+        if (!r) { std::fprintf(stderr, "supermat mesh: cannot read %s: its folder: %s\n", in, std::strerror(errno)); return 1; }
+        refs.real_dir = r;
+        std::free(r);
+    }
+    loader.SetFsCallbacks(ref_fs(&refs));
     bool glb_in = inpath.size() > 4 && inpath.compare(inpath.size() - 4, 4, ".glb") == 0;
-    std::vector<unsigned char> glb; /* a GLB is read here, checked, then parsed from memory (kept until the end) */
-    if (glb_in) {
+    std::vector<unsigned char> glb; /* IN is read here (a regular file), checked, then parsed from memory (kept until the end) */
+    {
         struct stat st;
         if (::stat(in, &st) == 0 && (uint64_t)st.st_size > 0xFFFFFFFFu) {
-            std::fprintf(stderr, "supermat mesh: cannot read %s: %llu bytes (a GLB holds at most 4 GiB)\n", in, (unsigned long long)st.st_size);
+            std::fprintf(stderr, "supermat mesh: cannot read %s: %llu bytes (a glTF or GLB holds at most 4 GiB)\n", in, (unsigned long long)st.st_size);
             return 1;
         }
-        errno = 0;
-        glb = read_whole(inpath);
-        if (glb.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, errno ? std::strerror(errno) : "empty file"); return 1; }
-        std::string why = glb_check(glb);
+        std::string why;
+        glb = read_whole(inpath, false, &why);
+        if (glb.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s: it %s\n", in, why.c_str()); return 1; }
+        why = glb_in ? glb_check(glb) : "";
         if (!why.empty()) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, why.c_str()); return 1; }
     }
-    bool ok = glb_in ? loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(), (unsigned int)glb.size(), dir_of(inpath))
-                     : loader.LoadASCIIFromFile(&model, &err, &warn, inpath);
+    bool ok = glb_in ? loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(), (unsigned int)glb.size(), refs.base)
+                     : loader.LoadASCIIFromString(&model, &err, &warn, (const char *)glb.data(), (unsigned int)glb.size(), refs.base);
+    if (!refs.refused.empty()) { /* a hostile or broken reference: nothing is read through it, and the run fails */
+        for (const std::string &r : refs.refused) std::fprintf(stderr, "supermat mesh: %s: the reference %s\n", in, r.c_str());
+        return 1;
+    }
     if (!warn.empty()) std::fprintf(stderr, "supermat mesh: %s\n", warn.c_str());
     if (!ok) { std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", in, err.c_str()); return 1; }
     raw.bytes.resize(model.images.size());
@@ -1040,7 +1150,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     if (isatty(2)) { bd.progress = progress_cb; bd.progress_user = &last; }
     Debug dd;
     if (dbg) {
-        mkdir(dbg, 0777);
+        if (mkdir(dbg, 0777) != 0 && errno != EEXIST) { std::fprintf(stderr, "supermat mesh: cannot create %s: %s\n", dbg, std::strerror(errno)); return 1; }
         dd.dir = dbg;
         bd.debug = debug_cb; bd.debug_user = &dd;
     }
@@ -1208,12 +1318,19 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     tinygltf::TinyGLTF writer;
     writer.SetImageWriter(image_writer, &wr);
     std::string base = outpath.substr(outpath.find_last_of('/') == std::string::npos ? 0 : outpath.find_last_of('/') + 1);
-    wr.stage = wr.out_dir + "/.supermat-mesh-" + std::to_string((long)getpid()) + ".tmp";
-    remove_tree(wr.stage);
-    if (mkdir(wr.stage.c_str(), 0777) != 0) {
+    /* the stage: a new private folder (0700, created by this process with its marker, smio_stage_create), so
+       nothing can be planted in it; the leftovers of killed runs in OUT's folder are removed first
+       (smio_clean_stale: marked stages and temporary files of processes that are gone, nothing else) */
+    char msg[1024], stage_name[128];
+    int out_fd = smio_dir_open(wr.out_dir.c_str(), "", 0, msg, sizeof msg);
+    if (out_fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
+    smio_clean_stale(out_fd);
+    if (smio_stage_create(out_fd, stage_name, sizeof stage_name) != 0) {
         std::fprintf(stderr, "supermat mesh: cannot write into %s: %s\n", wr.out_dir.c_str(), std::strerror(errno));
+        close(out_fd);
         return 1;
     }
+    wr.stage = wr.out_dir + "/" + stage_name;
     std::string staged = wr.stage + "/" + base;
     bool wok = writer.WriteGltfSceneToFile(&model, staged, false, self_contained && !glb_out, true, glb_out) && wr.failed.empty();
     if (wok) {
@@ -1221,8 +1338,16 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         std::string e, w;
         tinygltf::TinyGLTF reader;
         Raw raw_back;
+        RefFs back_refs;
+        back_refs.base = wr.stage;
+        char *r = realpath(wr.stage.c_str(), nullptr);
+        back_refs.real_dir = r ? r : wr.stage;
+        std::free(r);
+        reader.SetFsCallbacks(ref_fs(&back_refs));
         reader.SetImageLoader(raw_image_loader, &raw_back);
-        wok = glb_out ? reader.LoadBinaryFromFile(&back, &e, &w, staged) : reader.LoadASCIIFromFile(&back, &e, &w, staged);
+        std::vector<unsigned char> whole = read_whole(staged, true);
+        wok = !whole.empty() && (glb_out ? reader.LoadBinaryFromMemory(&back, &e, &w, whole.data(), (unsigned int)whole.size(), wr.stage)
+                                         : reader.LoadASCIIFromString(&back, &e, &w, (const char *)whole.data(), (unsigned int)whole.size(), wr.stage));
         for (size_t b = 0; wok && b < back.buffers.size() && b < model.buffers.size(); b++)
             wok = back.buffers[b].data.size() == model.buffers[b].data.size();
         raw_back.bytes.resize(back.images.size());
@@ -1232,9 +1357,13 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     }
     std::vector<std::string> files;
     if (wok) list_files(wr.stage, "", files);
+    /* the asset's own file last: its side files are in place before it refers to them */
+    for (size_t k = 0; k + 1 < files.size(); k++)
+        if (files[k] == base) { files.erase(files.begin() + (long)k); files.push_back(base); break; }
+    files.erase(std::remove(files.begin(), files.end(), std::string(SMIO_STAGE_MARKER)), files.end());
     for (const std::string &f : files) /* the policy for every file: OUT itself was checked before the work */
         if (f != base && exists_l(wr.out_dir + "/" + f) && policy != 1 &&
-            read_whole(wr.out_dir + "/" + f) != read_whole(wr.stage + "/" + f)) { /* the same bytes: nothing lost */
+            read_whole(wr.out_dir + "/" + f, true) != read_whole(wr.stage + "/" + f, true)) { /* the same bytes: nothing lost */
             if (policy == 2) continue;
             std::fprintf(stderr, "supermat mesh: '%s/%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n",
                          wr.out_dir.c_str(), f.c_str());
@@ -1242,14 +1371,27 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             wr.failed = "-";
             break;
         }
+    /* moved into place with renameat: OUT's sub-folders are opened (or made) without following a link, and
+       a link at a file's name is replaced, never followed */
+    int stage_fd = openat(out_fd, stage_name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (stage_fd < 0) wok = false;
     for (size_t k = 0; wok && k < files.size(); k++) {
         const std::string &f = files[k];
         std::string dst = wr.out_dir + "/" + f;
         if (f != base && policy == 2 && exists_l(dst)) continue;
-        mkdirs(dst);
-        if (std::rename((wr.stage + "/" + f).c_str(), dst.c_str()) != 0) { wr.failed = dst + ": " + std::strerror(errno); wok = false; }
+        size_t sl = f.find_last_of('/');
+        std::string sub = sl == std::string::npos ? "" : f.substr(0, sl), name = sl == std::string::npos ? f : f.substr(sl + 1);
+        int src_fd = sub.empty() ? dup(stage_fd) : smio_dir_open(wr.stage.c_str(), sub.c_str(), 0, msg, sizeof msg);
+        int dst_fd = src_fd < 0 ? -1 : sub.empty() ? dup(out_fd) : smio_dir_open(wr.out_dir.c_str(), sub.c_str(), 1, msg, sizeof msg);
+        if (src_fd < 0 || dst_fd < 0) { wr.failed = dst + ": " + msg; wok = false; }
+        else if (renameat(src_fd, name.c_str(), dst_fd, name.c_str()) != 0) { wr.failed = dst + ": " + std::strerror(errno); wok = false; }
+        else (void)fsync(dst_fd);
+        if (src_fd >= 0) close(src_fd);
+        if (dst_fd >= 0) close(dst_fd);
     }
-    remove_tree(wr.stage);
+    if (stage_fd >= 0) close(stage_fd);
+    smio_rmtree_at(out_fd, stage_name, 0);
+    close(out_fd);
     if (!wok) {
         if (wr.failed != "-") std::fprintf(stderr, "supermat mesh: cannot write %s\n", wr.failed.empty() ? out : wr.failed.c_str());
         return 1;

@@ -9,6 +9,9 @@
 #if !defined(_POSIX_C_SOURCE) && !defined(__APPLE__)
 #define _POSIX_C_SOURCE 200809L
 #endif
+#if !defined(_XOPEN_SOURCE) && !defined(__APPLE__)
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
 #endif
 
 #define SUPERMAT_IMPLEMENTATION
@@ -28,6 +31,7 @@
 #include <sys/mman.h>
 #include <sys/types.h>
 #include <unistd.h>
+#include "smio.h"
 
 /* stb: their warnings are not ours */
 #if defined(__GNUC__) || defined(__clang__)
