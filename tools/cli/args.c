@@ -27,10 +27,13 @@ static const char cli_usage_main[] =
     "  supermat --version        the version\n"
     "\n"
     "outputs, every command: a file that exists and was not written by this run is not replaced (exit 1,\n"
-    "before any work on that input), symbolic links included; each file is written as FILE.tmp and\n"
-    "renamed (linked) into place when complete, so a failed write leaves the old file or none.\n"
+    "before any work on that input), symbolic links included; each file is written to a new temporary\n"
+    "file beside it and renamed (linked) into place when complete, so a failed write leaves the old file\n"
+    "or none; no write follows a symbolic link (docs/security.md).\n"
     "  --force                replace existing files (a symbolic link itself, not its target)\n"
     "  --skip-existing        keep existing files and go on (an input whose maps all exist is not run)\n"
+    "  --allow-outside-refs   trusted files only: `mesh` reads references outside the asset's folder,\n"
+    "                         `batch` takes linked pictures that lead outside an input folder\n"
     "\n"
     "exit status: 0 ok, 1 runtime error, 2 usage error\n";
 
@@ -40,7 +43,7 @@ static const char cli_usage_convert[] =
     "\n"
     "Turns an official SuperMat checkpoint (torch.save format) plus a Stable Diffusion 2.1 folder in\n"
     "diffusers layout (unet/config.json, vae/, text_encoder/, scheduler/) into the one model file that\n"
-    "`supermat image` loads. No Python is needed. The output is written to FILE.tmp, then renamed.\n"
+    "`supermat image` loads. No Python is needed. The output is written to a temporary file, then renamed.\n"
     "\n"
     "options:\n"
     "  --kind K          supermat | supermat-mv | uv-refine (default: detected from the checkpoint)\n"
@@ -71,7 +74,7 @@ static const char cli_usage_pack[] =
     "the file is mapped (no copy, no packing): the model is created in milliseconds and every process on\n"
     "the machine shares one copy of the weights in the page cache. Every command loads it like any model\n"
     "file, with the options it was packed for (asking for others is an error: pack again). The output is\n"
-    "written to FILE.tmp, then renamed.\n"
+    "written to a temporary file, then renamed.\n"
     "\n"
     "options:\n"
     "  --model FILE      the model file (default: the default model, see `supermat image --help`)\n"
@@ -133,7 +136,7 @@ static const char cli_usage_image[] =
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
     "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
     "\n"
-    "Each file is written as FILE.tmp and renamed when complete. Progress (and the default model's\n"
+    "Each file is written to a temporary file and renamed when complete. Progress (and the default model's\n"
     "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
     "for a uv-refine model `supermat refine`. `supermat sheet` puts inputs and maps side by side.\n";
 

@@ -29,6 +29,7 @@
 #include "supermat_uv.h"
 
 #include <tiny_gltf.h>
+#include <nlohmann/json.hpp> /* what a replaced .gltf refers to (libtinygltf-dev depends on nlohmann-json3-dev) */
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 #include "picture_check.h"
@@ -479,6 +480,93 @@ bool uri_inside(const std::string &decoded) {
         a = b + 1;
     }
 }
+/* a relative path as a URI: bytes outside [A-Za-z0-9-._~/] %-encoded */
+std::string uri_encode(const std::string &p) {
+    static const char *hex = "0123456789ABCDEF";
+    std::string u;
+    for (unsigned char c : p) {
+        if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~' || c == '/') u += (char)c;
+        else { u += '%'; u += hex[c >> 4]; u += hex[c & 15]; }
+    }
+    return u;
+}
+/* "sub/name.ext" with "-k" before its extension (k = 0: as it is) */
+std::string with_suffix(const std::string &rel, int k) {
+    if (k == 0) return rel;
+    size_t sl = rel.find_last_of('/'), dot = rel.find_last_of('.');
+    if (dot == std::string::npos || (sl != std::string::npos && dot < sl) || dot == (sl == std::string::npos ? 0 : sl + 1))
+        return rel + "-" + std::to_string(k);
+    return rel.substr(0, dot) + "-" + std::to_string(k) + rel.substr(dot);
+}
+/* is rel one of anchor's names (anchor itself or anchor-k)? */
+bool in_family(const std::string &rel, const std::string &anchor) {
+    if (rel == anchor) return true;
+    for (int k = 1; k < 1000; k++) if (with_suffix(anchor, k) == rel) return true;
+    return false;
+}
+/* the files (decoded relative URIs) a .gltf's JSON refers to: its buffers' and images' URIs; data URIs left
+   out; empty when it does not parse */
+std::vector<std::string> gltf_refs(const std::vector<unsigned char> &text) {
+    std::vector<std::string> r;
+    nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return r;
+    for (const char *key : {"buffers", "images"}) {
+        auto a = j.find(key);
+        if (a == j.end() || !a->is_array()) continue;
+        for (const auto &e : *a) {
+            if (!e.is_object()) continue;
+            auto u = e.find("uri");
+            if (u == e.end() || !u->is_string()) continue;
+            std::string s = u->get<std::string>();
+            if (s.compare(0, 5, "data:") != 0) r.push_back(uri_decode(s));
+        }
+    }
+    return r;
+}
+/* The removals a --force run over a .gltf owes once its new .gltf is in place: the older side files the
+   replaced .gltf referred to that the new one does not (names of the same outputs: NAME or NAME-k). The
+   list is kept in the stage (PENDING_FILE: the .gltf's name, then one file a line) until they are gone, so
+   a run killed in between leaves them to the next run in that folder (finish_pending). */
+const char *const PENDING_FILE = ".supermat-pending";
+void remove_unreferenced(int out_fd, const std::string &out_dir, const std::string &gltf_name, const std::vector<std::string> &names) {
+    std::vector<unsigned char> now = read_whole(out_dir + "/" + gltf_name, true);
+    if (now.empty()) return; /* nothing proves they are unreferenced */
+    std::vector<std::string> refs = gltf_refs(now);
+    for (const std::string &n : names) {
+        if (std::find(refs.begin(), refs.end(), n) != refs.end() || !uri_inside(n)) continue;
+        size_t sl = n.find_last_of('/');
+        char msg[512];
+        int dfd = sl == std::string::npos ? dup(out_fd) : smio_dir_open(out_dir.c_str(), n.substr(0, sl).c_str(), 0, msg, sizeof msg);
+        if (dfd < 0) continue;
+        struct stat st;
+        std::string leaf = sl == std::string::npos ? n : n.substr(sl + 1);
+        if (fstatat(dfd, leaf.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode)) (void)unlinkat(dfd, leaf.c_str(), 0);
+        close(dfd);
+    }
+}
+/* the removals that killed runs owed in out_dir (their marked stages, processes gone); before
+   smio_clean_stale removes the stages */
+void finish_pending(int out_fd, const std::string &out_dir) {
+    int fd = dup(out_fd);
+    DIR *d = fd >= 0 ? fdopendir(fd) : nullptr;
+    if (!d) { if (fd >= 0) close(fd); return; }
+    while (struct dirent *e = readdir(d)) {
+        int stage = 0;
+        long pid = smio_leftover_pid(e->d_name, &stage);
+        if (!stage || !smio_pid_gone(pid)) continue;
+        std::string sd = out_dir + "/" + e->d_name;
+        struct stat st;
+        if (lstat(sd.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || lstat((sd + "/" SMIO_STAGE_MARKER).c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+        std::vector<unsigned char> p = read_whole(sd + "/" + PENDING_FILE, true);
+        std::vector<std::string> lines;
+        std::string cur;
+        for (unsigned char c : p) { if (c == '\n') { lines.push_back(cur); cur.clear(); } else cur += (char)c; }
+        if (lines.size() < 2 || lines[0].find('/') != std::string::npos) continue;
+        remove_unreferenced(out_fd, out_dir, lines[0], std::vector<std::string>(lines.begin() + 1, lines.end()));
+    }
+    closedir(d);
+}
+
 std::string mime_of(const std::vector<unsigned char> &b, const std::string &given) {
     if (b.size() >= 8 && std::memcmp(b.data(), "\x89PNG", 4) == 0) return "image/png";
     if (b.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) return "image/jpeg";
@@ -1312,6 +1400,37 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         }
     }
 
+    /* A --force run over an existing .gltf commits as a whole: a side file whose name holds other bytes in
+       OUT's folder is written under a fresh name (NAME-1.ext, NAME-2.ext, ...: the first free or identical
+       one), so no file the old .gltf refers to changes before the new .gltf replaces it in one rename; the
+       old side files it no longer refers to are removed after (remove_unreferenced). */
+    std::vector<std::string> anchors, old_refs;
+    if (!glb_out && policy == 1) {
+        std::vector<unsigned char> old = read_whole(outpath, true);
+        if (!old.empty()) old_refs = gltf_refs(old);
+        auto fresh = [&](const std::string &rel, const std::vector<unsigned char> &bytes) {
+            anchors.push_back(rel);
+            for (int k = 0; k < 1000; k++) {
+                std::string cand = with_suffix(rel, k), p = wr.out_dir + "/" + cand;
+                struct stat st;
+                if (lstat(p.c_str(), &st) != 0) return cand;
+                if (S_ISREG(st.st_mode) && read_whole(p, true) == bytes) return cand;
+            }
+            return rel;
+        };
+        if (!self_contained)
+            for (tinygltf::Buffer &buf : model.buffers) {
+                if (buf.uri.empty() || buf.uri.compare(0, 5, "data:") == 0) continue;
+                std::string rel = uri_decode(buf.uri), c = fresh(rel, buf.data);
+                if (c != rel) buf.uri = uri_encode(c);
+            }
+        for (size_t i = 0; i < model.images.size(); i++) {
+            if (!wr.write[i]) continue;
+            std::string rel = uri_decode(model.images[i].uri), c = fresh(rel, raw.bytes[i]);
+            if (c != rel) model.images[i].uri = uri_encode(c);
+        }
+    }
+
     /* Everything is written into a staging folder beside OUT, read back (a truncated file -- full disk,
        size limit -- does not parse), then moved into place: OUT and its files appear complete or not at
        all. tinygltf does not check its own writes, hence the read-back. */
@@ -1324,6 +1443,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     char msg[1024], stage_name[128];
     int out_fd = smio_dir_open(wr.out_dir.c_str(), "", 0, msg, sizeof msg);
     if (out_fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
+    finish_pending(out_fd, wr.out_dir);
     smio_clean_stale(out_fd);
     if (smio_stage_create(out_fd, stage_name, sizeof stage_name) != 0) {
         std::fprintf(stderr, "supermat mesh: cannot write into %s: %s\n", wr.out_dir.c_str(), std::strerror(errno));
@@ -1361,6 +1481,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     for (size_t k = 0; k + 1 < files.size(); k++)
         if (files[k] == base) { files.erase(files.begin() + (long)k); files.push_back(base); break; }
     files.erase(std::remove(files.begin(), files.end(), std::string(SMIO_STAGE_MARKER)), files.end());
+    files.erase(std::remove(files.begin(), files.end(), std::string(PENDING_FILE)), files.end());
     for (const std::string &f : files) /* the policy for every file: OUT itself was checked before the work */
         if (f != base && exists_l(wr.out_dir + "/" + f) && policy != 1 &&
             read_whole(wr.out_dir + "/" + f, true) != read_whole(wr.stage + "/" + f, true)) { /* the same bytes: nothing lost */
@@ -1375,8 +1496,22 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
        a link at a file's name is replaced, never followed */
     int stage_fd = openat(out_fd, stage_name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     if (stage_fd < 0) wok = false;
+    std::vector<std::string> owed; /* old side files of the replaced .gltf that the new one does not refer to */
+    if (wok && !old_refs.empty()) {
+        std::vector<unsigned char> now = read_whole(staged, true);
+        std::vector<std::string> new_refs = gltf_refs(now);
+        for (const std::string &r : old_refs)
+            if (std::find(new_refs.begin(), new_refs.end(), r) == new_refs.end() && std::find(owed.begin(), owed.end(), r) == owed.end())
+                for (const std::string &a : anchors)
+                    if (in_family(r, a)) { owed.push_back(r); break; }
+    }
     for (size_t k = 0; wok && k < files.size(); k++) {
         const std::string &f = files[k];
+        if (f == base && !owed.empty()) { /* what is owed, kept in the stage until done (finish_pending) */
+            std::string list = base + "\n";
+            for (const std::string &o : owed) list += o + "\n";
+            if (!write_file(wr.stage + "/" + PENDING_FILE, list.data(), list.size())) { wr.failed = wr.stage + "/" + PENDING_FILE; wok = false; break; }
+        }
         std::string dst = wr.out_dir + "/" + f;
         if (f != base && policy == 2 && exists_l(dst)) continue;
         size_t sl = f.find_last_of('/');
@@ -1390,6 +1525,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         if (dst_fd >= 0) close(dst_fd);
     }
     if (stage_fd >= 0) close(stage_fd);
+    if (wok && !owed.empty()) remove_unreferenced(out_fd, wr.out_dir, base, owed);
     smio_rmtree_at(out_fd, stage_name, 0);
     close(out_fd);
     if (!wok) {

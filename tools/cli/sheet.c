@@ -19,7 +19,7 @@ static const char cli_usage_sheet[] =
     "gutters on a white background: the sheet is 4 + C * (N + 4) pixels wide and 4 + R * (N + 4)\n"
     "high for C columns and R rows, plus 8 * S + 4 rows for the labels when --labels is given\n"
     "(S = 1 + N / 256, the text scale: 1 up to N = 255). The PNG is RGB, 8-bit, written as\n"
-    "SHEET.png.tmp and renamed when complete; on any error nothing is written.\n"
+    "a temporary file and renamed when complete; on any error nothing is written.\n"
     "\n"
     "options:\n"
     "  --out FILE        the PNG to write (required)\n"

@@ -21,7 +21,8 @@
  *   smio_clean_stale    removes what a dead run of the tool left in a folder: its temporary files (the name
  *                       above, a regular file, a pid that no longer runs) and its staging folders
  *                       (".supermat-mesh-<pid>-<n>.tmp", a real folder holding the marker file
- *                       SMIO_STAGE_MARKER, a pid that no longer runs). Nothing else is ever removed.
+ *                       SMIO_STAGE_MARKER, a pid that no longer runs; or empty: a kill between its
+ *                       marker's removal and its own). Nothing else is ever removed.
  *   smio_stage_create   a staging folder of this process (0700: nobody else can plant a link in it), with
  *                       its marker.
  */
@@ -192,10 +193,11 @@ SMIO_API void smio_rmtree_at(int parent, const char *name, int depth) {
     if (!(d = fdopendir(fd))) { close(fd); return; }
     while ((e = readdir(d)) != NULL) {
         struct stat st;
-        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..") || !strcmp(e->d_name, SMIO_STAGE_MARKER)) continue;
         if (fstatat(fd, e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode)) smio_rmtree_at(fd, e->d_name, depth + 1);
         else (void)unlinkat(fd, e->d_name, 0);
     }
+    (void)unlinkat(fd, SMIO_STAGE_MARKER, 0); /* a stage's marker goes last: killed before, it is still ours to clean */
     closedir(d);
     (void)unlinkat(parent, name, AT_REMOVEDIR);
 }
@@ -249,6 +251,7 @@ SMIO_API int smio_clean_stale(int dirfd) {
             int marked = sfd >= 0 && fstatat(sfd, SMIO_STAGE_MARKER, &mst, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(mst.st_mode);
             if (sfd >= 0) close(sfd);
             if (marked) { smio_rmtree_at(dirfd, e->d_name, 0); n++; }
+            else if (unlinkat(dirfd, e->d_name, AT_REMOVEDIR) == 0) n++; /* empty (killed at its last step): holds nothing */
         }
     }
     closedir(d);
