@@ -18,6 +18,8 @@
 #          stage of a dead process (removed), a linked sub-folder in the output, a linked journal.
 #   Batch: the output folder as the input folder (refused), inside it (excluded), a second batch while
 #          the journal is locked (refused).
+#   Limits: buffers claiming 1 TB (a file and a data URI) under a 4 GB address space, a picture whose
+#          decoded bytes exceed --max-memory; FIFOs as model files (`mesh`, `image`) and in `convert --base`.
 set -u
 if [ $# -ne 3 ]; then echo "usage: $0 PATH/TO/supermat TINY_MODEL TESTS_DATA_DIR" >&2; exit 2; fi
 BIN=$(realpath "$1")
@@ -97,6 +99,12 @@ cases = {
     'bufdotdot': gltf('tex.png', '../secret/s.bin'),
     'buflink': gltf('tex.png', 'linkbin.bin'),
 }
+big = gltf('tex.png')
+big['buffers'][0]['byteLength'] = 10**12        # a buffer that claims more than its file
+cases['bigbuf'] = big
+bigd = gltf('tex.png')
+bigd['buffers'][0] = {'uri': 'data:application/octet-stream;base64,' + base64.b64encode(b).decode(), 'byteLength': 10**12}
+cases['bigdata'] = bigd
 for k, v in cases.items():
     json.dump(v, open('asset/%s.gltf' % k, 'w'))
 # a GLB with the quad in its BIN chunk and an image URI outside
@@ -147,6 +155,18 @@ if [ $HAVE_MESH = 1 ]; then
     run mesh --allow-outside-refs --passthrough --size 32 --views-size 32 asset/fifo.gltf o_allow/out2.gltf
     check "mesh --allow-outside-refs FIFO: still refused (got $RC)" [ $RC -eq 1 ]
     check "mesh --allow-outside-refs FIFO: says FIFO" says "a FIFO"
+    # buffers that claim more bytes than they have: refused, nothing allocated for the claim (4 GB address space)
+    for name in bigbuf bigdata; do
+        rm -rf "o_$name"; mkdir "o_$name"
+        RC=0; (ulimit -v 4000000; timeout 60 "$BIN" mesh --passthrough --size 32 --views-size 32 "asset/$name.gltf" "o_$name/out.gltf" >"$T/out" 2>"$T/err") || RC=$?
+        check "mesh $name (1 TB claimed): exit 1 (got $RC)" [ $RC -eq 1 ]
+        check "mesh $name: nothing written" [ -z "$(ls -A "o_$name")" ]
+    done
+    # a model that is a FIFO: refused, no hang
+    mkfifo model_fifo.safetensors
+    run mesh --mv-model model_fifo.safetensors --size 32 --views-size 32 asset/ok.gltf o_ok/fifo_model.gltf
+    check "mesh --mv-model FIFO: exit 1, no hang (got $RC)" [ $RC -eq 1 ]
+    check "mesh --mv-model FIFO: says so" says "FIFO"
     # IN itself a FIFO: refused, no hang
     mkfifo in_fifo.gltf
     run mesh --passthrough in_fifo.gltf o_ok/x.gltf
@@ -212,6 +232,20 @@ mkfifo fifo_pic.png
 run image "${RUN[@]}" --out o_fifo fifo_pic.png
 check "image: a FIFO picture: exit 1, no hang (got $RC)" [ $RC -eq 1 ]
 check "image: a FIFO picture: says so" says "FIFO"
+[ -p model_fifo.safetensors ] || mkfifo model_fifo.safetensors
+run image --model model_fifo.safetensors --out o_fifo pics/a.png
+check "image --model FIFO: exit 1, no hang (got $RC)" [ $RC -eq 1 ]
+# a picture whose decoded bytes exceed --max-memory: refused from its header, before decoding
+run image "${RUN[@]}" --max-memory 8K --out o_mem pics/a.png
+check "image: a picture over --max-memory: exit 1 (got $RC)" [ $RC -eq 1 ]
+check "image: a picture over --max-memory: says so" says "more than --max-memory"
+# convert: a FIFO in the base folder (its unet config) is refused, not waited on
+cp -r "$DATA/tiny/base" base_fifo
+rm base_fifo/unet/config.json && mkfifo base_fifo/unet/config.json
+run convert --unet "$DATA/tiny/supermat.pth" --base base_fifo --out conv_fifo.safetensors
+check "convert, a FIFO config: exit 1, no hang (got $RC)" [ $RC -eq 1 ]
+check "convert, a FIFO config: says so" says "not a regular file"
+check "convert, a FIFO config: nothing written" [ -z "$(ls -A . | grep conv_fifo)" ]
 # a planted PATH.tmp (the old temporary name) and a planted link at the new names' place: never followed
 mkdir -p o_img
 ln -s "$T/victim/a.txt" o_img/a_albedo.png.tmp

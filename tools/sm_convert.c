@@ -46,6 +46,24 @@
 #include <unistd.h>
 #endif
 
+/* opens an input for reading only when it is a regular file (a FIFO or a device in a --base folder or given
+   as a checkpoint is refused at once, never waited on); NULL with errno (EINVAL: not a regular file) */
+static FILE *sm__fopen_read(const char *path) {
+#if defined(_WIN32)
+    return fopen(path, "rb");
+#else
+    struct stat st;
+    FILE *f;
+    int fl, fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY);
+    if (fd < 0) return NULL;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) { close(fd); errno = EINVAL; return NULL; }
+    fl = fcntl(fd, F_GETFL);
+    if (fl != -1) (void)fcntl(fd, F_SETFL, fl & ~O_NONBLOCK);
+    if (!(f = fdopen(fd, "rb"))) close(fd);
+    return f;
+#endif
+}
+
 #if !defined(SM_CONVERT_NO_PTHREADS) && (defined(__unix__) || defined(__APPLE__))
 #define SM__HAS_PTHREADS 1
 #include <pthread.h>
@@ -110,7 +128,7 @@ typedef struct sm__src {
 static int sm__src_open(sm__src *s, const char *path) {
     sm__off end;
     memset(s, 0, sizeof *s);
-    s->f = fopen(path, "rb");
+    s->f = sm__fopen_read(path);
     if (!s->f) return -1;
     if (sm__fseek(s->f, 0, SEEK_END) != 0 || (end = sm__ftell(s->f)) < 0) {
         fclose(s->f);
@@ -1126,7 +1144,8 @@ static int sm__pth_open(const char *path, const void *mem, size_t size, int skip
     if (path) {
         if (sm__src_open(&p->src, path)) {
             free(p);
-            return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: cannot open", path);
+            return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: cannot open (%s)", path,
+                           errno == EINVAL ? "not a regular file" : strerror(errno));
         }
     } else {
         p->src.mem = (const unsigned char *)mem;
@@ -1221,7 +1240,7 @@ static void sm__json_free(sm__json *j) {
 }
 
 static int sm__file_exists(const char *path) {
-    FILE *f = fopen(path, "rb");
+    FILE *f = sm__fopen_read(path);
     if (!f) return 0;
     fclose(f);
     return 1;
@@ -1234,8 +1253,9 @@ static int sm__json_load(sm__json *j, const char *dir, const char *rel, int opti
     memset(j, 0, sizeof *j);
     snprintf(j->file, sizeof j->file, "%s/%s", dir, rel);
     if (sm__src_open(&s, j->file)) {
-        if (optional) return 1;
-        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: missing (cannot open)", j->file);
+        if (optional && errno == ENOENT) return 1;
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: %s", j->file,
+                       errno == ENOENT ? "missing (cannot open)" : errno == EINVAL ? "not a regular file" : strerror(errno));
     }
     if (s.size > SM__MAX_JSON) {
         sm__src_close(&s);
@@ -1740,7 +1760,7 @@ static int sm__token_ids(const char *base, int vocab, int *bos, int *eos, int *p
 static int sm__lfs_pointer(const char *path, char *err, size_t cap) {
     char b[64];
     size_t n;
-    FILE *f = fopen(path, "rb");
+    FILE *f = sm__fopen_read(path);
     if (!f) return 0;
     n = fread(b, 1, sizeof b - 1, f);
     fclose(f);
@@ -2042,7 +2062,7 @@ done:
    code loads the Stable Diffusion UNet first and the checkpoint over it with strict=False, so a key
    the checkpoint lacks silently keeps the base weight there; supermat refuses instead, naming the key. */
 static int sm__validate_output(const char *path, char *err, size_t cap) {
-    FILE *f = fopen(path, "rb");
+    FILE *f = sm__fopen_read(path);
     unsigned char *buf = NULL;
     long n = -1;
     int r = 0;

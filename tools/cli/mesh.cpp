@@ -762,10 +762,11 @@ bool load_model(const char *path, supermat_model **m) {
     auto it = g_models.find(path);
     if (it != g_models.end()) { *m = it->second.m; return true; }
     LoadedModel lm;
-    int fd = open(path, O_RDONLY);
+    char why[256];
+    int fd = smio_open_regular(path, 0, why, sizeof why); /* never blocks on a FIFO */
     struct stat st;
-    if (fd < 0 || fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size <= 0) {
-        std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", path, fd < 0 ? std::strerror(errno) : "not a regular, non-empty file");
+    if (fd < 0 || fstat(fd, &st) != 0 || st.st_size <= 0) {
+        std::fprintf(stderr, "supermat mesh: cannot read %s: %s\n", path, fd < 0 ? why : "an empty file");
         if (fd >= 0) close(fd);
         return false;
     }
@@ -1084,6 +1085,9 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                         std::fprintf(stderr, "supermat mesh: the base colour image of material %d %s\n", orig, why);
                     else if (stbi_info_from_memory(rb.data(), (int)rb.size(), &w, &h, &c) && (double)w * h > MAX_TEXTURE_PIXELS)
                         std::fprintf(stderr, "supermat mesh: the base colour image of material %d is %dx%d, more than %d pixels\n", orig, w, h, MAX_TEXTURE_PIXELS);
+                    else if (g_max_memory && (double)w * h * 4.0 * 2.0 > (double)g_max_memory) /* decoded, and its copy */
+                        std::fprintf(stderr, "supermat mesh: the base colour image of material %d (%dx%d) needs %.1f MiB decoded, more than --max-memory\n",
+                                     orig, w, h, (double)w * h * 8.0 / 1048576.0);
                     else
                         px = stbi_load_from_memory(rb.data(), (int)rb.size(), &w, &h, &c, 0);
                 }
