@@ -13,8 +13,11 @@
  * scene) also uses is baked into a copy. A texture slot only that material used is reused, so that a re-run
  * on its own output keeps the same images. OUT keeps every other property as it is. A .glb OUT holds
  * everything in its binary chunk; a .gltf OUT keeps embedded images embedded (and all of it embedded when
- * IN was), copies referenced files beside it (sub-folders and %-encoded names as they were, files outside
- * IN's folder renamed) and names buffers OUT.bin. asset.generator says supermat.
+ * IN was), copies referenced files beside it (sub-folders and %-encoded names as they were; files outside
+ * IN's folder, read only with --allow-outside-refs, renamed) and names buffers OUT.bin. asset.generator
+ * says supermat. Files are read and written through smio.h (docs/security.md): references stay inside
+ * IN's folder and are regular files; OUT commits as a whole (a --force re-run gives side files whose
+ * bytes changed a fresh name, NAME-1.ext, renames the .gltf last, then removes the old ones).
  * --debug-dir writes view_K.png, pred_albedo_K.png, pred_rm_K.png, partial_albedo.png,
  * partial_rm.png, mask.png, position.png (suffix _M for the M-th material after the first).
  *
