@@ -51,6 +51,12 @@ printf 'victim file 2\n' > victim/deep/b.txt
 VSUM=$(victim_sum)
 victim_same() { [ "$(victim_sum)" = "$VSUM" ]; }
 
+# this machine's tag in the names of leftovers (smio_host_tag: FNV-1a of the host name)
+HT=$(python3 -c 'import socket
+h = 2166136261
+for c in socket.gethostname().encode(): h = ((h ^ c) * 16777619) & 0xffffffff
+print("%08x" % h)')
+OTHER=$(printf '%08x' $(( (0x$HT + 1) & 0xffffffff )))   # another machine's tag
 HAVE_MESH=0
 "$BIN" --version 2>/dev/null | grep -q mesh && HAVE_MESH=1
 
@@ -175,19 +181,22 @@ if [ $HAVE_MESH = 1 ]; then
     # ---- writes: planted links and stages in the output folder ----
     rm -rf o_w; mkdir o_w
     ln -s "$T/victim" o_w/.supermat-mesh-$$.tmp                 # the old name, this shell's (live) pid
-    ln -s "$T/victim" o_w/.supermat-mesh-999999999-1.tmp       # the new name, a dead pid, a link
-    mkdir o_w/.supermat-mesh-999999998-2.tmp                   # a dead pid's folder without our marker: not ours
-    touch o_w/.supermat-mesh-999999998-2.tmp/keep
-    mkdir o_w/.supermat-mesh-999999997-3.tmp                   # a dead pid's marked stage: ours, removed
-    touch o_w/.supermat-mesh-999999997-3.tmp/.supermat-stage o_w/.supermat-mesh-999999997-3.tmp/half.png
-    ln -s "$T/victim/a.txt" o_w/.out.gltf.999999996-1.supermat.tmp   # a dead pid's temporary name, a link
+    ln -s "$T/victim" o_w/.supermat-mesh-999999999-1-$HT.tmp   # the new name, a dead pid, a link
+    mkdir o_w/.supermat-mesh-999999998-2-$HT.tmp               # a dead pid's folder without our marker: not ours
+    touch o_w/.supermat-mesh-999999998-2-$HT.tmp/keep
+    mkdir o_w/.supermat-mesh-999999997-3-$HT.tmp               # a dead pid's marked stage: ours, removed
+    touch o_w/.supermat-mesh-999999997-3-$HT.tmp/.supermat-stage o_w/.supermat-mesh-999999997-3-$HT.tmp/half.png
+    mkdir o_w/.supermat-mesh-999999997-4-$OTHER.tmp            # marked, but another machine's: its pid means nothing here
+    touch o_w/.supermat-mesh-999999997-4-$OTHER.tmp/.supermat-stage
+    ln -s "$T/victim/a.txt" o_w/.out.gltf.999999996-1-$HT.supermat.tmp   # a dead pid's temporary name, a link
     ln -s "$T/victim" o_w/sub                                   # a linked sub-folder
     run mesh --passthrough --size 32 --views-size 32 asset/ok.gltf o_w/out.gltf
     check "mesh with planted links: exit 0 (got $RC)" [ $RC -eq 0 ]
     check "mesh with planted links: the victim unchanged" victim_same
-    check "mesh: the linked stages are still links (not followed, not ours)" [ -L o_w/.supermat-mesh-999999999-1.tmp ] && [ -L o_w/.supermat-mesh-$$.tmp ]
-    check "mesh: an unmarked stage-named folder is kept" [ -f o_w/.supermat-mesh-999999998-2.tmp/keep ]
-    check "mesh: a dead run's marked stage is removed" [ ! -e o_w/.supermat-mesh-999999997-3.tmp ]
+    check "mesh: the linked stages are still links (not followed, not ours)" [ -L o_w/.supermat-mesh-999999999-1-$HT.tmp ] && [ -L o_w/.supermat-mesh-$$.tmp ]
+    check "mesh: an unmarked stage-named folder is kept" [ -f o_w/.supermat-mesh-999999998-2-$HT.tmp/keep ]
+    check "mesh: a dead run's marked stage is removed" [ ! -e o_w/.supermat-mesh-999999997-3-$HT.tmp ]
+    check "mesh: another machine's marked stage is kept (a shared folder)" [ -f o_w/.supermat-mesh-999999997-4-$OTHER.tmp/.supermat-stage ]
     check "mesh: the dead run's linked temporary name is not followed" victim_same
     run mesh --force --passthrough --size 32 --views-size 32 asset/okSub.gltf o_w/out2.gltf
     check "mesh: an image in a sub-folder through a linked OUT/sub: exit 1 (got $RC)" [ $RC -eq 1 ]
@@ -211,7 +220,7 @@ if [ $HAVE_MESH = 1 ]; then
     cp asset/ok.gltf asset/a.bin asset/tex.png bm_in/
     cp asset/dotdot.gltf bm_in/
     mkdir -p bm_out
-    ln -s "$T/victim" bm_out/.supermat-mesh-999999995-1.tmp
+    ln -s "$T/victim" bm_out/.supermat-mesh-999999995-1-$HT.tmp
     run batch mesh --passthrough --size 32 --views-size 32 --out bm_out bm_in
     check "batch mesh: exit 1 (one hostile asset) (got $RC)" [ $RC -eq 1 ]
     check "batch mesh: the hostile asset failed" grep -q '"item":"dotdot".*"status":"failed"' bm_out/journal.jsonl
@@ -259,9 +268,11 @@ run image "${RUN[@]}" --force --out o_img link.png
 check "image --force over a linked map: exit 0 (got $RC)" [ $RC -eq 0 ]
 check "image --force over a linked map: the link replaced, its target unchanged" [ ! -L o_img/link_albedo.png ] && victim_same
 # a killed run's temporary file (a dead pid) is removed by the next run into that folder
-touch o_img/.a_roughness.png.999999994-1.supermat.tmp
+touch o_img/.a_roughness.png.999999994-1-$HT.supermat.tmp o_img/.a_metallic.png.999999994-2-$OTHER.supermat.tmp
 run image "${RUN[@]}" --force --out o_img pics/a.png
-check "image: a dead run's temporary file removed" [ ! -e o_img/.a_roughness.png.999999994-1.supermat.tmp ]
+check "image: a dead run's temporary file removed" [ ! -e o_img/.a_roughness.png.999999994-1-$HT.supermat.tmp ]
+check "image: another machine's temporary file kept (its run may be alive)" [ -e o_img/.a_metallic.png.999999994-2-$OTHER.supermat.tmp ]
+rm o_img/.a_metallic.png.999999994-2-$OTHER.supermat.tmp
 rm o_img/a_albedo.png.tmp   # the planted link (kept: not ours)
 check "image: nothing left behind" no_leftovers o_img
 

@@ -24,6 +24,9 @@
 #if !defined(_POSIX_C_SOURCE) && !defined(__APPLE__)
 #define _POSIX_C_SOURCE 200809L
 #endif
+#if !defined(_XOPEN_SOURCE) && !defined(__APPLE__)
+#define _XOPEN_SOURCE 700 /* cli/smio.h: realpath */
+#endif
 #endif
 
 #ifdef SM_CONVERT_MAIN
@@ -44,6 +47,7 @@
 #if !defined(_WIN32)
 #include <fcntl.h>
 #include <unistd.h>
+#include "cli/smio.h" /* the temporary file's name (and its host tag), as the CLI's outputs */
 #endif
 
 /* opens an input for reading only when it is a regular file (a FIFO or a device in a --base folder or given
@@ -2139,7 +2143,8 @@ static int sm__write_model(const char *outpath, const sm__metas *ms, const sm__o
         int fd = -1, k;
         for (k = 0; k < 100 && fd < 0; k++) {
             memcpy(tmp, outpath, dl);
-            snprintf(tmp + dl, plen + 64 - dl, ".%.180s.%ld-%x.supermat.tmp", outpath + dl, (long)getpid(), (unsigned)(rand() & 0xffffff));
+            snprintf(tmp + dl, plen + 64 - dl, ".%.180s.%ld-%x-%08lx" SMIO_TMP_SUFFIX, outpath + dl, (long)getpid(), (unsigned)(rand() & 0xffffff),
+                     smio_host_tag());
             fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0666);
             if (fd < 0 && errno != EEXIST) break;
         }

@@ -821,6 +821,7 @@ static int cli_batch(int argc, char **argv) {
     }
     if (rc == CLI_OK && fd >= 0) { /* a regular file, and this batch's alone: a second batch on DIR refuses to start */
         struct stat jst;
+        memset(&jst, 0, sizeof jst);
         if (fstat(fd, &jst) != 0 || !S_ISREG(jst.st_mode)) {
             cli_error("the journal '%s' is %s, not a regular file", jpath, smio_kind(jst.st_mode));
             rc = CLI_FAIL;

@@ -175,7 +175,11 @@ static int cli_out_dirfd(const char *path, const char **base, int create) {
     char msg[1024], *dir;
     int fd;
     *base = slash ? slash + 1 : path;
-    if (!slash) return open(".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (!slash) {
+        fd = open(".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (fd < 0) cli_error("cannot write '%s': the current folder: %s", path, strerror(errno));
+        return fd;
+    }
     dir = (char *)malloc((size_t)(slash - path) + 2);
     if (!dir) { cli_error("out of memory"); return -1; }
     memcpy(dir, path, (size_t)(slash - path));
@@ -644,7 +648,7 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
     struct stat st;
     unsigned char *data = NULL;
     size_t size = 0;
-    int ok = 0, is16;
+    int is16;
     cli_pic_is16 = 0;
     if (stat(path, &st) != 0) { cli_error("cannot read %s '%s': %s", what, path, strerror(errno)); return 0; }
     if (S_ISDIR(st.st_mode)) { cli_error("%s '%s' is a folder: give the picture files (e.g. '%s/*.png')", what, path, path); return 0; }
@@ -652,7 +656,7 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
     if (cli_is_webp(data, size)) {
 #ifdef SUPERMAT_CLI_WEBP
         WebPBitstreamFeatures ft;
-        ok = WebPGetFeatures(data, size, &ft) == VP8_STATUS_OK;
+        int ok = WebPGetFeatures(data, size, &ft) == VP8_STATUS_OK;
         cli_free_file(data);
         if (!ok) { cli_error("cannot read %s '%s': not a valid WebP file (libwebp)", what, path); return 0; }
         *w = ft.width; *h = ft.height; *c = ft.has_alpha ? 4 : 3;

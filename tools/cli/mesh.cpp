@@ -32,7 +32,7 @@
 #include "supermat_uv.h"
 
 #include <tiny_gltf.h>
-#include <nlohmann/json.hpp> /* what a replaced .gltf refers to (libtinygltf-dev depends on nlohmann-json3-dev) */
+#include <nlohmann/json.hpp> /* what a replaced .gltf refers to (Debian's nlohmann-json3-dev; CMake checks for it) */
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 #include "picture_check.h"
@@ -298,6 +298,7 @@ struct RefFs {
             return "";
         }
         struct stat st;
+        std::memset(&st, 0, sizeof st);
         if (::stat(resolved.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) { refuse(uri, std::string("is ") + smio_kind(st.st_mode) + ", not a regular file: refused"); return ""; }
         return resolved;
     }
@@ -1447,7 +1448,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     /* the stage: a new private folder (0700, created by this process with its marker, smio_stage_create), so
        nothing can be planted in it; the leftovers of killed runs in OUT's folder are removed first
        (smio_clean_stale: marked stages and temporary files of processes that are gone, nothing else) */
-    char msg[1024], stage_name[128];
+    char msg[1024] = "", stage_name[128];
     int out_fd = smio_dir_open(wr.out_dir.c_str(), "", 0, msg, sizeof msg);
     if (out_fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
     finish_pending(out_fd, wr.out_dir);

@@ -13,14 +13,16 @@
  *   smio_dir_open       the folder REL below an output folder ROOT, each component opened with O_NOFOLLOW
  *                       (and created with mkdirat when asked): a link planted inside ROOT is refused, never
  *                       followed. ROOT itself is the user's choice and may be a link.
- *   smio_tmp_create     a new, uniquely named temporary file beside NAME (".NAME.<pid>-<n>.supermat.tmp"),
+ *   smio_tmp_create     a new, uniquely named temporary file beside NAME (".NAME.<pid>-<n>-<host>.supermat.tmp"),
  *                       created with O_CREAT | O_EXCL | O_NOFOLLOW: never an existing file or link.
  *   (the caller writes, fsync()s, then renameat()s or linkat()s it to NAME: neither follows a link)
  * Cleaning
  *   smio_rmtree_at      removes a folder below a folder descriptor with unlinkat(), never following a link.
- *   smio_clean_stale    removes what a dead run of the tool left in a folder: its temporary files (the name
- *                       above, a regular file, a pid that no longer runs) and its staging folders
- *                       (".supermat-mesh-<pid>-<n>.tmp", a real folder holding the marker file
+ *   smio_clean_stale    removes what a dead run of the tool on this machine left in a folder (<host>, a hash
+ *                       of the host name, is this machine's: a run on another machine sharing the folder
+ *                       is never taken for dead): its temporary files (the name above, a regular file, a
+ *                       pid that no longer runs) and its staging folders
+ *                       (".supermat-mesh-<pid>-<n>-<host>.tmp", a real folder holding the marker file
  *                       SMIO_STAGE_MARKER, a pid that no longer runs; or empty: a kill between its
  *                       marker's removal and its own). Nothing else is ever removed.
  *   smio_stage_create   a staging folder of this process (0700: nobody else can plant a link in it), with
@@ -166,15 +168,32 @@ SMIO_API int smio_dir_open(const char *root, const char *rel, int create, char *
     return fd;
 }
 
-/* a new temporary file beside name in folder dirfd, named ".NAME.<pid>-<n>.supermat.tmp" (NAME cut to 180
-   bytes), created exclusively, never through a link; the descriptor (tmp gets its name), or -1 (errno) */
+/* this machine's tag in the names of temporary files and stages: FNV-1a of the host name, 8 hex digits */
+SMIO_API unsigned long smio_host_tag(void) {
+    static unsigned long tag;
+    static int done;
+    if (!done) {
+        char host[256] = "";
+        const unsigned char *p;
+        unsigned long h = 2166136261u;
+        if (gethostname(host, sizeof host - 1) != 0) host[0] = 0;
+        host[sizeof host - 1] = 0;
+        for (p = (const unsigned char *)host; *p; p++) h = ((h ^ *p) * 16777619u) & 0xffffffffu;
+        tag = h;
+        done = 1;
+    }
+    return tag;
+}
+
+/* a new temporary file beside name in folder dirfd, named ".NAME.<pid>-<n>-<host>.supermat.tmp" (NAME cut to
+   180 bytes), created exclusively, never through a link; the descriptor (tmp gets its name), or -1 (errno) */
 SMIO_API int smio_tmp_create(int dirfd, const char *name, char *tmp, size_t cap) {
     static unsigned long counter;
     int k;
     for (k = 0; k < 1000; k++) {
         int fd;
         unsigned long n = counter++ * 2654435761u ^ (unsigned long)time(NULL) ^ (unsigned long)k;
-        snprintf(tmp, cap, ".%.180s.%ld-%lx" SMIO_TMP_SUFFIX, name, (long)getpid(), n & 0xffffffu);
+        snprintf(tmp, cap, ".%.180s.%ld-%lx-%08lx" SMIO_TMP_SUFFIX, name, (long)getpid(), n & 0xffffffu, smio_host_tag());
         fd = openat(dirfd, tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
         if (fd >= 0 || errno != EEXIST) return fd;
     }
@@ -208,7 +227,8 @@ SMIO_API int smio_pid_gone(long pid) {
     return kill((pid_t)pid, 0) != 0 && errno == ESRCH;
 }
 
-/* the pid in ".NAME.<pid>-<hex>.supermat.tmp" or ".supermat-mesh-<pid>-<hex>.tmp"; 0 when the name is not ours */
+/* the pid in ".NAME.<pid>-<hex>-<host>.supermat.tmp" or ".supermat-mesh-<pid>-<hex>-<host>.tmp" made on this
+   machine; 0 when the name is not one of ours, or was made on another machine */
 SMIO_API long smio_leftover_pid(const char *name, int *stage) {
     size_t n = strlen(name), s = strlen(SMIO_TMP_SUFFIX);
     const char *p, *q;
@@ -227,7 +247,8 @@ SMIO_API long smio_leftover_pid(const char *name, int *stage) {
     while (isdigit((unsigned char)*p)) { pid = pid * 10 + (*p - '0'); if (pid > 1L << 30) return 0; p++; }
     if (*p != '-') return 0;
     for (p++; isxdigit((unsigned char)*p); p++) {}
-    return !strcmp(p, *stage ? ".tmp" : SMIO_TMP_SUFFIX) ? pid : 0;
+    if (*p != '-' || strtoul(p + 1, (char **)&q, 16) != smio_host_tag() || q != p + 9) return 0;
+    return !strcmp(q, *stage ? ".tmp" : SMIO_TMP_SUFFIX) ? pid : 0;
 }
 
 /* removes what dead runs of the tool left in folder dirfd (see the top); returns how many */
@@ -264,7 +285,7 @@ SMIO_API int smio_stage_create(int dirfd, char *name, size_t cap) {
     int k;
     for (k = 0; k < 1000; k++) {
         unsigned long n = counter++ * 2654435761u ^ (unsigned long)time(NULL) ^ (unsigned long)k;
-        snprintf(name, cap, SMIO_STAGE_PREFIX "%ld-%lx.tmp", (long)getpid(), n & 0xffffffu);
+        snprintf(name, cap, SMIO_STAGE_PREFIX "%ld-%lx-%08lx.tmp", (long)getpid(), n & 0xffffffu, smio_host_tag());
         if (mkdirat(dirfd, name, 0700) == 0) { /* private: nothing can be planted in it */
             int sfd = openat(dirfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC), mfd = -1;
             if (sfd >= 0) mfd = openat(sfd, SMIO_STAGE_MARKER, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
