@@ -111,6 +111,13 @@ cases['bigbuf'] = big
 bigd = gltf('tex.png')
 bigd['buffers'][0] = {'uri': 'data:application/octet-stream;base64,' + base64.b64encode(b).decode(), 'byteLength': 10**12}
 cases['bigdata'] = bigd
+cases['hard'] = gltf('hard.png')                  # a hard link to a file outside
+dup = gltf('tex.png', normal_uri='tex.png')        # two images, one file: legal glTF
+cases['dupimg'] = dup
+shutil.copy(sys.argv[1], 'asset/out.gltf')         # an image named like OUT, and like the stage's marker
+shutil.copy(sys.argv[1], 'asset/.supermat-stage')
+cases['clash'] = gltf('tex.png', normal_uri='out.gltf')
+cases['clash2'] = gltf('tex.png', normal_uri='.supermat-stage')
 for k, v in cases.items():
     json.dump(v, open('asset/%s.gltf' % k, 'w'))
 # a GLB with the quad in its BIN chunk and an image URI outside
@@ -121,6 +128,7 @@ glb = b'glTF' + struct.pack('<II', 2, 12 + 8 + len(js) + 8 + len(b)) + struct.pa
 open('asset/glbdotdot.glb', 'wb').write(glb)
 EOF
 ln -s ../secret/s.png asset/link.png
+ln secret/s.png asset/hard.png
 ln -s ../secret/s.bin asset/linkbin.bin
 ln -s ../secret asset/lsub
 mkfifo asset/fifo.png
@@ -134,7 +142,8 @@ if [ $HAVE_MESH = 1 ]; then
     check "mesh: the sound asset: no leftovers" no_leftovers o_ok
     # references that leave the asset
     for c in dotdot:'../secret/s.png' pct:'../secret/s.png' abs:'is an absolute path' fileuri:'scheme' drive:'names a drive' \
-             backslash:'backslash' link:'link.png' sublink:'lsub/s.png' fifo:'a FIFO' bufdotdot:'../secret/s.bin' buflink:'linkbin.bin'; do
+             backslash:'backslash' link:'link.png' sublink:'lsub/s.png' fifo:'a FIFO' bufdotdot:'../secret/s.bin' buflink:'linkbin.bin' \
+             hard:'hard links'; do
         name=${c%%:*}; msg=${c#*:}
         for ext in gltf glb; do
             rm -rf "o_$name"; mkdir -p "o_$name"
@@ -154,6 +163,15 @@ if [ $HAVE_MESH = 1 ]; then
     rm -rf o_cwd; mkdir o_cwd
     (cd secret && timeout 60 "$BIN" mesh --passthrough --size 32 --views-size 32 "$T/asset/cwd.gltf" "$T/o_cwd/out.gltf" >/dev/null 2>"$T/err")
     check "mesh: a name found only in the current folder: not read" no_secret o_cwd
+    # images that share one file, or whose names are OUT's or the stage's own: written once, renamed
+    for name in dupimg clash clash2; do
+        rm -rf "o_$name"; mkdir "o_$name"
+        run mesh --passthrough --size 32 --views-size 32 "asset/$name.gltf" "o_$name/out.gltf"
+        check "mesh $name: exit 0 (got $RC)" [ $RC -eq 0 ]
+        check "mesh $name: OUT is the glTF" python3 -c "import json,sys; json.load(open(sys.argv[1]))" "o_$name/out.gltf"
+        check "mesh $name: no leftovers" no_leftovers "o_$name"
+    done
+    check "mesh clash2: no stage marker taken into OUT" [ ! -e o_clash2/.supermat-stage ]
     # trusted local use: --allow-outside-refs reads '../', never a FIFO
     rm -rf o_allow; mkdir o_allow
     run mesh --allow-outside-refs --passthrough --size 32 --views-size 32 asset/dotdot.gltf o_allow/out.gltf

@@ -300,6 +300,10 @@ struct RefFs {
         struct stat st;
         std::memset(&st, 0, sizeof st);
         if (::stat(resolved.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) { refuse(uri, std::string("is ") + smio_kind(st.st_mode) + ", not a regular file: refused"); return ""; }
+        if (st.st_nlink > 1 && !allow_outside) { /* a hard link may be a file from anywhere on the disk */
+            refuse(uri, "is a file with " + std::to_string((unsigned long)st.st_nlink) + " hard links (it may be a file from outside the asset): refused (--allow-outside-refs reads it)");
+            return "";
+        }
         return resolved;
     }
 };
@@ -636,7 +640,9 @@ bool image_writer(const std::string *, const std::string *, const tinygltf::Imag
         std::string rel = uri_decode(image->uri), path = w->stage + "/" + rel;
         const std::vector<unsigned char> &b = w->raw->bytes[i];
         mkdirs(path);
-        if (!write_file(path, b.data(), b.size()) && w->failed.empty()) w->failed = w->out_dir + "/" + rel;
+        /* two images may name one file: written once (the same bytes), never through anything */
+        if (!write_file(path, b.data(), b.size()) && !(errno == EEXIST && read_whole(path, true) == b) && w->failed.empty())
+            w->failed = w->out_dir + "/" + rel;
     }
     return true;
 }
@@ -1355,6 +1361,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     /* how every image and buffer is stored: a .glb holds everything in its binary chunk; a .gltf keeps
        embedded images embedded (and stays self-contained when it was), files as files */
     Writer wr;
+    const std::string base_name = outpath.substr(outpath.find_last_of('/') == std::string::npos ? 0 : outpath.find_last_of('/') + 1);
     wr.in_dir = dir_of(inpath); wr.out_dir = dir_of(outpath);
     wr.model = &model; wr.raw = &raw;
     wr.write.assign(model.images.size(), false);
@@ -1402,7 +1409,10 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 continue;
             }
             if (!ours[i] && wr.in_dir == wr.out_dir && uri_inside(uri_decode(img.uri))) continue; /* already there */
-            if (!uri_inside(uri_decode(img.uri))) /* outside the asset's folder: copied beside OUT */
+            std::string dec = uri_decode(img.uri), leaf = dec.substr(dec.find_last_of('/') == std::string::npos ? 0 : dec.find_last_of('/') + 1);
+            bool clash = dec == base_name || leaf.compare(0, 9, ".supermat") == 0; /* OUT itself, or the stage's own files */
+            for (const tinygltf::Buffer &buf : model.buffers) clash = clash || uri_decode(buf.uri) == dec;
+            if (!uri_inside(dec) || clash) /* outside the asset's folder (or taking OUT's or a buffer's name): copied beside OUT renamed */
                 img.uri = stem + "_image" + std::to_string(i) + "." + ext_of_mime(mime_of(raw.bytes[i], img.mimeType));
             wr.write[i] = true;
         }
