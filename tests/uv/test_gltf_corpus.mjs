@@ -11,7 +11,8 @@
 //              transform applied to its UVs, and the new textures carry the transform
 //   alpha      alphaMode MASK with an RGBA texture: the baked base colour keeps the alpha texel for texel;
 //              OPAQUE drops it
-//   rerun      OUT baked again (same folder, and onto itself with --force): the same image names and count,
+//   rerun      OUT baked again (same folder, and onto itself with --force): the same image names (up to their
+//              alternate NAME-1, docs/security.md) and count, the replaced textures removed,
 //              asset.generator names supermat
 // usage: node test_gltf_corpus.mjs SUPERMAT_MESH OUTDIR VALIDATOR_DIR   (exit 77 = skipped: no validator)
 import fs from 'node:fs';
@@ -372,7 +373,12 @@ const baseMaterial = (tex) => ({ pbrMetallicRoughness: { baseColorTexture: { ind
       `rerun: no pile-up (images ${o1.images.length} -> ${o2.images.length}, textures ${o1.textures.length} -> ${o2.textures.length}, materials ${o1.materials.length} -> ${o2.materials.length})`);
     check(bake(second, second, []), 'rerun: onto itself with --force');
     const o3 = readGltf(second).json;
-    check(JSON.stringify(o3.images.map(i => i.uri)) === JSON.stringify(o2.images.map(i => i.uri)), `rerun: the same image names (${o3.images.map(i => i.uri)})`);
+    // a --force run whose texture bytes changed writes them under the other of their two names (NAME.png,
+    // NAME-1.png: the old asset stays whole until the new .gltf replaces it), and removes the old ones
+    const fam = (u) => u.replace(/-1(\.[^./]+)$/, '$1');
+    check(JSON.stringify(o3.images.map(i => fam(i.uri))) === JSON.stringify(o2.images.map(i => fam(i.uri))), `rerun: the same image names, up to their alternate (${o3.images.map(i => i.uri)})`);
+    const left = fs.readdirSync(d).filter(f => /^again_/.test(f) && !o3.images.some(i => decodeURIComponent(i.uri) === f) && !o3.buffers.some(b => decodeURIComponent(b.uri || '') === f));
+    check(left.length === 0, `rerun: the old textures removed (left: ${left})`);
     await validate(second, 'rerun onto itself');
   }
 }
