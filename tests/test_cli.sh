@@ -593,6 +593,11 @@ printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x10\x00\x00\x40\x10\x0
 run image --model "$MODEL" --out "$T/huge" "$T/huge.png"
 check "a picture claiming 16400x16400: exit 1" [ $RC -eq 1 ]
 check "a picture claiming 16400x16400: refused from its header" grep -q "16400x16400: at most 16384 pixels a side" "$T/err"
+# 20000 x 20000: stb_image refuses the claim with the last decoder's "unknown type" message; the size is said instead
+printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x4e\x20\x00\x00\x4e\x20\x08\x02\x00\x00\x00\x02\xd2\x04\xa0\x00\x00\x00\x00IEND\xae\x42\x60\x82' > "$T/huge2.png"
+run image --model "$MODEL" --out "$T/huge" "$T/huge2.png"
+check "a PNG claiming 20000x20000: exit 1" [ $RC -eq 1 ]
+check "a PNG claiming 20000x20000: says its size and the limit" grep -q "20000x20000: at most 16384 pixels a side" "$T/err"
 # hostile pictures from fuzz/fuzz_picture.c (fuzz/corpus/picture/regress_*): Debian's stb_image 2.27 writes past a
 # Huffman table for a JPEG table of more than 256 codes (also behind leading fill bytes, or cut off by the end of
 # the file: stb_image counts zeros there); a BMP's negative width

@@ -643,6 +643,28 @@ static int cli_pic_bytes_ok(const char *path, const char *what, const unsigned c
     return 1;
 }
 
+/* the size a PNG or BMP header claims (1), read before stb_image, which refuses some large claims with
+   another format's "unknown type" message; 0 for other formats */
+static int cli_header_size(const unsigned char *d, size_t n, long *w, long *h) {
+    if (n >= 24 && !memcmp(d, "\x89PNG\r\n\x1a\n", 8) && !memcmp(d + 12, "IHDR", 4)) {
+        uint32_t x = ((uint32_t)d[16] << 24) | ((uint32_t)d[17] << 16) | ((uint32_t)d[18] << 8) | d[19];
+        uint32_t y = ((uint32_t)d[20] << 24) | ((uint32_t)d[21] << 16) | ((uint32_t)d[22] << 8) | d[23];
+        *w = (long)(x > 1u << 30 ? 1u << 30 : x); /* (a long may have 32 bits) */
+        *h = (long)(y > 1u << 30 ? 1u << 30 : y);
+        return 1;
+    }
+    if (n >= 26 && d[0] == 'B' && d[1] == 'M') {
+        int64_t x = (int32_t)((uint32_t)d[18] | (uint32_t)d[19] << 8 | (uint32_t)d[20] << 16 | (uint32_t)d[21] << 24);
+        int64_t y = (int32_t)((uint32_t)d[22] | (uint32_t)d[23] << 8 | (uint32_t)d[24] << 16 | (uint32_t)d[25] << 24);
+        if (x < 0) return 0; /* a corrupt picture: said below, with the width it claims */
+        if (y < 0) y = -y;   /* negative: rows top to bottom */
+        *w = (long)(x > 1L << 30 ? 1L << 30 : x);
+        *h = (long)(y > 1L << 30 ? 1L << 30 : y);
+        return 1;
+    }
+    return 0;
+}
+
 /* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
 static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
     struct stat st;
@@ -668,6 +690,14 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
 #endif
     }
     if (!cli_pic_bytes_ok(path, what, data, size)) { cli_free_file(data); return 0; }
+    {
+        long hw, hh;
+        if (cli_header_size(data, size, &hw, &hh) && (hw > 16384 || hh > 16384)) {
+            cli_error("%s '%s' is %ldx%ld: at most 16384 pixels a side (the largest a session takes)", what, path, hw, hh);
+            cli_free_file(data);
+            return 0;
+        }
+    }
     if (!stbi_info_from_memory(data, (int)size, w, h, c)) {
         cli_error("cannot read %s '%s': %s", what, path, cli_stbi_reason());
         cli_free_file(data);
