@@ -56,13 +56,10 @@ static FILE *sm__fopen_read(const char *path) {
 #if defined(_WIN32)
     return fopen(path, "rb");
 #else
-    struct stat st;
+    char why[128];
     FILE *f;
-    int fl, fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY);
+    int fd = smio_open_regular(path, 0, why, sizeof why); /* cli/smio.h: the CLI's rule for every input */
     if (fd < 0) return NULL;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) { close(fd); errno = EINVAL; return NULL; }
-    fl = fcntl(fd, F_GETFL);
-    if (fl != -1) (void)fcntl(fd, F_SETFL, fl & ~O_NONBLOCK);
     if (!(f = fdopen(fd, "rb"))) close(fd);
     return f;
 #endif

@@ -169,7 +169,7 @@ static const char *cli_out_root;
 static int cli_allow_outside; /* --allow-outside-refs: trusted local use (batch: linked pictures outside the folder) */
 
 /* the folder of path (opened as above) and its last component; -1 and the message when it cannot be */
-static int cli_out_dirfd(const char *path, const char **base, int create) {
+static int cli_out_dirfd(const char *path, const char **base) {
     const char *slash = strrchr(path, '/');
     size_t rn = cli_out_root ? strlen(cli_out_root) : 0;
     char msg[1024], *dir;
@@ -191,7 +191,7 @@ static int cli_out_dirfd(const char *path, const char **base, int create) {
         if (!root) { free(dir); cli_error("out of memory"); return -1; }
         memcpy(root, cli_out_root, rn);
         root[rn] = 0;
-        fd = smio_dir_open(root, dir + rn, create, msg, sizeof msg);
+        fd = smio_dir_open(root, dir + rn, 0, msg, sizeof msg); /* made before: cli_mkdirs_below */
         free(root);
     } else
         fd = smio_dir_open(dir, "", 0, msg, sizeof msg);
@@ -248,7 +248,7 @@ static int cli_out_open(cli_out *o, const char *path) {
     if (a == CLI_FAIL) return CLI_FAIL;
     if (a == CLI_SKIPPED) { o->skip = 1; return CLI_OK; }
     o->replace = cli_policy == CLI_POLICY_FORCE || cli_wrote(path);
-    if ((o->dirfd = cli_out_dirfd(path, &o->base, 0)) < 0) return CLI_FAIL;
+    if ((o->dirfd = cli_out_dirfd(path, &o->base)) < 0) return CLI_FAIL;
     cli_clean_once(o->dirfd);
     fd = smio_tmp_create(o->dirfd, o->base, o->tmp, sizeof o->tmp);
     if (fd < 0 || !(o->f = fdopen(fd, "wb"))) {

@@ -68,18 +68,23 @@ SMIO_API const char *smio_kind(mode_t m) {
     return "not a regular file";
 }
 
-/* path opened for reading when it is a regular file: the descriptor, or -1 and why in msg. With nofollow a
-   symbolic link as the last component is refused too. Never blocks on a FIFO or a device. */
+/* path opened for reading when it is a regular file: the descriptor, or -1, why in msg and errno (open's, or
+   EINVAL: not a regular file). With nofollow a symbolic link as the last component is refused too. Never
+   blocks on a FIFO or a device. */
 SMIO_API int smio_open_regular(const char *path, int nofollow, char *msg, size_t cap) {
     struct stat st;
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC | (nofollow ? O_NOFOLLOW : 0)), fl;
     if (fd < 0) {
-        snprintf(msg, cap, "%s", nofollow && errno == ELOOP ? "is a symbolic link" : strerror(errno));
+        int e = errno;
+        snprintf(msg, cap, "%s", nofollow && e == ELOOP ? "is a symbolic link" : strerror(e));
+        errno = e;
         return -1;
     }
+    memset(&st, 0, sizeof st);
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         snprintf(msg, cap, "is %s, not a regular file", smio_kind(st.st_mode));
         close(fd);
+        errno = EINVAL;
         return -1;
     }
     fl = fcntl(fd, F_GETFL);
