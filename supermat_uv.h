@@ -73,7 +73,7 @@
  *   Measured (README, issue 11; the default model, view by view): f = 1/32 chosen on five validation
  *   assets, where it adds 0.39 dB of albedo PSNR over f = 0, then 1.37 dB on the five held-out ones.
  *
- * FRAMES (what the official example inputs show, ../shared/SPEC.md section 5)
+ * FRAMES (what the official example inputs show: examples/bag_rendered_6views, examples/axe_uv)
  *   World: positions as given (node transforms already applied), **Z up**, the front of the object
  *   facing -Y (Blender's convention, which the official cameras use). glTF is Y up facing +Z: convert
  *   with (x, y, z)_glTF -> (x, -z, y), as Blender's importer does (tools/cli/mesh.cpp does it).

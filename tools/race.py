@@ -9,8 +9,8 @@ official key names, so PyTorch and ONNX Runtime get exactly the weights supermat
 SD 2.1-layout folder it was converted with (unet/config.json, vae/config.json, scheduler/).
 
 What runs, one engine after the other, every engine on the same threads (--threads, default 2):
-  torch     the official modules (diffusers AutoencoderKL, SuperMat's branched UNet from the official
-            SuperMat code) in float32 under torch.no_grad(): VAE encode (latent_dist.mode() x scaling),
+  torch     the official modules (diffusers AutoencoderKL, SuperMat's branched UNet as the project's port of
+            the official SuperMat code has it, tools/supermat_adapters.py) in float32 under torch.no_grad(): VAE encode (latent_dist.mode() x scaling),
             the UNet once (both branches) and the DDIM x0 step, one VAE decode per branch.
   ort       the same three modules exported to ONNX here (torch.onnx.export, opset 17, static shapes,
             the UNet's weights as external data) and run by ONNX Runtime for Node.js (npm onnxruntime-node,
@@ -32,8 +32,9 @@ tiles can pass 100 %.
 
 Needs: Debian's python3-torch (with libopenblas0-pthread installed: without it torch runs its Linear layers
 on the reference BLAS, many times slower; the script says which BLAS is in use), python3-onnx is not
-imported (torch writes the ONNX files itself), python3-pil, the reference harness's diffusers and SuperMat sources
-(HARNESS_DEPS, see ../shared/reference/README.md), Node.js and `npm install --ignore-scripts
+imported (torch writes the ONNX files itself), python3-pil, diffusers 0.27 or newer (checked with 0.31.0) on the
+ordinary Python path (or HARNESS_DEPS: a folder whose site/ holds extracted diffusers / huggingface_hub sources,
+put first on the path), Node.js and `npm install --ignore-scripts
 onnxruntime-node` in --ort-dir (default: --work/ort; done by this script when missing; --ignore-scripts skips
 the package's download of CUDA binaries, the CPU library is in the package).
 
@@ -53,17 +54,19 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-REF = os.environ.get("SUPERMAT_REFERENCE", os.path.join(HERE, "..", "..", "shared", "reference"))
-sys.path.insert(0, REF)
-# attention in one piece (the harness splits score matrices over 2^26 elements along the queries to bound the
-# memory of multi-view runs; one view at 512 needs 84M): one MatMul-Softmax-MatMul in the ONNX graph too
-os.environ.setdefault("HARNESS_SDPA_CHUNK_ELEMS", str(1 << 30))
-import harness_env  # noqa: E402,F401  (sys.path for diffusers / SuperMat / stubs; the SDPA shim for torch 1.13)
+sys.path.insert(0, HERE)
+if os.environ.get("HARNESS_DEPS"):   # optional: extracted sources instead of an installed diffusers
+    sys.path.insert(0, os.path.join(os.path.abspath(os.environ["HARNESS_DEPS"]), "site"))
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+# attention in one piece (torch 1.13's SDPA stand-in splits score matrices over 2^26 elements along the queries
+# to bound the memory of multi-view runs; one view at 512 needs 84M): one MatMul-Softmax-MatMul in the ONNX graph
+os.environ.setdefault("SUPERMAT_SDPA_CHUNK_ELEMS", str(1 << 30))
+import supermat_adapters  # noqa: E402  (before diffusers: the SDPA shim for torch 1.13; the SuperMat UNet)
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
 from PIL import Image  # noqa: E402
-from src.adapters import SuperMatAdapterWrapper  # noqa: E402
+from supermat_adapters import SuperMatAdapterWrapper  # noqa: E402
 
 STAGES = ["encode", "unet", "decode_albedo", "decode_rm"]
 STAGE_NAMES = {"encode": "VAE encode", "unet": "UNet (trunk + 2 branches)", "decode_albedo": "VAE decode, albedo",
@@ -447,7 +450,7 @@ def main():
             onnx_dir = os.path.join(args.work, "onnx")
             st = os.stat(args.model)
             stamp = {"model": os.path.abspath(args.model), "bytes": st.st_size, "mtime": st.st_mtime, "size": args.size,
-                     "sdpa_chunk": harness_env.SDPA_CHUNK_ELEMS}
+                     "sdpa_chunk": supermat_adapters.SDPA_CHUNK_ELEMS}
             try:
                 with open(os.path.join(onnx_dir, "source.json")) as f:
                     same = json.load(f) == stamp

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Train supermat's default model: the official SuperMat architecture at small widths, on the renders of
 tools/gen_data.py, in the official code (diffusers' AutoencoderKL / UNet2DConditionModel and SuperMat's own
-SuperMatAdapterWrapper, taken from the reference harness of ../shared/reference).
+SuperMatAdapterWrapper, in this project's port of it: tools/supermat_adapters.py).
 
     /usr/bin/python3 tools/train_default.py --data DATA --out RUN [--phases vae,latent,e2e,export]
 
@@ -100,8 +100,12 @@ takes 3.7 s instead of 4.25; slower on CPUs without either.
 --device cuda trains on a GPU where there is one (never required; tools/train_gpu.sh runs one round there).
 --seconds PHASE=S,... gives phases wall-clock budgets: such a phase times its steps 20-120, then lowers its
 step count to what fits (the learning-rate schedule follows) and stops at the budget in any case.
-Needs Debian's python3-torch (+ libopenblas0-pthread) and the reference harness's diffusers:
-HARNESS_DEPS (default ../shared/reference/out/deps, see ../shared/reference/README.md).
+Needs torch (Debian's python3-torch 1.13.1, + libopenblas0-pthread, or any newer one), diffusers 0.27 or newer
+(checked with 0.31.0; `pip install diffusers==0.31.0`), transformers (CLIPTextModel / CLIPTokenizer for the
+release's text encoder and tokenizer) and safetensors, all from the ordinary Python path (pip, or PYTHONPATH
+set by the caller); the SuperMat classes come from tools/supermat_adapters.py, which also gives torch 1.13 the
+scaled-dot-product attention diffusers expects.  HARNESS_DEPS, when set, is a dependency folder whose site/
+(extracted diffusers / huggingface_hub sources) is put first on the path: an optional stand-in for pip.
 """
 import argparse
 import json
@@ -112,10 +116,12 @@ import time
 import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-REF = os.environ.get("SUPERMAT_REFERENCE", os.path.join(HERE, "..", "..", "shared", "reference"))
-sys.path.insert(0, REF)
 sys.path.insert(0, HERE)
-import harness_env  # noqa: E402,F401  (sys.path for diffusers / SuperMat / stubs)
+if os.environ.get("HARNESS_DEPS"):   # optional: extracted sources instead of an installed diffusers
+    sys.path.insert(0, os.path.join(os.path.abspath(os.environ["HARNESS_DEPS"]), "site"))
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+os.environ.setdefault("DIFFUSERS_NO_ADVISORY_WARNINGS", "1")
+import supermat_adapters  # noqa: E402,F401  (before diffusers: the SDPA shim for torch 1.13)
 import importlib.util  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
@@ -125,17 +131,16 @@ _find_spec = importlib.util.find_spec
 
 
 def _find_spec_no_peft(name, package=None):
-    """diffusers 0.31 imports an installed peft (the GPU machines' images have one), and peft the real
-    transformers that the harness stubs out: hide peft, which this script never uses."""
+    """diffusers 0.31 imports an installed peft (the GPU machines' images have one), and peft imports parts of
+    transformers that a stand-in transformers may lack: hide peft, which this script never uses."""
     return None if name.split(".")[0] == "peft" else _find_spec(name, package)
 
 
 importlib.util.find_spec = _find_spec_no_peft
 from diffusers import AutoencoderKL, DDIMScheduler, UNet2DConditionModel  # noqa: E402
 from safetensors.torch import safe_open  # noqa: E402
-from src.adapters import SuperMatAdapterWrapper  # noqa: E402
+from supermat_adapters import SuperMatAdapterWrapper, synthetic_clip_vocab  # noqa: E402
 from transformers import CLIPTextConfig, CLIPTextModel, CLIPTokenizer  # noqa: E402
-from transformers.tokenization_clip import synthetic_clip_vocab  # noqa: E402
 
 import smrender as R  # noqa: E402
 

@@ -4,13 +4,15 @@
 # (the third version) -> with STAGE4=1 (the default) the fourth version: the VAE trained on with a colour term,
 # the UNet on its latents, then end to end -> models/supermat_default.safetensors.
 #
-#   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_default.sh
+#   MIRROR_DIR=<mirrors> WORK=<scratch dir> bash tools/train_default.sh
 #
 #   MIRROR_DIR    folder with the bare git mirror of github pmndrs/drei-assets (MIRROR_DIR/pmndrs+drei-assets/repo,
 #                 as the search tool's `fetch` lays it out): its CC0 Poly Haven hdri/*.hdr are the only lighting
-#   HARNESS_DEPS  the reference harness' extracted diffusers / SuperMat sources (../shared/reference/README.md)
-#   SUPERMAT_REFERENCE  the reference harness folder itself (default ../shared/reference beside the repository;
-#                 checked before any data is rendered)
+#   Python packages: diffusers 0.27 or newer (checked with 0.31.0), transformers and safetensors on the ordinary
+#                 Python path (pip or PYTHONPATH; checked by tools/train_env.sh before any data is rendered);
+#                 the SuperMat classes are the project's own, tools/supermat_adapters.py
+#   HARNESS_DEPS  optional: a folder whose site/ holds extracted diffusers / huggingface_hub (/ transformers /
+#                 safetensors) sources, put first on the Python path (no default)
 #   WORK          where data, checkpoints and logs go (outside the repository); run the same command again
 #                 to resume: finished data shards and training phases are kept, the others restart from
 #                 their last checkpoint

@@ -3,7 +3,7 @@
 # its cores, then the shipped model fine-tuned on them (latent phase, then end to end), within fixed
 # wall-clock budgets.  Never required: the default model and CI use the CPU only (tools/train_default.sh).
 #
-#   here:   HARNESS_DEPS=<deps> HDRI=<hdri dir> bash tools/train_gpu.sh pack      -> .gpu/payload.tar.gz
+#   here:   [HARNESS_DEPS=<deps>] HDRI=<hdri dir> bash tools/train_gpu.sh pack    -> .gpu/payload.tar.gz
 #   there:  OUT=<folder> bash tools/train_gpu.sh device                            -> OUT/unet_*.npz, logs
 #   there:  OUT=<folder> bash tools/train_gpu.sh device-mv                         -> OUT/unet_mv.npz (SuperMatMV)
 #   there:  OUT=<folder> bash tools/train_gpu.sh device-refine   -> OUT/refine_bc.npz, refine_rm.npz (UV refine)
@@ -11,8 +11,10 @@
 #           then train_default.py --data D --out RUN --init-from models/supermat_default.safetensors
 #           --phases export, and `supermat convert` as in train_default.sh
 #
-# pack: the reference harness' import shims and stubs (../shared/reference), the extracted diffusers /
-#   huggingface_hub / einops / SuperMat sources ($HARNESS_DEPS), and the prefiltered training maps
+# pack: with HARNESS_DEPS set, its site/ (extracted package sources for a device without them: diffusers 0.27 or
+#   newer, checked with 0.31.0, huggingface_hub, and where the device lacks them transformers / safetensors; put
+#   first on the device's Python path, except a safetensors there when the device has its own), and the prefiltered
+#   training maps
 #   (HDRI/*.hdr.smenv.npz: the .hdr files travel as empty stand-ins older than their caches, which
 #   smrender.EnvLight then reads instead), 6.4 MB.  Add /.gpu/ to .git/info/exclude.  Where the lent
 #   machine takes at most 64 MiB of working tree, move tests/data (59 MB) aside for the call.  PHOTO_HDR=1 packs
@@ -43,13 +45,13 @@ set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 mode="${1:-}"
 if [ "$mode" = pack ]; then
-    : "${HARNESS_DEPS:?}"; : "${HDRI:?}"
-    REF="${SUPERMAT_REFERENCE:-../shared/reference}"
+    : "${HDRI:?}"
     st=$(mktemp -d)
-    mkdir -p "$st/reference" "$st/deps/SuperMat" "$st/hdri" .gpu
-    cp "$REF/harness_env.py" "$st/reference/" && cp -r "$REF/stubs" "$st/reference/"
-    cp -r "$HARNESS_DEPS/site" "$HARNESS_DEPS/VERSIONS.txt" "$st/deps/"
-    cp -r "$HARNESS_DEPS/SuperMat/src" "$st/deps/SuperMat/"
+    mkdir -p "$st/hdri" .gpu
+    if [ -n "${HARNESS_DEPS:-}" ]; then
+        mkdir -p "$st/deps" && cp -r "$HARNESS_DEPS/site" "$st/deps/" || exit 1
+        [ -f "$HARNESS_DEPS/VERSIONS.txt" ] && cp "$HARNESS_DEPS/VERSIONS.txt" "$st/deps/"
+    fi
     held="venice_sunset_1k|studio_small_03_1k|kiara_1_dawn_1k"
     for f in "$HDRI"/*.hdr; do
         b=$(basename "$f")
@@ -85,16 +87,19 @@ print(f"{npz} -> {run}/ckpt_{ph}.pt ({len(sd)} tensors)")
 EOF
     exit 0
 fi
-# the device modes: the payload unpacked into W (default /tmp/smgpu), its harness on the paths, T0 and PY set
+# the device modes: the payload unpacked into W (default /tmp/smgpu), its packages (if any) on the path, T0 and PY set
 unpack() {
     : "${OUT:?}"
     T0=$(date +%s)
     W="${W:-/tmp/smgpu}"
     rm -rf "$W" && mkdir -p "$W/w" && tar -C "$W/w" -xzf .gpu/payload.tar.gz || exit 1
-    export SUPERMAT_REFERENCE="$W/w/reference" HARNESS_DEPS="$W/w/deps" PYTHONUNBUFFERED=1
+    export PYTHONUNBUFFERED=1
     PY="${PY:-python3}"
-    # a real safetensors there: diffusers then imports more of it than the harness' stand-in has
-    $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/reference/stubs/safetensors"
+    if [ -d "$W/w/deps/site" ]; then
+        export HARNESS_DEPS="$W/w/deps"
+        # a real safetensors there: diffusers then imports more of it than a packed stand-in may have
+        $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/deps/site/safetensors" "$W/w/deps/site"/safetensors-*.dist-info
+    fi
 }
 # ckpt_npz CKPT NPZ: a run's checkpoint's UNet as float16 npz, what comes back from the device (the f32 .pt is over
 # the lent machine's size limit for returned files; the releases round to f16 anyway); says its step

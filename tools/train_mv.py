@@ -6,8 +6,8 @@
         [--init-mv RUN] [--distill-albedo A] [--distill-rm R]
 
 MVDATA: tools/gen_data.py --views 6 output (each sample one object in the six official views, lit alike).
-The network is the official multi-view one, built by the official code exactly as its inference script builds
-it: SuperMatAdapterWrapper.convert(use_camera_embeddings=True, camera_embeddings_dim=16, replicate_num=2)
+The network is the official multi-view one (the project's port of the official classes, tools/supermat_adapters.py,
+same modules and key names), built exactly as the official inference script builds it: SuperMatAdapterWrapper.convert(use_camera_embeddings=True, camera_embeddings_dim=16, replicate_num=2)
 (the camera MLP: diffusers' "projection" class embedding of each view's flattened camera-to-world matrix,
 added to the timestep embedding) and set_supermat_mv_self_attention(num_views=6) (every self-attention
 layer attends over the six views' tokens together).  It starts from the single-view model of --init-from
@@ -39,11 +39,10 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-import train_default as T  # noqa: E402  (the harness' imports: diffusers, the official SuperMat code)
+import train_default as T  # noqa: E402  (diffusers, and tools/supermat_adapters.py: the SuperMat classes)
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-from src.adapters import SuperMatAdapterWrapper  # noqa: E402
-from src.models.model_utils import set_supermat_mv_self_attention  # noqa: E402
+from supermat_adapters import SuperMatAdapterWrapper, set_supermat_mv_self_attention  # noqa: E402
 
 import smrender as R  # noqa: E402
 

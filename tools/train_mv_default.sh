@@ -3,7 +3,7 @@
 # resume an interrupted run: six-view data -> tools/train_mv.py round 1 -> round 2 from it, each branch's
 # latent held near the single-view model's -> official-format release -> `supermat convert --kind supermat-mv`.
 #
-#   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_mv_default.sh
+#   MIRROR_DIR=<mirrors> WORK=<scratch dir> bash tools/train_mv_default.sh
 #
 #   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: read by tools/train_env.sh, as for tools/train_default.sh
 #   (run the same command again to resume: finished shards and phases are kept, the others restart from their

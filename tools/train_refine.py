@@ -5,8 +5,8 @@
         [--phases bc,rm,export] [--steps 1500] [--batch 8] [--lr 1e-4] [--amp bf16] [--seconds bc=S,rm=S]
 
 REFDATA: tools/gen_refine_data.py output (the view model's back-projected maps on procedural meshes, with the
-meshes' true UV textures).  Each network is the official UV-refine UNet (src.models.uv_refine_unet_2d_condition,
-`replicate(1)`: conv_in and the first down block renamed rep_conv_in.0 / first_down_blocks.0, the last up block
+meshes' true UV textures).  Each network is the official UV-refine UNet (UVRefineUNet2DConditionModel, as the project's port
+tools/supermat_adapters.py has it, `replicate(1)`: conv_in and the first down block renamed rep_conv_in.0 / first_down_blocks.0, the last up block
 and conv_out last_up_blocks.0 / rep_conv_out.0), built as the official UVRefineAdapterWrapper.convert builds it
 from a base UNet, with one difference: its input is [the partial map's latent, the mask, the position map], so
 in_channels = the VAE's latent channels + 4 = 20 with this project's 16-channel VAE (the official SD VAE: 4 + 4
@@ -51,12 +51,12 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-import train_default as T  # noqa: E402  (the harness' imports: diffusers, the official SuperMat code)
+import train_default as T  # noqa: E402  (diffusers, and tools/supermat_adapters.py: the SuperMat classes)
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 from scipy import ndimage  # noqa: E402
-from src.models.uv_refine_unet_2d_condition import UVRefineUNet2DConditionModel  # noqa: E402
+from supermat_adapters import UVRefineUNet2DConditionModel  # noqa: E402
 
 BRANCH = {"bc": 0, "rm": 1}
 EXTRA = 4   # mask (1) + position (3)

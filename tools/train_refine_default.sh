@@ -6,7 +6,7 @@
 # (state dicts + base folder, and the goldens of the training framework's own forward pass) -> `supermat convert
 # --kind uv-refine` -> the C runtime checked against those goldens (tests/test_golden.c).
 #
-#   MIRROR_DIR=<mirrors> HARNESS_DEPS=<deps> WORK=<scratch dir> bash tools/train_refine_default.sh
+#   MIRROR_DIR=<mirrors> WORK=<scratch dir> bash tools/train_refine_default.sh
 #
 #   MIRROR_DIR, HARNESS_DEPS, WORK, THREADS, AMP: read by tools/train_env.sh, as for tools/train_default.sh (run the
 #     same command again to resume: finished data shards and phases are kept, the others restart from their last
