@@ -461,7 +461,7 @@ typedef struct supermat_session_desc {
        detail_sigma x max(width, height), rows then columns, zero outside the image (where G(w I) < 1e-6:
        the image's sum(w A) / sum(w I)); pixels of alpha 0 are left as decoded. The lighting is assumed
        smooth at that scale: the network sets the level and colour, the picture the detail (`supermat
-       image` uses 1/64, chosen on validation assets: README). 0 = off; at most 1. */
+       image` uses 1/64, chosen on validation assets: docs/quality.md). 0 = off; at most 1. */
     float detail_sigma;
     /* supermat / supermat-mv, not in the official computation, after detail_sigma: the albedo takes the
        input picture's chromaticity and keeps the network's luminance. Per pixel of alpha > 0 (every
@@ -470,7 +470,7 @@ typedef struct supermat_session_desc {
            A' = (1 - k) A + k (L(A) I + e A) / (L(I) + e),  e = 0.002,
        each channel clamped to [0, 1]; at k = 1 and L(I) >> e, A' = L(A) I / L(I): the picture's colour
        at the network's brightness (e hands near-black picture pixels the network's own colour). For
-       networks whose colours are washed out (the small default model's are: README); it also brings
+       networks whose colours are washed out (the small default model's are: docs/quality.md); it also brings
        the lighting's colour cast and coloured reflections into the albedo. `supermat image` uses 1,
        chosen on validation assets. 0 = off; at most 1. */
     float chroma_weight;

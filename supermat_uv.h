@@ -70,7 +70,7 @@
  *   smooth at that scale: the network sets the level and colour, the input the detail. Where G(w L) is
  *   below 1e-6 the ratio falls back to the texture's sum(w A) / sum(w L) (1 when either is 0). The
  *   albedo then holds a value at every chart texel, seen or not. Roughness / metallic are not touched.
- *   Measured (README, issue 11; the default model, view by view): f = 1/32 chosen on five validation
+ *   Measured (docs/mesh.md; the default model, view by view): f = 1/32 chosen on five validation
  *   assets, where it adds 0.39 dB of albedo PSNR over f = 0, then 1.37 dB on the five held-out ones.
  *
  * FRAMES (what the official example inputs show: examples/bag_rendered_6views, examples/axe_uv)

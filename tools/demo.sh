@@ -99,7 +99,7 @@ echo "sheet: out/sheet.png (each row: $labels)"
 # the mesh: examples/mesh/lit/example_pbr_lit.gltf, a procedural torus and sphere of ours whose base colour has
 # its lighting baked in (tools/make_example_mesh.py, tools/litbake.py; the true textures beside it), baked by
 # `supermat mesh` with no model flags: the multi-view default (models/supermat_mv_default.safetensors) on the six
-# views together, no refinement (`--refine` would add the UV-refine defaults, which lose on the assets measured: README)
+# views together, no refinement (`--refine` would add the UV-refine defaults, which lose on the assets measured: docs/mesh.md)
 mesh_help=$("$SM" mesh --help 2>&1 || true)
 if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
   mkdir -p out/mesh

@@ -20,12 +20,12 @@ Phases
   vae_more  (not in the default phases yet) the VAE trained on from vae_crops, 3000 steps on whole renders,
           batch 8, every training render: real-asset albedo reconstruction 19.1 -> 24.5 dB, held-out renders
           (pictures / albedo / ORM) 19.0 / 18.1 / 18.6 -> 22.4 / 22.3 / 23.4 dB; 66 min with --amp bf16.  The
-          UNet trained after it (latent, e2e as below) gained only 0.1-0.2 dB on the real assets (docs/default_model.md).
+          UNet trained after it (latent, e2e as below) gained only 0.1-0.2 dB on the real assets (docs/notebook/default_model.md).
   vae_colour  (not in the default phases yet) the VAE trained on from its last phase, encoder and decoder,
           with the colour differences R - G and B - G weighted once more in the loss: --vae-colour-steps on
           --vae-colour-crop crops, batch --vae-colour-batch, every training render (--data may name several
           sets, comma separated).  The shipped VAE returns half the saturation it is given and its decoder
-          reads 3 of its 16 latent channels (docs/default_model.md); the UNet phases after this one start from new latents.
+          reads 3 of its 16 latent channels (docs/notebook/default_model.md); the UNet phases after this one start from new latents.
   latent  the SuperMat UNet (two expert branches: the last up block and conv_out replicated by the
           official SuperMatAdapterWrapper) run as the runtime runs it: one step at t = 999 of the trailing
           DDIM schedule, zero latents, x0 = -sqrt(1 - alphas_cumprod[999]) * v; trained against the
@@ -69,7 +69,7 @@ Phases
   rm      (not in the default phases: measured, not shipped) the roughness / metallic branch alone, trunk and
           albedo branch frozen (the albedo bit-identical), end to end: 600 steps from the shipped model on the
           seed-2 set with --e2e-permute 1 (34 min, --amp bf16): real assets 14.66 / 12.23 / 8.87 -> 14.66 / 12.11
-          / 8.87 dB; the GPU round's roughness gain (docs/default_model.md) came from the shared trunk.  With --rm-loss squared
+          / 8.87 dB; the GPU round's roughness gain (docs/notebook/default_model.md) came from the shared trunk.  With --rm-loss squared
           (the conditional mean instead of the median): 300 steps from the shipped model on 1 536 renders of seed
           31, batch 8, --e2e-permute 1 (30 min here, fp32, Zen 3): on 400 unseen renders (seed 97) 28.5 % of the
           metal pixels found instead of 0.1 % (6.6 % of the others called metal), metallic 7.37 dB instead of
@@ -79,7 +79,7 @@ Phases
           15.11), roughness 9.79 -> 9.46, re-render 13.16 -> 13.19: not shipped.  The same on 1 600 renders of
           gen_data.py --seed 33 --dark-metal 0.6 (darker metals, as real assets author them): more real metal
           found and as much of the rest called metal (WaterBottle 45.5 % / 50.8 %), ROC AUC of metal against
-          the other pixels of an asset 0.46-0.56 for every model: chance; not shipped (docs/default_model.md).
+          the other pixels of an asset 0.46-0.56 for every model: chance; not shipped (docs/notebook/default_model.md).
   export  the official release format: RUN/release/supermat.pth (torch.save of the UNet state dict) and
           RUN/release/base/ (diffusers layout: vae/, text_encoder/, tokenizer/, scheduler/ v_prediction,
           unet/config.json), every weight rounded to float16 so the f16 model file of `supermat convert
@@ -576,7 +576,7 @@ def phase_vae_colour(args, data):
     render, batch --vae-colour-batch, with the colour differences (R - G, B - G) weighted --vae-colour-chroma more.
     Why: the shipped VAE gives back half the saturation it is given (32 held-out renders' albedo: mean max - min
     0.197 in, 0.091 out) and its decoder reads 3 of its 16 latent channels (setting any other to its mean moves
-    the round trip by < 0.1 dB), so no UNet on it can keep an object's colour.  Measured run (docs/default_model.md): the
+    the round trip by < 0.1 dB), so no UNet on it can keep an object's colour.  Measured run (docs/notebook/default_model.md): the
     defaults with --seconds vae_colour=3300 (the budget set 3352 steps; it ended at 3103), 16 000 renders."""
     phase_vae(args, data, "vae_colour", args.vae_colour_steps, args.vae_colour_crop, prev=last_vae_phase(args.out),
               batch=args.vae_colour_batch, lr=args.vae_colour_lr, train=data.train, chroma=args.vae_colour_chroma)
@@ -608,7 +608,7 @@ def phase_dec(args, data):
     encoder frozen so that the latent space the UNet predicts in stays the same: --dec-steps, batch
     --dec-batch, --dec-crop crops (0: whole pictures), lr --dec-lr; L1 + gradient L1, object pixels weighted
     1, background 0.25.  Made for a measured defect: the shipped decoder returns a flat metal ORM (1, r, 1)
-    with roughness 0.74-0.86 whatever r is (0.05-1), although the encoder keeps r apart (docs/default_model.md)."""
+    with roughness 0.74-0.86 whatever r is (0.05-1), although the encoder keeps r apart (docs/notebook/default_model.md)."""
     vae = load_vae(args.out)
     dec = decoder_only(vae)
     opt = torch.optim.AdamW(dec, lr=args.dec_lr, weight_decay=0.0)

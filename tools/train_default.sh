@@ -28,7 +28,7 @@
 # it gives a model of the same recipe, not the same file.  Measured (2026-11-29, Zen 5, 2 cores, AVX512_BF16):
 # data 48 min, vae_colour 39 min, latent cache 18 min, ft 11 min, the seed-13 cache and 242 steps 10 min, then
 # the end-to-end phases at batch 32 at 6.6-7.6 s a step (bf16 autocast): 2.1 h for their 1084 steps (4.2 h in all);
-# the result scored 14.38 dB held-out albedo against the shipped fourth version's 14.46 (docs/default_model.md).
+# the result scored 14.38 dB held-out albedo against the shipped fourth version's 14.46 (docs/notebook/default_model.md).
 # From an empty WORK (2026-11-29, Zen 5, 2 cores, AVX512_BF16): the third version in about 3.3 h (data 42 min,
 # VAE 29 min, latent cache 18 min, UNet 67 min, second set 13 min, fine-tuning 20 min; the README's training row).
 # The network's work size recorded in the file: 256 since 2026-12-01 (trained at 128x128 renders; on the six

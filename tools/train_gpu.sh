@@ -30,7 +30,7 @@
 # Measured (2026-11-26, H200, 16 cores): 4 600 renders in 194 s; a latent step of batch 64 162 ms, an end-to-end
 #   step of batch 32 271 ms, not profiled (the batch assembly took 66 ms of a step on 2 CPU threads here, and
 #   the re-render loss waited on the GPU 32 times a step: both are done on the device at once since); 485 s in
-#   all, with 30-40 s to start the machine.  Results: docs/default_model.md ("A GPU round").
+#   all, with 30-40 s to start the machine.  Results: docs/notebook/default_model.md ("A GPU round").
 # Measured (2026-11-26, H100, 16 cores, INIT = the colour-VAE model, PHOTO=0.5): 4 175 renders in 175 s; a latent
 #   step of batch 64 203 ms, an end-to-end step of batch 32 263 ms; 488 s for renders, 242 latent and 730
 #   end-to-end steps; a second call (PHASES=e2e_more,export) 2 075 renders and 354 steps in 273 s.  Batches built

@@ -103,7 +103,7 @@ static const char cli_usage_image[] =
     "must both be multiples of 8.\n"
     "\n"
     "PREPROCESSING, as the official scripts: each picture is resized to the model's work size, a square\n"
-    "(512x512 for a converted official checkpoint, 128x128 for the default model; `supermat info` shows\n"
+    "(512x512 for a converted official checkpoint, 256x256 for the default model; `supermat info` shows\n"
     "it), the network runs there, and the maps are resized back to the picture's size.\n"
     "  --native          run each picture at its own size instead\n"
     "  --work-size N     at N x N (a multiple of 8)\n"
@@ -114,7 +114,7 @@ static const char cli_usage_image[] =
     "  --chroma W|off    then the albedo takes the picture's colour (chromaticity) at the network's\n"
     "                    luminance, with weight W from 0 to 1 (default 1; off: the network's colour;\n"
     "                    supermat.h, session_desc.chroma_weight). Both steps are on by default: they\n"
-    "                    measured closer to ground truth on validation assets (README); with\n"
+    "                    measured closer to ground truth on validation assets (docs/quality.md); with\n"
     "                    `--detail off --chroma off` the albedo is the network's alone\n"
     "\n"
     "options:\n"
@@ -134,7 +134,7 @@ static const char cli_usage_image[] =
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
     "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n"
     "\n"
     "Each file is written to a temporary file and renamed when complete. Progress (and the default model's\n"
     "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
@@ -182,7 +182,7 @@ static const char cli_usage_views[] =
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
     "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -217,7 +217,7 @@ static const char cli_usage_refine[] =
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
     "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n"
     "\n"
     "Progress is printed on stderr when it is a terminal.\n";
 
@@ -238,7 +238,7 @@ static const char cli_usage_info[] =
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
     "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n";
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n";
 
 static const char cli_usage_bench[] =
     "usage: supermat bench [--model FILE] [options]\n"
@@ -270,7 +270,7 @@ static const char cli_usage_bench[] =
     "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
     "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
     "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; README, speed levers)\n"
+    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n"
     "  --json FILE       also write the numbers as JSON\n";
 
 /* (the rest of `bench --help`: one string literal would be longer than C99 promises) */
@@ -393,7 +393,7 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
     return 0;
 }
 
-/* --weights: the storage of the GEMM weights (a speed / accuracy lever, see README) */
+/* --weights: the storage of the GEMM weights (a speed / accuracy lever, docs/levers.md) */
 static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
 static supermat_compute cli_compute = SUPERMAT_COMPUTE_F32;
 static int cli_compute_given; /* --compute was on the command line */
@@ -415,7 +415,7 @@ static int cli_parse_compute(const char *cmd, const char *s) {
     else { cli_usage_error(cmd, "--compute: '%s' is not f32, bf16 or int8", s); return -1; }
     return 0;
 }
-/* --conv: how the 3x3 convolutions run (a speed lever: Winograd, see README) */
+/* --conv: how the 3x3 convolutions run (a speed lever: Winograd, docs/levers.md) */
 static supermat_conv cli_conv = SUPERMAT_CONV_DIRECT;
 static int cli_conv_given; /* --conv was on the command line */
 static int cli_parse_conv(const char *cmd, const char *s) {

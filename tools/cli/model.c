@@ -140,8 +140,8 @@ int supermat_cli_default_model(char *path, size_t cap, const char **from) {
 /* The network size of image, views and refine. The official scripts resize every picture to a square
    (512x512, UV maps 1024x1024; Pillow bilinear, aspect squashed) before the network: the CLI does the
    same by default through the library's work_width/height (maps come back at the picture's size), at the
-   size the model file records (pipeline.work_size: 512 from `supermat convert`, 128 for the default
-   model trained at 128x128, 0 = none), the official one for a file that records none.
+   size the model file records (pipeline.work_size: 512 from `supermat convert`, 256 for the default
+   model, 0 = none), the official one for a file that records none.
    --native runs each picture at its own size, --work-size N at N x N. */
 static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt) {
     const char *v;
