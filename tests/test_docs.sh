@@ -43,7 +43,9 @@ mkdir -p "$T/bin"; ln -s "$SM" "$T/bin/supermat"
 sandbox() {   # a fresh folder with the files the documented commands name
   local d="$T/$1"; mkdir -p "$d/models" "$d/build" "$d/library/sub"
   ln -s "$SM" "$d/build/supermat"
-  cp "$TINY" "$d/models/supermat_default.safetensors"; cp "$TINY_MV" "$d/models/supermat_mv_default.safetensors"
+  # the tiny models at a work size of 64 (they record the official 512: the networks would run 64 times longer)
+  "$SM" convert --from "$TINY" --work-size 64 --out "$d/models/supermat_default.safetensors" >/dev/null 2>&1
+  "$SM" convert --from "$TINY_MV" --work-size 64 --out "$d/models/supermat_mv_default.safetensors" >/dev/null 2>&1
   cp "$DATA/img/sphere_64.png" "$d/photo.png"
   cp "$DATA/img/sphere_64.png" "$d/library/a.png"; cp "$DATA/img/ring_48x72.png" "$d/library/sub/b.png"
   for p in supermat supermat_mv uv_refine_bc; do ln -s "$DATA/tiny/$p.pth" "$d/$p.pth"; done
