@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The test command (README, .ci/run): installs what the tests need from Debian when it is missing,
 # builds, and runs every test through ctest three times: gcc Release (-Werror), gcc with
-# AddressSanitizer + UndefinedBehaviorSanitizer, and a clang build (C and C++, -Werror).
+# AddressSanitizer + UndefinedBehaviorSanitizer, and a clang build (C and C++, -Werror). A build that
+# fails (configure, compile or tests) does not stop the others: a summary line per build at the end
+# ("gcc: 100/100 passed (12 of them skipped)", "clang: FAILED (ctest exit 8): ..."), exit status 1 if any failed.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 need=()
@@ -25,18 +27,54 @@ if [ ! -f build-npm/node_modules/gltf-validator/package.json ]; then
 fi
 jobs=$(nproc 2>/dev/null || echo 2)
 
+# Each build runs to its end even when another failed (configure, compile or a test): a summary line per
+# build at the end, and the exit status is 1 when any of them failed.
+summary=()
+status=0
+# run_build NAME DIR CTEST_ENV CONFIGURE-COMMAND...: configures (the command), builds DIR and runs its ctest
+run_build() {
+  local name=$1 dir=$2 ctest_env=$3 rc=0 line total failed skipped
+  shift 3
+  "$@" >/dev/null || rc=$?
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (cmake configure exit $rc)"); status=1; return 0
+  fi
+  cmake --build "$dir" -j"$jobs" || rc=$?
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (build exit $rc)"); status=1; return 0
+  fi
+  # ctest's output also goes to DIR/ctest-output.log, for the counts below
+  (cd "$dir" && env $ctest_env ctest --output-on-failure -j"$jobs") 2>&1 | tee "$dir/ctest-output.log" || rc=$?
+  # "97% tests passed, 3 tests failed out of 100"; skipped tests (exit 77) count as passed there
+  line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$dir/ctest-output.log" | tail -n 1 || true)
+  skipped=$(grep -cE '^[[:space:]]*[0-9]+ - .* \(Skipped\)$' "$dir/ctest-output.log" || true)
+  if [ -n "$line" ]; then
+    total=$(echo "$line" | sed -E 's/.* out of ([0-9]+).*/\1/')
+    failed=$(echo "$line" | sed -E 's/.*, ([0-9]+) tests? failed.*/\1/')
+    line="$((total - failed))/$total passed ($skipped of them skipped)"
+  else
+    line="no ctest summary"
+  fi
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (ctest exit $rc): $line"); status=1
+  else
+    summary+=("$name: $line")
+  fi
+}
+
 echo "== gcc, Release, -Werror"
 # UV tests on explicitly: `bash tools/demo.sh` configures the same build/ folder with them off
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON >/dev/null
-cmake --build build -j"$jobs"
-(cd build && ctest --output-on-failure -j"$jobs")
+run_build "gcc" build "" \
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON
 
 echo "== clang, Release, -Werror"
-CC=clang CXX=clang++ cmake -S . -B build-clang -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON >/dev/null
-cmake --build build-clang -j"$jobs"
-(cd build-clang && ctest --output-on-failure -j"$jobs")
+run_build "clang" build-clang "" \
+  env CC=clang CXX=clang++ cmake -S . -B build-clang -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON
 
 echo "== gcc, AddressSanitizer + UndefinedBehaviorSanitizer"
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSUPERMAT_SANITIZE=ON >/dev/null
-cmake --build build-asan -j"$jobs"
-(cd build-asan && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j"$jobs")
+run_build "asan" build-asan "ASAN_OPTIONS=detect_leaks=1" \
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSUPERMAT_SANITIZE=ON
+
+echo "== summary"
+printf '%s\n' "${summary[@]}"
+exit "$status"
