@@ -76,7 +76,7 @@
  * FRAMES (what the official example inputs show: examples/bag_rendered_6views, examples/axe_uv)
  *   World: positions as given (node transforms already applied), **Z up**, the front of the object
  *   facing -Y (Blender's convention, which the official cameras use). glTF is Y up facing +Z: convert
- *   with (x, y, z)_glTF -> (x, -z, y), as Blender's importer does (tools/cli/mesh.cpp does it).
+ *   with (x, y, z)_glTF -> (x, -z, y), as Blender's importer does (cli/mesh.cpp does it).
  *   View frame (rendering): q = (p - c) * s with c the bounding-box centre and s = 1 / max |p - c|
  *   over all coordinates, so the object lies in [-1, 1]^3 touching it on its largest axis; the
  *   orthographic views cover [-1.1, 1.1] (`ortho_half_width`), so the largest extent fills 1/1.1 of
@@ -124,7 +124,7 @@
  *   edges too (repeat sampling). Degenerate UV triangles (zero UV area) render but bake nothing.
  *
  * WHAT IT DOES NOT DO
- *   No file I/O, no image decoding, no glTF: tools/cli/mesh.cpp shows all of that with tinygltf.
+ *   No file I/O, no image decoding, no glTF: cli/mesh.cpp shows all of that with tinygltf.
  *   No lighting, no alpha blending/masking (texture alpha is ignored: surfaces are opaque), no UV
  *   unwrapping (the mesh must have UVs).
  *

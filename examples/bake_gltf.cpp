@@ -3,7 +3,7 @@
  *   bake_gltf MV.safetensors ALBEDO_REFINE.safetensors RM_REFINE.safetensors IN.gltf OUT.gltf
  *   bake_gltf --passthrough IN.gltf OUT.gltf            (no networks: tests the geometry)
  *
- * Takes the first primitive of the first mesh (node transforms ignored: see tools/cli/mesh.cpp
+ * Takes the first primitive of the first mesh (node transforms ignored: see cli/mesh.cpp
  * for the complete tool), bakes 1024x1024 albedo and metallicRoughness textures and writes OUT with
  * its first material pointing at them. Build: c++ -O2 bake_gltf.cpp -ltinygltf -lstb -lpthread -lm
  */

@@ -12,13 +12,13 @@ SRC=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 OUT=${1:?usage: afl.sh OUTDIR [HARNESS SECONDS]}
 mkdir -p "$OUT"
 export AFL_USE_ASAN=1 AFL_USE_UBSAN=1 AFL_QUIET=1
-FLAGS=(-g -O1 -fsanitize=fuzzer -I"$SRC" -I"$SRC/tools" -I"$SRC/tools/cli")
+FLAGS=(-g -O1 -fsanitize=fuzzer -I"$SRC" -I"$SRC/convert" -I"$SRC/cli")
 want() { [ $# -lt 3 ] || [ "$2" = "$h" ]; }
 for h in model json uv; do want "$@" || continue; afl-clang-fast "${FLAGS[@]}" "$SRC/fuzz/fuzz_$h.c" -o "$OUT/fuzz_$h" -lm -lpthread; done
 for h in pth cameras config picture; do
     want "$@" || continue
     extra=(); [ "$h" = picture ] && extra=(-fno-sanitize=undefined -fsanitize=bounds)   # as CMakeLists.txt says
-    afl-clang-fast "${FLAGS[@]}" "${extra[@]}" -DSUPERMAT_FUZZ_TINY="\"$SRC/tests/data/tiny\"" "$SRC/fuzz/fuzz_$h.c" "$SRC/tools/sm_convert.c" -o "$OUT/fuzz_$h" -lm -lpthread
+    afl-clang-fast "${FLAGS[@]}" "${extra[@]}" -DSUPERMAT_FUZZ_TINY="\"$SRC/tests/data/tiny\"" "$SRC/fuzz/fuzz_$h.c" "$SRC/convert/sm_convert.c" -o "$OUT/fuzz_$h" -lm -lpthread
 done
 h=gltf
 if [ -f /usr/include/tiny_gltf.h ] && want "$@"; then

@@ -2,8 +2,8 @@
    then every camera looked up by index as the views are matched). The CLI is included whole
    (fuzz_cli.h), each input written to a file as the reader takes it.
 
-     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../tools -I../tools/cli fuzz_cameras.c \
-         ../tools/sm_convert.c -o fuzz_cameras -lm -lpthread -lstb
+     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../convert -I../cli fuzz_cameras.c \
+         ../convert/sm_convert.c -o fuzz_cameras -lm -lpthread -lstb
      ./fuzz_cameras -max_total_time=3600 work corpus/cameras */
 #include "fuzz_cli.h"
 

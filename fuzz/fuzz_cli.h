@@ -6,7 +6,7 @@
 #pragma clang diagnostic ignored "-Wunused-function"
 #endif
 #define main supermat_cli_main
-#include "../tools/cli/main.c"
+#include "../cli/main.c"
 #undef main
 
 /* the input written to this process' file NAME (e.g. "cameras.json"); its path, or NULL when it cannot be written */

@@ -7,8 +7,8 @@
    executions per second: most of its value is in the invalid configs it reaches). SUPERMAT_FUZZ_TINY (compiled in by
    CMake, or the environment variable) is tests/data/tiny.
 
-     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../tools -DSUPERMAT_FUZZ_TINY='"../tests/data/tiny"' \
-         fuzz_config.c ../tools/sm_convert.c -o fuzz_config -lm -lpthread
+     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../convert -DSUPERMAT_FUZZ_TINY='"../tests/data/tiny"' \
+         fuzz_config.c ../convert/sm_convert.c -o fuzz_config -lm -lpthread
      ./fuzz_config -max_total_time=3600 work corpus/config */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L

@@ -1,4 +1,4 @@
-/* libFuzzer harness: the CLI's glTF path (`supermat mesh`, tools/cli/mesh.cpp) on a hostile .gltf or .glb:
+/* libFuzzer harness: the CLI's glTF path (`supermat mesh`, cli/mesh.cpp) on a hostile .gltf or .glb:
    tinygltf's parse, the scene walk, node transforms, accessors / buffer views / sparse data read into the
    mesh arrays, materials, texture transforms, images decoded, the bake (passthrough, 8x8 texels, 8x8
    views) and the output asset written (to a folder in /dev/shm; .glb or .gltf by the input's last bit) and
@@ -9,7 +9,7 @@
      ./fuzz_gltf -max_total_time=3600 work corpus/gltf */
 #define SUPERMAT_MESH_MAIN /* the implementation of supermat.h in this translation unit; main renamed below */
 #define main supermat_mesh_main
-#include "../tools/cli/mesh.cpp"
+#include "../cli/mesh.cpp"
 #undef main
 
 #include <string>

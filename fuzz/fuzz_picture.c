@@ -9,8 +9,8 @@
    PNG's empty first IDAT chunk, a shift by 32 in a progressive JPEG's bit buffer), which the full UBSan stops
    every run at; the CLI's own code is under the full UBSan in fuzz_cameras and fuzz_config.
 
-     clang -g -O1 -fsanitize=fuzzer,address -fsanitize=bounds -I.. -I../tools -I../tools/cli fuzz_picture.c \
-         ../tools/sm_convert.c -o fuzz_picture -lm -lpthread [-DSUPERMAT_CLI_WEBP -lwebp]
+     clang -g -O1 -fsanitize=fuzzer,address -fsanitize=bounds -I.. -I../convert -I../cli fuzz_picture.c \
+         ../convert/sm_convert.c -o fuzz_picture -lm -lpthread [-DSUPERMAT_CLI_WEBP -lwebp]
      ./fuzz_picture -max_total_time=3600 work corpus/picture */
 #include "fuzz_cli.h"
 

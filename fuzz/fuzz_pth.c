@@ -1,7 +1,7 @@
-/* libFuzzer harness: the converter's PyTorch checkpoint reader (tools/sm_convert.h): the zip directory
+/* libFuzzer harness: the converter's PyTorch checkpoint reader (convert/sm_convert.h): the zip directory
    (zip64 records included), the pickle VM over data.pkl, the storages it names, and each tensor's read
    (CRC-32 checked); then the pickle VM alone on the same bytes (sm_pickle_check).
-     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../tools fuzz_pth.c ../tools/sm_convert.c -o fuzz_pth -lm -lpthread
+     clang -g -O1 -fsanitize=fuzzer,address,undefined -I.. -I../convert fuzz_pth.c ../convert/sm_convert.c -o fuzz_pth -lm -lpthread
    Seeds: corpus/pth (a small torch.save state dict), corpus/pickle (its data.pkl). */
 #ifndef SUPERMAT_TEST_LINKED_IMPL /* tests/supermat_impl.c (CMakeLists.txt) */
 #define SUPERMAT_IMPLEMENTATION

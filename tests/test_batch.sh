@@ -16,7 +16,7 @@
 #   - a manifest: plain lines and JSON Lines with per-item "outputs"; malformed lines are usage errors;
 #   - GNU parallel (when installed): 3 workers, one per shard, one killed mid-run; `parallel
 #     --resume-failed` finishes it; every item done exactly once, maps identical to the reference;
-#   - tools/slurm_batch.sh run as Slurm runs array tasks, then the merge; and (as root, with Debian's
+#   - scripts/slurm_batch.sh run as Slurm runs array tasks, then the merge; and (as root, with Debian's
 #     slurmctld, slurmd, slurm-client, munge) on a real single-node Slurm cluster the test starts: the array
 #     over 4 shards, one task cancelled mid-run and resubmitted alone, every item once, the merge;
 #   - batch mesh (with CUBE_GLTF, a textured glTF with its .bin and texture beside it, and a supermat built
@@ -33,7 +33,7 @@ TINY_MV=""; TINY_UV=""
 BIN=$(realpath "$1")
 MODEL=$(realpath "$2")
 DATA=$(realpath "$3")
-SCRIPT=$(realpath "$(dirname "$0")/../tools/slurm_batch.sh")
+SCRIPT=$(realpath "$(dirname "$0")/../scripts/slurm_batch.sh")
 T=$(mktemp -d "${TMPDIR:-/tmp}/supermat_batch.XXXXXX")
 trap 'rm -rf "$T"' EXIT
 cd "$T" || exit 1
@@ -185,7 +185,7 @@ if command -v parallel >/dev/null 2>&1; then
     check "parallel: maps identical to the single-process run" same_as_ref fan
     "$BIN" batch --merge --out fan lib 2>/dev/null; check "parallel: merge finds every item" [ $? -eq 0 ]
 else
-    echo "SKIP: GNU parallel is not installed (Debian: parallel); tools/test.sh installs it"
+    echo "SKIP: GNU parallel is not installed (Debian: parallel); scripts/test.sh installs it"
 fi
 
 # ---- the Slurm array script, run as Slurm runs its tasks (no controller here: see the README) ----
@@ -276,7 +276,7 @@ EOC
     slurm_down
     trap 'rm -rf "$T"' EXIT
 else
-    echo "SKIP: a real Slurm cluster (needs root and Debian's slurmctld, slurmd, slurm-client, munge; tools/test.sh installs them)"
+    echo "SKIP: a real Slurm cluster (needs root and Debian's slurmctld, slurmd, slurm-client, munge; scripts/test.sh installs them)"
 fi
 
 # ---- batch mesh ----

@@ -1,4 +1,4 @@
-/* Tests of the model converter (tools/sm_convert.c): the torch.save reader (zip, zip64, pickle), the CLIP
+/* Tests of the model converter (convert/sm_convert.c): the torch.save reader (zip, zip64, pickle), the CLIP
    text encoder, the output file, and every error path (truncated / corrupted files must fail cleanly).
    usage: test_convert DATA_DIR [TWIN_DIR]
      DATA_DIR  tests/data (uses DATA_DIR/tiny), or a folder holding supermat.pth, supermat_mv.pth,

@@ -4,7 +4,7 @@
     golden_copy.py RUNS DEST VERSIONS.txt CASE:KIND[+blocks]...
 
 KIND is single, mv or uv (which files a case keeps); +blocks also keeps the UNet's top-level block dumps.
-RUNS/CASE -> DEST/golden/CASE.  Used by tools/make_goldens.sh and tools/make_default_golden.sh.
+RUNS/CASE -> DEST/golden/CASE.  Used by scripts/make_goldens.sh and scripts/make_default_golden.sh.
 """
 import json, shutil, sys
 from pathlib import Path

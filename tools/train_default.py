@@ -47,7 +47,7 @@ Phases
   ft, ft_e2e  the latent and e2e phases again on a second data set (--data; a latent cache of its own,
           RUN/latents_ft.pt), from the UNet the run has: --ft-steps at --ft-lr, then --e2e-steps.  The shipped
           model: the default phases on 20 000 renders, then ft + ft_e2e (--amp bf16) on 6 000 renders with
-          fewer metals (gen_data.py --seed 1 --mode-probs 0.62,0.12,0.13,0.13; tools/train_default.sh does
+          fewer metals (gen_data.py --seed 1 --mode-probs 0.62,0.12,0.13,0.13; scripts/train_default.sh does
           both): real assets albedo / roughness / metallic 13.70 / 12.12 / 8.95 -> 14.66 / 12.23 / 8.87 dB.
   ft2, ft2_e2e  (not in the default phases: measured, not shipped) ft and ft_e2e again on a third data set
           (own cache RUN/latents_ft2.pt), from the UNet the run has.  From the shipped model (--init-from), 2000 +
@@ -97,7 +97,7 @@ SuperMat only ever feeds it the empty prompt, so its output is one constant cont
 project's Sapphire Rapids (AMX) 1.1 s a VAE step at 128² x 8 instead of 2.1, 0.53 s a latent UNet step
 instead of 1.6, the latent cache in 27 min instead of 80; on a Xeon with AVX512_BF16 but no AMX an e2e step
 takes 3.7 s instead of 4.25; slower on CPUs without either.
---device cuda trains on a GPU where there is one (never required; tools/train_gpu.sh runs one round there).
+--device cuda trains on a GPU where there is one (never required; scripts/train_gpu.sh runs one round there).
 --seconds PHASE=S,... gives phases wall-clock budgets: such a phase times its steps 20-120, then lowers its
 step count to what fits (the learning-rate schedule follows) and stops at the budget in any case.
 Needs torch (Debian's python3-torch 1.13.1, + libopenblas0-pthread, or any newer one), diffusers 0.27 or newer

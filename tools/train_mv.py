@@ -20,7 +20,7 @@ under another training map), batches of --batch objects x 6 views, colour permut
 --distill-rm R add A (R) x the mean L1 between the albedo (roughness / metallic) branch's x0 latent and the
 single-view model's on the same views, run view by view without gradients: what that model learnt from tens
 of thousands of renders is held while the views' attention is learnt from a few hundred objects
-(tools/train_mv_default.sh: the shipped recipe).
+(scripts/train_mv_default.sh: the shipped recipe).
 
 Phases (each checkpoints to RUN/ckpt_<phase>.pt and resumes; --seconds PHASE=S and --until as in
 train_default.py):

@@ -39,7 +39,7 @@ Phases (each checkpoints to RUN/ckpt_<phase>.pt and resumes; --seconds PHASE=S, 
 
 Measured (README): 800 meshes, bc 570 + rm 485 steps of batch 8 at lr 2e-4 in 37 min on 2 cores (bf16 on AMX);
 the refined maps do not beat the partial maps on either held-out procedural meshes or real assets.  On a lent
-H200 (tools/train_gpu.sh device-refine, --init-from the multi-view default): 512 meshes, 880 / 887 steps of
+H200 (scripts/train_gpu.sh device-refine, --init-from the multi-view default): 512 meshes, 880 / 887 steps of
 batch 32 at lr 2e-4, 300 ms a step: the refined albedo beats the partial map on held-out procedural meshes
 (13.90 against 12.73 dB) but not on real assets (15.59 against 16.40 on the README's held-out five).
 """

@@ -24,7 +24,7 @@ import { createRequire } from 'node:module';
 const [mesh, outRoot, validatorDir] = process.argv.slice(2);
 if (!mesh || !outRoot || !validatorDir) { console.error('usage: node test_gltf_corpus.mjs SUPERMAT_MESH OUTDIR VALIDATOR_DIR'); process.exit(2); }
 if (!fs.existsSync(path.join(validatorDir, 'package.json'))) {
-  console.log(`SKIP: no gltf-validator at ${validatorDir} (tools/test.sh installs it with npm)`);
+  console.log(`SKIP: no gltf-validator at ${validatorDir} (scripts/test.sh installs it with npm)`);
   process.exit(77);
 }
 const validator = createRequire(import.meta.url)(validatorDir);

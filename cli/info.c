@@ -1,0 +1,178 @@
+/* cli/info.c - `supermat info`.
+ * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
+
+/* >>info */
+static void cli_print_list(const int *v, int n) {
+    int i;
+    for (i = 0; i < n; i++) printf("%s%d", i ? "," : "", v[i]);
+}
+
+static void cli_print_count(const char *label, uint64_t n) {
+    printf("%s%llu (%.2f M)", label, (unsigned long long)n, (double)n / 1e6);
+}
+
+static int cli_info(int argc, char **argv) {
+    const char *cmd = "info", *path = NULL;
+    int i, m, threads = 0, ntens = 0, counts[SUPERMAT_DTYPE_COUNT];
+    uint64_t bytes_by[SUPERMAT_DTYPE_COUNT], tensor_bytes = 0;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    unsigned char *file = NULL;
+    size_t size = 0;
+    supermat_error err;
+    supermat_result r;
+    supermat_model_desc md;
+    supermat_model *model = NULL;
+    supermat_model_info mi;
+    char meta[128];
+    double create_s;
+    cli_model_ref mref;
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); cli_print_default_model_help(); return CLI_OK; }
+        if ((m = cli_run_opt(cmd, argc, argv, &i, NULL, NULL, &threads, &kernel)) != 0) {
+            if (m < 0) return CLI_USAGE;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else if (path) {
+            return cli_usage_error(cmd, "one model file at a time ('%s' and '%s')", path, a);
+        } else {
+            path = a;
+        }
+    }
+    if ((m = cli_model_path(cmd, path, 1, &mref)) != CLI_OK) return m;
+    if (!path) printf("default       %s (the default model: %s)\n", mref.path, mref.from);
+    path = mref.path;
+    if (cli_read_file(path, &file, &size)) return CLI_FAIL;
+
+    /* the file as it is: header, metadata, dtypes */
+    r = supermat_safetensors_count(file, size, size, &ntens, &err);
+    if (r != SUPERMAT_SUCCESS) {
+        char what[CLI_PATH_CAP + 64];
+        snprintf(what, sizeof what, "'%s'", path);
+        cli_lib_error(what, r, &err);
+        cli_free_file(file);
+        return CLI_FAIL;
+    }
+    memset(counts, 0, sizeof counts);
+    memset(bytes_by, 0, sizeof bytes_by);
+    for (i = 0; i < ntens; i++) {
+        supermat_tensor_info ti;
+        r = supermat_safetensors_tensor(file, size, size, i, &ti, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char what[CLI_PATH_CAP + 64];
+            snprintf(what, sizeof what, "'%s' tensor %d", path, i);
+            cli_lib_error(what, r, &err);
+            cli_free_file(file);
+            return CLI_FAIL;
+        }
+        if ((unsigned)ti.dtype < SUPERMAT_DTYPE_COUNT) { counts[ti.dtype]++; bytes_by[ti.dtype] += ti.nbytes; }
+        tensor_bytes += ti.nbytes;
+    }
+    printf("file          %s\n", path);
+    printf("size          %llu bytes (%.1f MiB), %d tensors, %.1f MiB of tensor data\n", (unsigned long long)size,
+           cli_mib((double)size), ntens, cli_mib((double)tensor_bytes));
+    printf("dtypes       ");
+    for (i = 1; i < SUPERMAT_DTYPE_COUNT; i++)
+        if (counts[i]) printf(" %s: %d tensor%s (%.1f MiB)", cli_dtype_name((supermat_dtype)i), counts[i], counts[i] == 1 ? "" : "s",
+                   cli_mib((double)bytes_by[i]));
+    printf("\n");
+    if (supermat_safetensors_metadata(file, size, "supermat.format_version", meta, sizeof meta) == 0)
+        printf("format        version %s\n", meta);
+    if (supermat_safetensors_metadata(file, size, "supermat.kind", meta, sizeof meta) == 0)
+        printf("kind          %s\n", meta);
+
+    /* the loaded model */
+    memset(&md, 0, sizeof md);
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
+    md.max_memory = cli_max_memory;
+    cli_packed_options(&md);
+    create_s = cli_now();
+    r = supermat_model_create(&md, &model, &err);
+    create_s = cli_now() - create_s;
+    if (r != SUPERMAT_SUCCESS) {
+        char what[CLI_PATH_CAP + 64];
+        snprintf(what, sizeof what, "model '%s'", path);
+        cli_lib_error(what, r, &err);
+        cli_free_file(file);
+        return CLI_FAIL;
+    }
+    supermat_model_get_info(model, &mi);
+    {
+        int ws = cli_work_size(file, size, model, -1);
+        if (ws) printf("work size     %dx%d: image, views and refine resize pictures to it by default, as the official scripts do (--native: their own size)\n", ws, ws);
+        else printf("work size     none: image, views and refine run each picture at its own size\n");
+    }
+    printf("kernel        %s\n", cli_kernel_name(mi.kernel));
+    {
+        static const char *wn[] = {"default", "f32", "f16", "bf16", "int8"};
+        printf("weights       %s (GEMM weight storage; %.1f MiB held by the model)\n", (unsigned)mi.weights < 5 ? wn[mi.weights] : "?", (double)mi.model_bytes / 1048576.0);
+    }
+    printf("convolutions  %s (3x3; --conv)\n", cli_conv_name(mi.conv));
+    printf("compute       %s (what the GEMMs multiply; --compute)\n", cli_compute_name(mi.compute));
+    printf("unet          in %d, out %d channels; %d levels: channels ", mi.unet_in_channels, mi.unet_out_channels, mi.unet_levels);
+    cli_print_list(mi.block_channels, mi.unet_levels);
+    printf(", heads ");
+    cli_print_list(mi.num_heads, mi.unet_levels);
+    printf("; %d layers per block, %d norm groups\n", mi.layers_per_block, mi.norm_groups);
+    printf("              cross-attention dim %d, context %d tokens, %d branch%s\n", mi.cross_attention_dim, mi.context_tokens,
+           mi.branches, mi.branches == 1 ? "" : "es");
+    if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV)
+        printf("multi-view    camera embedding in %d (class_embed_in: the view's 4x4 camera-to-world matrix, row-major),\n"
+               "              added to the time embedding per view; views attend to each other (default 6)\n", mi.class_embed_in);
+    else if (mi.kind == SUPERMAT_KIND_UV_REFINE)
+        printf("uv refine     UNet input %d channels = latent %d + mask 1 + position %d; output: the refined map\n",
+               mi.unet_in_channels, mi.latent_channels, mi.unet_in_channels - mi.latent_channels - 1);
+    printf("vae           %d levels: channels ", mi.vae_levels);
+    cli_print_list(mi.vae_block_channels, mi.vae_levels);
+    printf("; latent %d channels, scaling factor %g\n", mi.latent_channels, (double)mi.scaling_factor);
+    printf("scheduler     one step at timestep %d, alphas_cumprod %.9g, %s\n", mi.timestep, (double)mi.alphas_cumprod,
+           mi.v_prediction ? "v-prediction" : "epsilon-prediction");
+    {
+        uint64_t branches = (uint64_t)(mi.branches > 0 ? mi.branches : 0), per = mi.branch_params;
+        uint64_t trunk = mi.unet_params >= branches * per ? mi.unet_params - branches * per : 0;
+        cli_print_count("parameters    UNet trunk ", trunk);
+        cli_print_count(", per branch ", per);
+        printf(" x %d", mi.branches);
+        cli_print_count(", VAE ", mi.vae_params);
+        cli_print_count(", total ", mi.unet_params + mi.vae_params);
+        printf("\n");
+    }
+    printf("model memory  %llu bytes (%.1f MiB) held by the model, created in %.3f s; it also borrows the file buffer\n",
+           (unsigned long long)mi.model_bytes, cli_mib((double)mi.model_bytes), create_s);
+    if (mi.prepacked) {
+        printf("pre-packed    yes: %.1f MiB of panels used in place from the mapped file (conv %s, compute %s; `supermat pack`)\n",
+               cli_mib((double)mi.prepacked_bytes), cli_conv_name(mi.conv), cli_compute_name(mi.compute));
+    }
+    {
+        supermat_session_desc sd;
+        size_t all = 0, alb = 0;
+        int nthreads;
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = 512; sd.height = 512; sd.threads = threads;
+        sd.views = mi.kind == SUPERMAT_KIND_SUPERMAT_MV ? 6 : 1;
+        nthreads = supermat__threads_for(&sd);
+        sd.outputs = SUPERMAT_OUTPUT_ALL;
+        r = supermat_session_memory(&sd, &all, &err);
+        if (r == SUPERMAT_SUCCESS) {
+            sd.outputs = SUPERMAT_OUTPUT_ALBEDO;
+            r = supermat_session_memory(&sd, &alb, &err);
+        }
+        if (r != SUPERMAT_SUCCESS) {
+            cli_lib_error("session memory", r, &err);
+            supermat_model_destroy(model);
+            cli_free_file(file);
+            return CLI_FAIL;
+        }
+        if (mi.kind == SUPERMAT_KIND_UV_REFINE)
+            printf("session 512   %llu bytes (%.1f MiB), the refined map (%d thread%s)\n", (unsigned long long)all, cli_mib((double)all),
+                   nthreads, nthreads == 1 ? "" : "s");
+        else
+            printf("session 512   %llu bytes (%.1f MiB) all outputs, %llu bytes (%.1f MiB) albedo only (%s%d thread%s)\n",
+                   (unsigned long long)all, cli_mib((double)all), (unsigned long long)alb, cli_mib((double)alb),
+                   mi.kind == SUPERMAT_KIND_SUPERMAT_MV ? "6 views, " : "", nthreads, nthreads == 1 ? "" : "s");
+    }
+    printf("command       %s\n", cli_kind_command(mi.kind));
+    supermat_model_destroy(model);
+    cli_free_file(file);
+    return CLI_OK;
+}

@@ -1,0 +1,215 @@
+/* cli/model.c - the default model: where a command without --model finds it; loading a model for any command.
+ * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
+
+/* >>model */
+/* The default model: what `image`, `info` and `bench` run without --model. Its places are compiled in:
+   CMake defines SUPERMAT_CLI_DATADIR (the installed data folder, GNUInstallDirs' DATADIR/supermat),
+   SUPERMAT_CLI_DATADIR_FROM_BIN (the same relative to the installed executable's folder, for an install
+   that was moved) and SUPERMAT_CLI_SOURCE_DIR (the source tree, for a build that was not installed). */
+#ifndef SUPERMAT_CLI_DATADIR
+#define SUPERMAT_CLI_DATADIR "/usr/local/share/supermat"
+#endif
+#ifndef SUPERMAT_CLI_DATADIR_FROM_BIN
+#define SUPERMAT_CLI_DATADIR_FROM_BIN "../share/supermat"
+#endif
+#define CLI_DEFAULT_MODEL "supermat_default.safetensors"
+#define CLI_PATH_CAP 4096
+
+typedef struct cli_model_ref {
+    char path[CLI_PATH_CAP];
+    const char *from; /* "--model", "$SUPERMAT_MODEL", "installed", ... */
+} cli_model_ref;
+
+/* "<folder of this executable>/<rel>/<name>" with the leading ../ of rel taken off that folder;
+   0 when this system does not say where the executable is (/proc/self/exe is Linux's) */
+static int cli_exe_relative(const char *rel, const char *name, char *out, size_t cap) {
+#if defined(__linux__)
+    char dir[CLI_PATH_CAP], *slash;
+    ssize_t n = readlink("/proc/self/exe", dir, sizeof dir - 1);
+    int len;
+    if (n <= 0 || (size_t)n >= sizeof dir - 1) return 0;
+    dir[n] = 0;
+    if (!(slash = strrchr(dir, '/'))) return 0;
+    *slash = 0;
+    while (!strncmp(rel, "../", 3) || !strcmp(rel, "..")) {
+        if (!(slash = strrchr(dir, '/'))) return 0;
+        *slash = 0;
+        rel += rel[2] ? 3 : 2;
+    }
+    len = snprintf(out, cap, "%s/%s%s%s", dir, rel, rel[0] ? "/" : "", name);
+    return len > 0 && (size_t)len < cap;
+#else
+    (void)rel; (void)name; (void)out; (void)cap;
+    return 0;
+#endif
+}
+
+/* the places of steps 2 and 3, in order; returns how many (at most 3) */
+static int cli_default_places(char places[3][CLI_PATH_CAP], const char *what[3]) {
+    int n = 0, len;
+    if (cli_exe_relative(SUPERMAT_CLI_DATADIR_FROM_BIN, CLI_DEFAULT_MODEL, places[n], CLI_PATH_CAP))
+        what[n++] = "installed, beside this executable";
+    len = snprintf(places[n], CLI_PATH_CAP, "%s/%s", SUPERMAT_CLI_DATADIR, CLI_DEFAULT_MODEL);
+    if (len > 0 && len < CLI_PATH_CAP && (n == 0 || strcmp(places[0], places[n]))) what[n++] = "installed";
+#ifdef SUPERMAT_CLI_SOURCE_DIR
+    len = snprintf(places[n], CLI_PATH_CAP, "%s/models/%s", SUPERMAT_CLI_SOURCE_DIR, CLI_DEFAULT_MODEL);
+    if (len > 0 && len < CLI_PATH_CAP) what[n++] = "source tree";
+#endif
+    return n;
+}
+
+/* the DEFAULT MODEL part of `image`, `info` and `bench --help` */
+static void cli_print_default_model_help(void) {
+    char places[3][CLI_PATH_CAP];
+    const char *what[3];
+    int n = cli_default_places(places, what), i;
+    printf("\nDEFAULT MODEL\n"
+           "Without --model, the default model is used: the first of these that exists.\n"
+           "  1. the file the environment variable SUPERMAT_MODEL names, when it is set and not empty\n"
+           "     (a file that does not exist is an error: no fallback to 2 and 3)\n"
+           "  2. the installed model: <folder of this executable>/%s/%s\n"
+           "     (an install that was moved), then %s/%s\n"
+           "  3. the source tree's models/%s (a build that was not installed)\n"
+           "Here:\n", SUPERMAT_CLI_DATADIR_FROM_BIN, CLI_DEFAULT_MODEL, SUPERMAT_CLI_DATADIR, CLI_DEFAULT_MODEL, CLI_DEFAULT_MODEL);
+    for (i = 0; i < n; i++) printf("  %s (%s)\n", places[i], what[i]);
+    printf("`supermat info` without a FILE shows the default model.\n");
+}
+
+static int cli_is_file(const char *path) {
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* The model file a command runs: --model's (given) when there is one; else, when allow_default, the
+   default model (see cli_print_default_model_help). CLI_OK and *ref, or a message and CLI_FAIL
+   (SUPERMAT_MODEL names a missing file, or no default model is found) or CLI_USAGE (no --model and
+   !allow_default). One function for every command. */
+static int cli_model_path(const char *cmd, const char *given, int allow_default, cli_model_ref *ref) {
+    char places[3][CLI_PATH_CAP];
+    const char *what[3], *env;
+    int n, i;
+    ref->path[0] = 0;
+    ref->from = NULL;
+    if (given) {
+        if (strlen(given) >= sizeof ref->path) { cli_error("--model: the path is longer than %d bytes", CLI_PATH_CAP - 1); return CLI_FAIL; }
+        strcpy(ref->path, given);
+        ref->from = "--model";
+        return CLI_OK;
+    }
+    if (!allow_default) return cli_usage_error(cmd, "--model FILE is required (the default model is a supermat model, for `supermat image`)");
+    env = getenv("SUPERMAT_MODEL");
+    if (env && env[0]) {
+        struct stat st;
+        if (stat(env, &st) != 0) {
+            cli_error("SUPERMAT_MODEL is set to '%s': %s (give --model FILE, or unset SUPERMAT_MODEL for the default model)", env,
+                      strerror(errno));
+            return CLI_FAIL;
+        }
+        if (strlen(env) >= sizeof ref->path) { cli_error("SUPERMAT_MODEL: the path is longer than %d bytes", CLI_PATH_CAP - 1); return CLI_FAIL; }
+        strcpy(ref->path, env);
+        ref->from = "$SUPERMAT_MODEL";
+        return CLI_OK;
+    }
+    n = cli_default_places(places, what);
+    for (i = 0; i < n; i++)
+        if (cli_is_file(places[i])) {
+            strcpy(ref->path, places[i]);
+            ref->from = what[i];
+            return CLI_OK;
+        }
+    cli_error("no model: --model FILE was not given and there is no default model. Looked at, in order:");
+    fprintf(stderr, "  1. $SUPERMAT_MODEL: not set\n");
+    for (i = 0; i < n; i++)
+        fprintf(stderr, "  %s %s (%s): not found\n", !strcmp(what[i], "source tree") ? "3." : i == 0 ? "2." : "  ", places[i], what[i]);
+    fprintf(stderr, "Give --model FILE (a model file made by `supermat convert`) or set SUPERMAT_MODEL to one.\n");
+    return CLI_FAIL;
+}
+
+/* For cli/mesh.cpp (another translation unit): the default model's path, as `supermat image` finds
+   it without --model; 0 after cli_model_path's message when there is none. */
+int supermat_cli_default_model(char *path, size_t cap, const char **from);
+int supermat_cli_default_model(char *path, size_t cap, const char **from) {
+    cli_model_ref ref;
+    if (cli_model_path("mesh", NULL, 1, &ref) != CLI_OK) return 0;
+    if (strlen(ref.path) >= cap) { cli_error("the default model's path is longer than %d bytes", (int)cap - 1); return 0; }
+    strcpy(path, ref.path);
+    *from = ref.from;
+    return 1;
+}
+
+/* The network size of image, views and refine. The official scripts resize every picture to a square
+   (512x512, UV maps 1024x1024; Pillow bilinear, aspect squashed) before the network: the CLI does the
+   same by default through the library's work_width/height (maps come back at the picture's size), at the
+   size the model file records (pipeline.work_size: 512 from `supermat convert`, 256 for the default
+   model, 0 = none), the official one for a file that records none.
+   --native runs each picture at its own size, --work-size N at N x N. */
+static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt) {
+    const char *v;
+    int m;
+    if (!strcmp(argv[*i], "--native")) { *opt = 0; return 1; }
+    if ((m = cli_opt(cmd, argc, argv, i, "--work-size", &v)) != 0) {
+        if (m < 0 || cli_parse_int(cmd, "--work-size", v, 8, 16384, opt)) return -1;
+        if (*opt % 8) { cli_usage_error(cmd, "--work-size %d: a multiple of 8", *opt); return -1; }
+        return 1;
+    }
+    return 0;
+}
+
+/* The options of the commands that run a model (image, views, refine; info takes the last three):
+   --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights, --compute, --conv, --max-memory.
+   1 when argv[*i] was one of them, -1 on a usage error (said), 0 when it is none of them. */
+static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want_float, int *work_opt, int *threads,
+                       supermat_kernel *kernel) {
+    const char *v;
+    int m;
+    if (want_float && !strcmp(argv[*i], "--float")) { *want_float = 1; return 1; }
+    if (work_opt && (m = cli_work_opt(cmd, argc, argv, i, work_opt)) != 0) return m;
+    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--detail", &v)) != 0)
+        return m < 0 || cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &cli_detail) ? -1 : 1;
+    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--chroma", &v)) != 0)
+        return m < 0 || cli_parse_unit(cmd, "--chroma", v, "a weight", &cli_chroma) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--threads", &v)) != 0)
+        return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--conv", &v)) != 0) return m < 0 || cli_parse_conv(cmd, v) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &cli_max_memory) ? -1 : 1;
+    return 0;
+}
+
+/* --max-memory: what is left of it for a session once the model holds its part (1 when nothing is) */
+static size_t cli_session_budget(const supermat_model *model) {
+    supermat_model_info mi;
+    if (!cli_max_memory) return 0;
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    return cli_max_memory > mi.model_bytes ? cli_max_memory - mi.model_bytes : 1;
+}
+/* after a session refused for its memory: how --max-memory was shared */
+static void cli_budget_note(const supermat_model *model, supermat_result r) {
+    supermat_model_info mi;
+    if (!cli_max_memory || r != SUPERMAT_ERROR_OUT_OF_MEMORY) return;
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    fprintf(stderr, "  (--max-memory %.1f MiB: the model holds %.1f MiB, which leaves the session the rest)\n", cli_mib((double)cli_max_memory), cli_mib((double)mi.model_bytes));
+}
+
+/* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */
+static int cli_work_size(const unsigned char *file, size_t size, const supermat_model *model, int opt) {
+    char v[32];
+    supermat_model_info mi;
+    if (opt >= 0) return opt;
+    if (supermat_safetensors_metadata(file, size, "pipeline.work_size", v, sizeof v) == 0) {
+        int n = atoi(v);
+        return n >= 8 && n % 8 == 0 && n <= 16384 ? n : 0;
+    }
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    return mi.kind == SUPERMAT_KIND_UV_REFINE ? 1024 : 512;
+}
+
+/* sets the session's work size for a w x h picture (nothing when it is the picture's own size) */
+static void cli_set_work(supermat_session_desc *sd, int ws, int w, int h) {
+    if (ws > 0 && (ws != w || ws != h)) { sd->work_width = ws; sd->work_height = ws; }
+}

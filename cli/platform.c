@@ -1,0 +1,157 @@
+/* cli/platform.c - includes, stb, timing, small helpers.
+ * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
+
+/* >>platform */
+#if !defined(_WIN32)
+#ifndef _FILE_OFFSET_BITS
+#define _FILE_OFFSET_BITS 64
+#endif
+#if !defined(_POSIX_C_SOURCE) && !defined(__APPLE__)
+#define _POSIX_C_SOURCE 200809L
+#endif
+#if !defined(_XOPEN_SOURCE) && !defined(__APPLE__)
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
+#endif
+
+#define SUPERMAT_IMPLEMENTATION
+#include "supermat.h"
+#include "sm_convert.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/mman.h>
+#include <sys/types.h>
+#include <unistd.h>
+#include "smio.h"
+
+/* stb: their warnings are not ours */
+#if defined(__GNUC__) || defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpragmas"
+#pragma GCC diagnostic ignored "-Wunknown-warning-option"
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wcast-qual"
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#pragma GCC diagnostic ignored "-Wuseless-cast"
+#pragma GCC diagnostic ignored "-Wzero-as-null-pointer-constant"
+#pragma GCC diagnostic ignored "-Wcomma"
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#endif
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_FAILURE_USERMSG
+/* the formats the CLI documents, no others (picture_check.h: why) */
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
+#define STBI_ONLY_BMP
+#define STBI_ONLY_TGA
+/* zeroed allocations: stb_image 2.27 decodes a JPEG scan with a Huffman table no DHT segment defined from its
+   malloc'ed, uninitialised state (an index millions of bytes off; fuzz/fuzz_picture.c), and zeroed it decodes
+   nothing out of bounds (every code hits the first slot of the acceleration table) */
+#define STBI_MALLOC(sz) calloc(1, (sz))
+#define STBI_REALLOC(p, sz) realloc((p), (sz))
+#define STBI_FREE(p) free(p)
+#include <stb/stb_image.h>
+#ifdef SUPERMAT_CLI_WEBP
+#include <webp/decode.h>
+#endif
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb/stb_image_write.h>
+#if defined(__GNUC__) || defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+#include "picture_check.h"
+
+/* stb_image's reason for the last failure, never NULL */
+static const char *cli_stbi_reason(void) {
+    const char *r = stbi_failure_reason();
+    return r ? r : "not a picture supermat reads";
+}
+
+#if defined(__GNUC__) || defined(__clang__)
+#define CLI_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define CLI_PRINTF(f, a)
+#endif
+
+#define CLI_OK 0
+#define CLI_FAIL 1
+#define CLI_USAGE 2
+
+static double cli_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static double cli_mib(double bytes) { return bytes / (1024.0 * 1024.0); }
+
+static void cli_error(const char *fmt, ...) CLI_PRINTF(1, 2);
+static char cli_last_error[4096]; /* the last message cli_error printed (a batch journals it) */
+static int cli_quiet;             /* keep messages in cli_last_error only (the fuzz harnesses) */
+static void cli_error(const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(cli_last_error, sizeof cli_last_error, fmt, ap);
+    va_end(ap);
+    if (!cli_quiet) fprintf(stderr, "supermat: error: %s\n", cli_last_error);
+}
+
+/* the library's message, the tensor concerned and the result name */
+static void cli_lib_error(const char *what, supermat_result r, const supermat_error *e) {
+    const char *msg = e && e->message[0] ? e->message : supermat_result_string(r);
+    if (e && e->tensor[0]) cli_error("%s: %s (tensor '%s') [%s]", what, msg, e->tensor, supermat_result_string(r));
+    else cli_error("%s: %s [%s]", what, msg, supermat_result_string(r));
+}
+
+static const char *cli_kind_name(supermat_model_kind k) {
+    switch (k) {
+    case SUPERMAT_KIND_SUPERMAT: return "supermat";
+    case SUPERMAT_KIND_SUPERMAT_MV: return "supermat-mv";
+    case SUPERMAT_KIND_UV_REFINE: return "uv-refine";
+    default: return "unknown";
+    }
+}
+static const char *cli_kernel_name(supermat_kernel k) {
+    switch (k) {
+    case SUPERMAT_KERNEL_SCALAR: return "scalar";
+    case SUPERMAT_KERNEL_AVX2: return "avx2";
+    case SUPERMAT_KERNEL_AVX512: return "avx512";
+    case SUPERMAT_KERNEL_NEON: return "neon";
+    case SUPERMAT_KERNEL_AMX: return "amx";
+    default: return "auto";
+    }
+}
+static const char *cli_dtype_name(supermat_dtype d) {
+    switch (d) {
+    case SUPERMAT_DTYPE_F32: return "F32";
+    case SUPERMAT_DTYPE_F16: return "F16";
+    case SUPERMAT_DTYPE_BF16: return "BF16";
+    case SUPERMAT_DTYPE_I8: return "I8";
+    default: return "?";
+    }
+}
+static void cli_outputs_string(unsigned outputs, char *buf, size_t cap) {
+    buf[0] = 0;
+    if (outputs & SUPERMAT_OUTPUT_ALBEDO) snprintf(buf + strlen(buf), cap - strlen(buf), "albedo");
+    if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) snprintf(buf + strlen(buf), cap - strlen(buf), "%sroughness", buf[0] ? "," : "");
+    if (outputs & SUPERMAT_OUTPUT_METALLIC) snprintf(buf + strlen(buf), cap - strlen(buf), "%smetallic", buf[0] ? "," : "");
+}

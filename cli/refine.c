@@ -1,0 +1,156 @@
+/* cli/refine.c - `supermat refine`.
+ * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
+
+/* >>refine */
+/* an 8-bit gray image as PIL's convert("L"): gray as is, colour as (19595 R + 38470 G + 7471 B + 32768) >> 16
+   (0.299/0.587/0.114), alpha dropped. Free with stbi_image_free. */
+static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
+    int c = 0;
+    unsigned char *p = cli_load(path, w, h, &c, 0);
+    size_t n, i;
+    if (!p || c == 1) return p;
+    n = (size_t)*w * (size_t)*h;
+    for (i = 0; i < n; i++) { /* in place: pixel i is read before anything at or after it is written */
+        const unsigned char *s = p + i * (size_t)c;
+        p[i] = c <= 2 ? s[0] : (unsigned char)(((uint32_t)s[0] * 19595u + (uint32_t)s[1] * 38470u + (uint32_t)s[2] * 7471u + 0x8000u) >> 16);
+    }
+    return p;
+}
+
+static int cli_refine(int argc, char **argv) {
+    const char *cmd = "refine", *v, *model_arg = NULL, *model_path, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
+    static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
+    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, work_opt = -1, ws = 0;
+    cli_model_ref mref;
+    supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
+    char *stem = NULL;
+    unsigned char *px[3] = {NULL, NULL, NULL}, *file = NULL, *tmp = NULL;
+    float *refined = NULL;
+    size_t file_size = 0;
+    supermat_model *model = NULL;
+    supermat_session *sess = NULL;
+
+    cli_detail = -1.0f;
+    cli_chroma = -1.0f;
+    for (i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        int k, hit = 0;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_refine, stdout); return CLI_OK; }
+        for (k = 0; k < 3 && !hit; k++)
+            if ((m = cli_opt(cmd, argc, argv, &i, opts[k], &v)) != 0) {
+                if (m < 0) return CLI_USAGE;
+                paths[k] = v;
+                hit = 1;
+            }
+        if (hit) continue;
+        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            model_arg = v;
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
+            if (m < 0) return CLI_USAGE;
+            out_dir = v;
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
+            if (m < 0) return CLI_USAGE;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error(cmd, "unknown option '%s'", a);
+        } else {
+            return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
+        }
+    }
+    if (cli_detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
+    if (cli_chroma > 0.0f) return cli_usage_error(cmd, "--chroma: a UV map has no picture to take colour from (image and views take it)");
+    if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) return rc;
+    model_path = mref.path;
+    for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);
+    if (!out_dir) return cli_usage_error(cmd, "--out DIR is required");
+    stem = cli_stem(paths[0]);
+    if (!stem) { cli_error("out of memory"); return CLI_FAIL; }
+    if (!stem[0]) { free(stem); return cli_usage_error(cmd, "--map '%s' has no file name", paths[0]); }
+
+    /* the three sizes before the (slow) model load */
+    for (i = 0; i < 3 && rc == CLI_OK; i++) {
+        int iw, ih, c;
+        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c)) { rc = CLI_FAIL; break; }
+        if (i == 0) { w = iw; h = ih; }
+        if (iw != w || ih != h) {
+            cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
+                      "size (supermat does not resize)", what[i], paths[i], iw, ih, paths[0], w, h);
+            rc = CLI_FAIL;
+        } else if (w % 8 || h % 8) {
+            cli_error("the map '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
+                      "resize the three maps first, e.g. to 1024x1024)", paths[0], w, h);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_UV_REFINE);
+    if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
+    if (rc == CLI_OK) {
+        supermat_session_desc sd;
+        supermat_error err;
+        supermat_result r;
+        memset(&sd, 0, sizeof sd);
+        sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
+        sd.max_memory = cli_session_budget(model);
+        cli_set_work(&sd, ws, w, h);
+        sd.detail_sigma = cli_detail > 0.0f ? cli_detail : 0.0f;
+        r = supermat_session_create(&sd, &sess, &err);
+        if (r != SUPERMAT_SUCCESS) {
+            char msg[64];
+            snprintf(msg, sizeof msg, "session (%dx%d)", w, h);
+            cli_lib_error(msg, r, &err);
+            cli_budget_note(model, r);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
+    for (i = 0; i < 3 && rc == CLI_OK; i++) {
+        int iw = 0, ih = 0, c = 0;
+        px[i] = i == 1 ? cli_load_gray(paths[i], &iw, &ih) : cli_load(paths[i], &iw, &ih, &c, 3);
+        if (!px[i]) { cli_error("cannot read %s '%s': %s", what[i], paths[i], cli_stbi_reason()); rc = CLI_FAIL; break; }
+        if (iw != w || ih != h) { cli_error("%s '%s' is %dx%d, not %dx%d as before (did it change?)", what[i], paths[i], iw, ih, w, h); rc = CLI_FAIL; break; }
+    }
+    if (rc == CLI_OK) {
+        refined = (float *)malloc((size_t)w * (size_t)h * 3 * sizeof(float));
+        tmp = (unsigned char *)malloc((size_t)w * (size_t)h * 3);
+        if (!refined || !tmp) { cli_error("out of memory for a %dx%d map", w, h); rc = CLI_FAIL; }
+    }
+    if (rc == CLI_OK) {
+        supermat_run_desc rd;
+        supermat_error err;
+        supermat_result r;
+        cli_progress prog;
+        double t0 = cli_now();
+        memset(&rd, 0, sizeof rd);
+        rd.input.pixels = px[0]; rd.input.width = w; rd.input.height = h; rd.input.channels = 3;
+        rd.mask.pixels = px[1]; rd.mask.width = w; rd.mask.height = h; rd.mask.channels = 1;
+        rd.position.pixels = px[2]; rd.position.width = w; rd.position.height = h; rd.position.channels = 3;
+        rd.refined.pixels = refined; rd.refined.channels = 3; rd.refined.format = SUPERMAT_FORMAT_F32;
+        memset(&prog, 0, sizeof prog);
+        prog.name = paths[0];
+        if (tty) { rd.progress = cli_progress_cb; rd.progress_user = &prog; }
+        r = supermat_run(sess, &rd, &err);
+        if (tty && prog.shown) {
+            if (r == SUPERMAT_SUCCESS) fprintf(stderr, "\r%s 100%% done (%.2f s)%*s\n", paths[0], cli_now() - t0, 8, "");
+            else fputc('\n', stderr);
+        }
+        if (r != SUPERMAT_SUCCESS) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "'%s'", paths[0]);
+            cli_lib_error(msg, r, &err);
+            rc = CLI_FAIL;
+        }
+    }
+    if (rc == CLI_OK) {
+        static const char *const suffix[1] = {"_refined"};
+        static const int channels[1] = {3};
+        rc = cli_write_maps(out_dir, stem, 1, suffix, &refined, channels, w, h, want_float, tmp);
+    }
+
+    for (i = 0; i < 3; i++) if (px[i]) stbi_image_free(px[i]);
+    free(refined); free(tmp); free(stem);
+    supermat_session_destroy(sess);
+    supermat_model_destroy(model);
+    cli_free_file(file);
+    return rc;
+}

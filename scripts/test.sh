@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# The test command (README, .ci/run): installs what the tests need from Debian when it is missing,
+# builds, and runs every test through ctest three times: gcc Release (-Werror), gcc with
+# AddressSanitizer + UndefinedBehaviorSanitizer, and a clang build (C and C++, -Werror). A build that
+# fails (configure, compile or tests) does not stop the others: a summary line per build at the end
+# ("gcc: 100/100 passed (12 of them skipped)", "clang: FAILED (ctest exit 8): ..."), exit status 1 if any failed.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+need=()
+for p in cmake make gcc g++ clang libstb-dev libembree-dev libopenimageio-dev libtinygltf-dev nlohmann-json3-dev pkg-config libwebp-dev parallel procps slurmctld slurmd slurm-client munge afl++ gcc-aarch64-linux-gnu qemu-user-static file python3-numpy python3-scipy python3-pil strace; do
+  dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
+done
+if [ ${#need[@]} -gt 0 ]; then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq "${need[@]}" >/dev/null
+fi
+# node + the Khronos glTF-Validator (npm) check every glTF `supermat mesh` writes (ctest uv_gltf_corpus)
+if ! command -v npm >/dev/null 2>&1; then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq nodejs npm >/dev/null
+fi
+if [ ! -f build-npm/node_modules/gltf-validator/package.json ]; then
+  mkdir -p build-npm
+  npm install --prefix build-npm --no-audit --no-fund --loglevel=error gltf-validator@2.0.0-dev.3.10 >/dev/null
+fi
+jobs=$(nproc 2>/dev/null || echo 2)
+
+# Each build runs to its end even when another failed (configure, compile or a test): a summary line per
+# build at the end, and the exit status is 1 when any of them failed.
+summary=()
+status=0
+# run_build NAME DIR CTEST_ENV CONFIGURE-COMMAND...: configures (the command), builds DIR and runs its ctest
+run_build() {
+  local name=$1 dir=$2 ctest_env=$3 rc=0 line total failed skipped
+  shift 3
+  "$@" >/dev/null || rc=$?
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (cmake configure exit $rc)"); status=1; return 0
+  fi
+  cmake --build "$dir" -j"$jobs" || rc=$?
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (build exit $rc)"); status=1; return 0
+  fi
+  # ctest's output also goes to DIR/ctest-output.log, for the counts below
+  (cd "$dir" && env $ctest_env ctest --output-on-failure -j"$jobs") 2>&1 | tee "$dir/ctest-output.log" || rc=$?
+  # "97% tests passed, 3 tests failed out of 100"; skipped tests (exit 77) count as passed there
+  line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$dir/ctest-output.log" | tail -n 1 || true)
+  skipped=$(grep -cE '^[[:space:]]*[0-9]+ - .* \(Skipped\)$' "$dir/ctest-output.log" || true)
+  if [ -n "$line" ]; then
+    total=$(echo "$line" | sed -E 's/.* out of ([0-9]+).*/\1/')
+    failed=$(echo "$line" | sed -E 's/.*, ([0-9]+) tests? failed.*/\1/')
+    line="$((total - failed))/$total passed ($skipped of them skipped)"
+  else
+    line="no ctest summary"
+  fi
+  if [ "$rc" != 0 ]; then
+    summary+=("$name: FAILED (ctest exit $rc): $line"); status=1
+  else
+    summary+=("$name: $line")
+  fi
+}
+
+echo "== gcc, Release, -Werror"
+# UV tests on explicitly: `bash scripts/demo.sh` configures the same build/ folder with them off
+run_build "gcc" build "" \
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON
+
+echo "== clang, Release, -Werror"
+run_build "clang" build-clang "" \
+  env CC=clang CXX=clang++ cmake -S . -B build-clang -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON
+
+echo "== gcc, AddressSanitizer + UndefinedBehaviorSanitizer"
+run_build "asan" build-asan "ASAN_OPTIONS=detect_leaks=1" \
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSUPERMAT_SANITIZE=ON
+
+echo "== summary"
+printf '%s\n' "${summary[@]}"
+exit "$status"
