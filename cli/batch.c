@@ -688,8 +688,8 @@ static int cli_batch(int argc, char **argv) {
     for (; i < argc; i++) {
         const char *a = argv[i];
         if (cli_batch_mesh_mode) { /* the options of `supermat mesh`, passed on */
-            static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--size", "--views-size", "--threads",
-                                                     "--work-size", "--gutter", "--edge-reject", "--weight", "--supersample", "--detail"};
+            static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--texture-size", "--size", "--views-size", "--threads",
+                                                     "--work-size", "--gutter", "--edge-reject", "--view-weight", "--weight", "--supersample", "--detail"};
             size_t q;
             int hit = 0;
             if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine") || !strcmp(a, "--refine") || !strcmp(a, "--keep-observed")) {

@@ -80,13 +80,14 @@ static int cli_convert(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             d.output = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0 || (m = cli_opt(cmd, argc, argv, &i, "--precision", &v)) != 0) {
+        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0 || (m = cli_opt(cmd, argc, argv, &i, "--precision", &v)) != 0 ||
+                   (m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0) {   /* --precision, --dtype: until the next release */
             if (m < 0) return CLI_USAGE;
             if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
             else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
             else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
             else if (!strcmp(v, "int8") || !strcmp(v, "i8")) d.dtype = SUPERMAT_DTYPE_I8;
-            else return cli_usage_error(cmd, "--dtype/--precision: '%s' is not f32, f16, bf16 or int8", v);
+            else return cli_usage_error(cmd, "--weights: '%s' is not f32, f16, bf16 or int8", v);
         } else if (!strcmp(a, "--packed")) {
             packed = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
@@ -104,7 +105,7 @@ static int cli_convert(int argc, char **argv) {
     }
     if (from) {
         if (d.checkpoint || d.base_dir || d.kind || d.dtype || packed || d.threads)
-            return cli_usage_error(cmd, "--from rewrites a model file's work size only: --unet, --base, --kind, --dtype, --packed and --threads are for a checkpoint");
+            return cli_usage_error(cmd, "--from rewrites a model file's work size only: --unet, --base, --kind, --weights, --packed and --threads are for a checkpoint");
         if (!d.work_size) return cli_usage_error(cmd, "--from needs --work-size N|native");
         if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
         return cli_convert_from(from, d.output, d.work_size);

@@ -1,8 +1,8 @@
 /* supermat mesh: bake PBR textures for a glTF asset with supermat_uv.h (C++11, tinygltf).
  *
  *   supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf
- *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]
- *                 [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]
+ *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]
+ *                 [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]
  *
  * Reads IN (.gltf or .glb) and bakes every mesh its default scene shows (each at the world transform of
  * the first node instancing it; glTF's Y-up frame becomes supermat_uv.h's Z-up one, (x, y, z) -> (x, -z, y)):
@@ -677,8 +677,8 @@ void list_files(const std::string &root, const std::string &rel, std::vector<std
 int usage() {
     std::fprintf(stderr,
                  "usage: supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf\n"
-                 "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--size N] [--views-size N] [--threads N]\n"
-                 "       [--gutter N] [--edge-reject N] [--weight average|cos] [--supersample N] [--detail F|off]\n"
+                 "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]\n"
+                 "       [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]\n"
                  "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
                  "                  view, no cross-view attention: the paper's ablation)\n"
                  "  no model flags  the view model in the default model's folder (as `supermat image` finds\n"
@@ -699,7 +699,10 @@ int usage() {
                  "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
                  "  --allow-outside-refs  trusted assets only: read referenced files outside IN's folder (by '..'\n"
                  "                  or a symbolic link); absolute paths, schemes and non-regular files stay refused\n"
-                 "  --size N        output texture size (default 1024); --views-size N: rendered views (512)\n"
+                 "  --texture-size N  output texture size (default 1024); --views-size N: rendered views (512)\n"
+                 "  --view-weight average|cos  how the views' texels are blended (default average; cos: by the\n"
+                 "                  cosine of the view angle, supermat_uv.h WEIGHT)\n"
+                 "  --size, --weight  the old spellings of --texture-size and --view-weight, until the next release\n"
                  "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
                  "                  maps back (default: the size each model file records, as `supermat image`:\n"
                  "                  128 for the multi-view default; native = the view / texture size)\n"
@@ -875,7 +878,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else if (a == "--albedo-refine" && more) bc_path = argv[++i];
         else if (a == "--rm-refine" && more) rm_path = argv[++i];
         else if (a == "--debug-dir" && more) dbg = argv[++i];
-        else if (a == "--size" && more) size = std::atoi(argv[++i]);
+        else if ((a == "--texture-size" || a == "--size") && more) size = std::atoi(argv[++i]);
         else if (a == "--views-size" && more) views = std::atoi(argv[++i]);
         else if (a == "--threads" && more) threads = std::atoi(argv[++i]);
         else if (a == "--gutter" && more) gutter = std::atoi(argv[++i]);
@@ -904,7 +907,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 return 2;
             }
         }
-        else if (a == "--weight" && more) {
+        else if ((a == "--view-weight" || a == "--weight") && more) {
             std::string w = argv[++i];
             if (w == "cos") weight = SUPERMAT_UV_WEIGHT_COS_POWER;
             else if (w != "average") return usage();

@@ -154,6 +154,12 @@ run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/
 check "convert --dtype f16 (kind detected) exits 0" [ $RC -eq 0 ]
 run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8.safetensors" --precision int8
 check "convert --precision int8 exits 0" [ $RC -eq 0 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8w.safetensors" --weights int8
+check "convert --weights int8 exits 0" [ $RC -eq 0 ]
+check "convert --weights int8 writes what --precision int8 (its old spelling) writes" cmp -s "$T/tiny_i8.safetensors" "$T/tiny_i8w.safetensors"
+run convert --unet x.pth --base x --out y --weights f8
+check "convert bad --weights exits 2" [ $RC -eq 2 ]
+check "convert bad --weights: its message names --weights" grep -q -- "--weights: 'f8'" "$T/err"
 run convert --unet "$T/missing.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors"
 check "convert of a missing checkpoint exits 1" [ $RC -eq 1 ]
 check "convert error names the file" grep -q 'missing.pth' "$T/err"
@@ -1197,6 +1203,18 @@ absent "$T/bench_never.json"
 run bench --model "$MODEL" --image "$BAD"
 check "bench --image of 30x30 exits 1" [ $RC -eq 1 ]
 check "bench --image of 30x30: multiples of 8" grep -q 'multiples of 8' "$T/err"
+
+# mesh's renamed options (--texture-size, --view-weight) and their old spellings (--size, --weight): the same bake
+if "$BIN" mesh --help 2>&1 | grep -q -- '--texture-size'; then
+  EXM="$(cd "$DATA/../../examples/mesh" && pwd)/example_pbr.gltf"
+  run mesh --passthrough --texture-size 64 --views-size 64 --view-weight cos "$EXM" "$T/mesh_new.glb"
+  check "mesh --texture-size 64 --view-weight cos exits 0" [ $RC -eq 0 ]
+  run mesh --passthrough --size 64 --views-size 64 --weight cos "$EXM" "$T/mesh_old.glb"
+  check "mesh --size 64 --weight cos (the old spellings) exits 0" [ $RC -eq 0 ]
+  check "mesh: the old spellings bake what the new ones bake" cmp -s "$T/mesh_new.glb" "$T/mesh_old.glb"
+  run mesh --passthrough --texture-size 64 --views-size 64 "$EXM" "$T/mesh_avg.glb"
+  check "mesh --view-weight cos changes the bake" bash -c "! cmp -s '$T/mesh_new.glb' '$T/mesh_avg.glb'"
+fi
 
 echo "$PASS passed, $FAIL failed"
 [ "$FAIL" -eq 0 ]
