@@ -26,6 +26,10 @@ if [ ! -f build-npm/node_modules/gltf-validator/package.json ]; then
   npm install --prefix build-npm --no-audit --no-fund --loglevel=error gltf-validator@2.0.0-dev.3.10 >/dev/null
 fi
 jobs=$(nproc 2>/dev/null || echo 2)
+# `bash scripts/test.sh` runs every test; `bash scripts/test.sh LABEL` only the tests with that ctest label
+# in each build (a regular expression: golden, unit, cli, mesh, python, quality, fuzz, 'unit|golden'; tests/README.md)
+label_args=()
+[ $# -gt 0 ] && label_args=(-L "$1")
 
 # Each build runs to its end even when another failed (configure, compile or a test): a summary line per
 # build at the end, and the exit status is 1 when any of them failed.
@@ -44,7 +48,7 @@ run_build() {
     summary+=("$name: FAILED (build exit $rc)"); status=1; return 0
   fi
   # ctest's output also goes to DIR/ctest-output.log, for the counts below
-  (cd "$dir" && env $ctest_env ctest --output-on-failure -j"$jobs") 2>&1 | tee "$dir/ctest-output.log" || rc=$?
+  (cd "$dir" && env $ctest_env ctest --output-on-failure -j"$jobs" "${label_args[@]}") 2>&1 | tee "$dir/ctest-output.log" || rc=$?
   # "97% tests passed, 3 tests failed out of 100"; skipped tests (exit 77) count as passed there
   line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$dir/ctest-output.log" | tail -n 1 || true)
   skipped=$(grep -cE '^[[:space:]]*[0-9]+ - .* \(Skipped\)$' "$dir/ctest-output.log" || true)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # ctest docs: the manual cannot drift from the tool.
-#   - README.md has at most 300 lines; every relative link of README.md and docs/*.md leads to a file;
+#   - README.md has at most 300 lines; every relative link of README.md and docs/*.md leads to a file; no
+#     file of the project names a path outside the repository;
 #   - docs/cli.md below its marker equals the tool's help texts (scripts/gen_cli_md.sh);
 #   - every line of the ```sh blocks of README.md and docs/cli.md runs as shown (exit 0), each file's lines
 #     in order in a fresh folder holding the files they name (the tiny test models standing in for the
@@ -25,6 +26,14 @@ for f in "$SRC/README.md" "$SRC"/docs/*.md; do
     check "$(basename "$f"): link $p exists" [ -e "$(dirname "$f")/$p" ]
   done < <(grep -o '\](\([^)]*\))' "$f" | sed 's/^](//; s/)$//' | grep -v '^[a-z]*:' | sort -u)
 done
+
+# no file of the project names a path outside the repository (a harness beside it, a machine's folders);
+# docs/notebook is history as written. Only where the source is a git checkout (CI's clean clone is).
+if git -C "$SRC" rev-parse --git-dir >/dev/null 2>&1; then
+  outside="$(git -C "$SRC" grep -n -I -E '\.\./shared|/work/|shared/reference|/root/|/home/' -- . ':!docs/notebook' \
+             ':!tests/test_docs.sh' 2>/dev/null || true)"
+  check "no file names a path outside the repository${outside:+: $outside}" [ -z "$outside" ]
+fi
 
 # docs/cli.md = the help texts (a build without glTF support prints a shorter `mesh` help: not compared)
 mesh_help="$("$SM" mesh --help 2>&1)"
