@@ -2,7 +2,7 @@
 # The main job on the default model: build the tool, turn pictures into albedo / roughness / metallic
 # maps under out/, and put each picture and its maps side by side in out/sheet.png; then bake the example
 # mesh examples/mesh/ with `supermat mesh` (out/mesh/, out/mesh_sheet.png) and render the input, the bake
-# and the truth under a new light (out/mesh_relight.png; tools/relight_demo.py, numpy / Pillow / scipy).
+# and the truth under a new light (out/mesh_relight.png; supermat_tools.relight_demo, numpy / Pillow / scipy).
 #
 #   bash scripts/demo.sh
 #
@@ -17,6 +17,7 @@
 # (written to out/model.safetensors and given with --model).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+export PYTHONPATH="$PWD/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X (python/README.md)
 need=()
 for p in cmake make gcc g++ libstb-dev libtinygltf-dev python3 python3-numpy python3-pil python3-scipy; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
@@ -97,7 +98,7 @@ done
 echo "sheet: out/sheet.png (each row: $labels)"
 
 # the mesh: examples/mesh/lit/example_pbr_lit.gltf, a procedural torus and sphere of ours whose base colour has
-# its lighting baked in (tools/make_example_mesh.py, tools/litbake.py; the true textures beside it), baked by
+# its lighting baked in (supermat_tools.make_example_mesh and .litbake; the true textures beside it), baked by
 # `supermat mesh` with no model flags: the multi-view default (models/supermat_mv_default.safetensors) on the six
 # views together, no refinement (`--refine` would add the UV-refine defaults, which lose on the assets measured: docs/mesh.md)
 mesh_help=$("$SM" mesh --help 2>&1 || true)
@@ -113,7 +114,7 @@ if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
   # the input as given, the bake and the truth, rendered under a map the lit texture did not see
   PY=python3; [ -x /usr/bin/python3 ] && PY=/usr/bin/python3
   r=out/mesh/relit
-  "$PY" tools/relight_demo.py --hdri examples/mesh/studio_small_03_256.hdr --out "$r" --views 2 \
+  "$PY" -m supermat_tools.relight_demo --hdri examples/mesh/studio_small_03_256.hdr --out "$r" --views 2 \
     input="$ex"_lit.gltf baked=out/mesh/example.gltf truth=examples/mesh/example_pbr.gltf >/dev/null
   "$SM" sheet --force --out out/mesh_relight.png --cell 160 \
     --labels "input as given (new light),baked (new light),truth (new light)" \

@@ -2,7 +2,7 @@
 # The README's measurement of a model's material quality, one command: extracts the real glTF assets and the
 # held-out lighting from the `fetch` mirrors, renders and predicts as `supermat image PICTURE` does (256² pictures,
 # the network at the model's own work size, its defaults: the detail step on), measures against the truth and
-# the two baselines, and prints each difference with its 95 % interval over the assets (tools/eval_ci.py).
+# the two baselines, and prints each difference with its 95 % interval over the assets (supermat_tools.eval_ci).
 #
 #   MIRROR_DIR=<mirrors> WORK=<scratch dir> bash scripts/eval_default.sh [MODEL] [SET]
 #
@@ -19,11 +19,12 @@
 #
 # Each asset is seen in VIEWS views under each of the three held-out maps and re-rendered under the next one
 # (eval_quality.py --env-in all); baseline (b) takes the generator's statistics from 400 renders of seed 0
-# (tools/gen_data.py, about a minute). Writes WORK/<SET>.json (eval_quality.py), WORK/<SET>_vs_a.json and
+# (supermat_tools.gen_data, about a minute). Writes WORK/<SET>.json (eval_quality.py), WORK/<SET>_vs_a.json and
 # WORK/<SET>_vs_b.json (eval_ci.py). On 2026-11-29 (Zen 5, 2 threads) the held-out set took about 2 minutes with
 # the network at 128²; on 2026-12-01 (AMX Xeon, 2 threads) about 4 minutes at the default model's 256², all eleven 6 min 49 s.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+export PYTHONPATH="$PWD/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X (python/README.md)
 : "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets and sbtron+glTF-Sample-Models}"
 : "${WORK:?set WORK to a scratch folder outside the repository}"
 MODEL="${1:-models/supermat_default.safetensors}"
@@ -59,13 +60,13 @@ for a in $ASSETS; do
   paths+=("$p")
 done
 
-[ -f "$WORK/stats400/stats.json" ] || $PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/stats400" --count 400 \
+[ -f "$WORK/stats400/stats.json" ] || $PY -m supermat_tools.gen_data --hdri-dir "$WORK/hdri" --out "$WORK/stats400" --count 400 \
     --size 128 --seed 0 --jobs "$(nproc)" >/dev/null
 ws=$(build/supermat info "$MODEL" | sed -n 's/^work size *\([0-9]*\)x.*/\1/p' | head -1)
-$PY tools/eval_quality.py --assets "${paths[@]}" --env-in all --size "$SIZE" --views "$VIEWS" --hdri-dir "$WORK/hdri" \
+$PY -m supermat_tools.eval_quality --assets "${paths[@]}" --env-in all --size "$SIZE" --views "$VIEWS" --hdri-dir "$WORK/hdri" \
     --model "model=$MODEL" ${ws:+--image-args "--work-size $ws"} --baselines input_as_albedo,dataset_mean \
     --dataset-stats "$WORK/stats400/stats.json" --threads "$THREADS" --work "$WORK/$SET" --json "$WORK/$SET.json"
 echo
-$PY tools/eval_ci.py "$WORK/$SET.json" --ref input_as_albedo --pred model --json "$WORK/${SET}_vs_a.json"
+$PY -m supermat_tools.eval_ci "$WORK/$SET.json" --ref input_as_albedo --pred model --json "$WORK/${SET}_vs_a.json"
 echo
-$PY tools/eval_ci.py "$WORK/$SET.json" --ref dataset_mean --pred model --json "$WORK/${SET}_vs_b.json"
+$PY -m supermat_tools.eval_ci "$WORK/$SET.json" --ref dataset_mean --pred model --json "$WORK/${SET}_vs_b.json"

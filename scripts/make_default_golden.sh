@@ -6,7 +6,7 @@
 #   HARNESS=<reference harness dir> HARNESS_DEPS=<its deps> RELEASE=<train run>/release OUT=<scratch> \
 #       scripts/make_default_golden.sh
 #
-# RELEASE is the folder tools/train_default.py exports (supermat.pth + base/); its weights are float16 values,
+# RELEASE is the folder supermat_tools.train_default exports (supermat.pth + base/); its weights are float16 values,
 # so the f16 model file holds exactly what the official code runs here.  Input: examples/pictures/obj00.png
 # resized to 128x128 by the official loader (PIL bilinear; the resized 8-bit picture is kept):
 # tests/data/golden/default_obj00_128.
@@ -20,6 +20,7 @@ set -euo pipefail
 [ -n "${RELEASE:-}${MV_RELEASE:-}" ] || { echo "make_default_golden.sh: set RELEASE, MV_RELEASE or both"; exit 2; }
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 PYTHON="${PYTHON:-/usr/bin/python3}"
+export PYTHONPATH="$REPO/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X
 export HARNESS_DEPS
 mkdir -p "$OUT"
 OUT="$(cd "$OUT" && pwd)"
@@ -29,7 +30,7 @@ if [ -n "${RELEASE:-}" ]; then
   rm -rf "$OUT/default_obj00_128"
   (cd "$HARNESS" && "$PYTHON" reference_run.py --models "$RELEASE" --mode single --input "$IMG" \
       --image-size 128 --threads "${THREADS:-2}" --out "$OUT/default_obj00_128")
-  "$PYTHON" "$REPO/tools/golden_copy.py" "$OUT" "$REPO/tests/data" "$HARNESS_DEPS/VERSIONS.txt" default_obj00_128:single
+  "$PYTHON" -m supermat_tools.golden_copy "$OUT" "$REPO/tests/data" "$HARNESS_DEPS/VERSIONS.txt" default_obj00_128:single
 fi
 
 if [ -n "${MV_RELEASE:-}" ]; then
@@ -43,5 +44,5 @@ if [ -n "${MV_RELEASE:-}" ]; then
   cp "$REPO/tests/data/img/mv/meta.json" "$CASE/"
   (cd "$HARNESS" && "$PYTHON" reference_run.py --models "$MV_RELEASE" --mode mv --input "$CASE" --num-views 6 \
       --image-size 128 --threads "${THREADS:-2}" --out "$OUT/mv_default_example_128")
-  "$PYTHON" "$REPO/tools/golden_copy.py" "$OUT" "$REPO/tests/data" "$HARNESS_DEPS/VERSIONS.txt" mv_default_example_128:mv
+  "$PYTHON" -m supermat_tools.golden_copy "$OUT" "$REPO/tests/data" "$HARNESS_DEPS/VERSIONS.txt" mv_default_example_128:mv
 fi

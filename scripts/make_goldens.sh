@@ -19,6 +19,7 @@ set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DEST="${DEST:-$REPO/tests/data}"
 PYTHON="${PYTHON:-/usr/bin/python3}"
+export PYTHONPATH="$REPO/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X
 THREADS="${THREADS:-2}"
 export HARNESS_DEPS
 HARNESS="$(cd "$HARNESS" && pwd)"
@@ -33,7 +34,7 @@ IMG="$DEST/img"
 echo "== harness versions"; cat "$HARNESS_DEPS/VERSIONS.txt"
 
 echo "== test images -> $IMG"
-"$PYTHON" "$REPO/tools/make_test_images.py" --out "$IMG"
+"$PYTHON" -m supermat_tools.make_test_images --out "$IMG"
 
 echo "== tiny random models -> $M"
 (cd "$HARNESS" && "$PYTHON" make_random_models.py --size tiny --seed 0 --out "$M" --threads "$THREADS")
@@ -47,7 +48,7 @@ run --mode mv --input "$IMG/mv" --image-size 64 --num-views 6 --out "$RUNS/mv6_6
 run --mode uv --uv-map "$IMG/uv/uv_bc.png" --uv-position "$IMG/uv/uv_position.png" \
     --uv-mask "$IMG/uv/uv_mask.png" --image-size 128 --out "$RUNS/uv_128"
 # non-square (reference_run.py only does square sizes): official pipeline via the harness' functions
-"$PYTHON" "$REPO/tools/golden_extra.py" --harness "$HARNESS" --models "$M" --threads "$THREADS" \
+PYTHONPATH="$HARNESS:$PYTHONPATH" "$PYTHON" -m supermat_tools.golden_extra --models "$M" --threads "$THREADS" \
     --input "$IMG/ring_48x72.png" --check-square "$IMG/sphere_64.png" --out "$RUNS/single_ring_48x72"
 
 echo "== copy the selected files -> $DEST/tiny, $DEST/golden"
@@ -60,7 +61,7 @@ for f in model_index.json empty_prompt_embeds.npy vae/config.json vae/diffusion_
   cp "$M/base/$f" "$DEST/tiny/base/$f"
 done
 
-"$PYTHON" "$REPO/tools/golden_copy.py" "$RUNS" "$DEST" "$HARNESS_DEPS/VERSIONS.txt" \
+"$PYTHON" -m supermat_tools.golden_copy "$RUNS" "$DEST" "$HARNESS_DEPS/VERSIONS.txt" \
     single_sphere_64:single+blocks single_box_40:single single_ring_48x72:single mv6_64:mv uv_128:uv
 
 du -sh "$DEST" "$DEST"/*

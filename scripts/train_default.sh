@@ -10,7 +10,7 @@
 #                 as the search tool's `fetch` lays it out): its CC0 Poly Haven hdri/*.hdr are the only lighting
 #   Python packages: diffusers 0.27 or newer (checked with 0.31.0), transformers and safetensors on the ordinary
 #                 Python path (pip or PYTHONPATH; checked by scripts/train_env.sh before any data is rendered);
-#                 the SuperMat classes are the project's own, tools/supermat_adapters.py
+#                 the SuperMat classes are the project's own, supermat_tools.supermat_adapters
 #   HARNESS_DEPS  optional: a folder whose site/ holds extracted diffusers / huggingface_hub (/ transformers /
 #                 safetensors) sources, put first on the Python path (no default)
 #   WORK          where data, checkpoints and logs go (outside the repository); run the same command again
@@ -18,7 +18,7 @@
 #                 their last checkpoint
 #   COUNT         training samples (default 20000), SEED (default 0), THREADS (default: all cores)
 #   COUNT2        samples of the second set (default 6000, seed SEED + 1); AMP bf16 | off for its phases
-#   TRAIN_ARGS    extra arguments for tools/train_default.py (step counts, batch sizes, learning rates)
+#   TRAIN_ARGS    extra arguments for supermat_tools.train_default (step counts, batch sizes, learning rates)
 #   STAGE4        1 (default): go on to the fourth version (below); 0: stop at the third
 #
 # The fourth version as shipped was made partly on a lent GPU (scripts/train_gpu.sh: seeds 13 and 14, its renders
@@ -42,7 +42,7 @@ COUNT2="${COUNT2:-6000}"
 
 gen() {  # gen OUT SEED COUNT extra args...
   local out="$1" seed="$2" count="$3"; shift 3
-  $PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$out" --count "$count" --size 128 --seed "$seed" \
+  $PY -m supermat_tools.gen_data --hdri-dir "$WORK/hdri" --out "$out" --count "$count" --size 128 --seed "$seed" \
       --jobs "$THREADS" "$@"
 }
 convert() {  # convert RUN OUT
@@ -56,14 +56,14 @@ gen "$WORK/data128" "$SEED" "$COUNT"
 
 echo "== training"
 # shellcheck disable=SC2086
-$PY tools/train_default.py --data "$WORK/data128" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
+$PY -m supermat_tools.train_default --data "$WORK/data128" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
     --threads "$THREADS" ${TRAIN_ARGS:-}
 
 echo "== data, second set ($COUNT2 samples, seed $((SEED + 1)), fewer metals: material modes 0.62 / 0.12 / 0.13 / 0.13)"
 gen "$WORK/data128b" $((SEED + 1)) "$COUNT2" --mode-probs $MODES
 
 echo "== fine-tuning on it (latent 2000 steps, end to end 100)"
-$PY tools/train_default.py --data "$WORK/data128b" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
+$PY -m supermat_tools.train_default --data "$WORK/data128b" --out "$WORK/run" --hdri-dir "$WORK/hdri" --seed "$SEED" \
     --threads "$THREADS" --amp "$AMP" --phases ft,ft_e2e,export
 
 echo "== conversion"
@@ -81,7 +81,7 @@ gen "$WORK/data128d" $((SEED + 3)) 5000 --mode-probs 0.7,0.1,0.1,0.1 --albedo-fl
 gen "$WORK/data128p" $((SEED + 12)) 5000 --mode-probs $MODES --photo 0.5
 gen "$WORK/data128s13" $((SEED + 13)) 4175 --mode-probs $MODES --photo 0.5
 gen "$WORK/data128s14" $((SEED + 14)) 2075 --mode-probs $MODES --photo 0.5
-T=("$PY" tools/train_default.py --hdri-dir "$WORK/hdri" --seed "$SEED" --threads "$THREADS" --amp "$AMP")
+T=("$PY" -m supermat_tools.train_default --hdri-dir "$WORK/hdri" --seed "$SEED" --threads "$THREADS" --amp "$AMP")
 
 echo "== colour VAE (3103 of 3352 steps) and the UNet on its latents (1860 steps)"
 D3="$WORK/data128c,$WORK/data128d,$WORK/data128p"

@@ -5,8 +5,8 @@
 # Poly Haven maps of github pmndrs/drei-assets extracted to $WORK/hdri (the only lighting).
 # Python packages: diffusers 0.27 or newer (checked with 0.31.0), transformers (CLIPTextModel, CLIPTokenizer) and
 # safetensors from the ordinary Python path (pip install diffusers==0.31.0 transformers safetensors, or PYTHONPATH);
-# the SuperMat classes are the project's own (tools/supermat_adapters.py).  HARNESS_DEPS (optional): a folder
-# whose site/ holds extracted package sources, put first on the path by the training scripts (a stand-in for pip).
+# the SuperMat classes are the project's own (supermat_tools.supermat_adapters).  HARNESS_DEPS (optional): a folder
+# whose site/ holds extracted package sources, put first on PYTHONPATH here (a stand-in for pip); python/ follows.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 : "${MIRROR_DIR:?set MIRROR_DIR to the folder holding pmndrs+drei-assets/repo}"
@@ -17,6 +17,7 @@ THREADS="${THREADS:-$(nproc 2>/dev/null || echo 2)}"
 # an e2e step: 1.56 s on AMX; 3.7 s with AVX512_BF16 but no AMX, where float32 takes 4.25 s), else float32
 AMP="${AMP:-$(grep -qwE 'amx_bf16|avx512_bf16' /proc/cpuinfo 2>/dev/null && echo bf16 || echo off)}"
 PY=/usr/bin/python3
+export PYTHONPATH="${HARNESS_DEPS:+$HARNESS_DEPS/site:}$PWD/python${PYTHONPATH:+:$PYTHONPATH}"
 
 need=()
 # shellcheck disable=SC2086   # TRAIN_PACKAGES: more packages a script needs, set before sourcing this file
@@ -32,11 +33,7 @@ fi
 # the Python packages, checked here, before any data is rendered, not when the first training phase starts
 "$PY" - <<'EOF' || { echo "train_env.sh: training needs diffusers (0.27 or newer; checked with 0.31.0), transformers" \
   "and safetensors on the Python path (pip, PYTHONPATH, or HARNESS_DEPS=<folder with site/>)" >&2; exit 2; }
-import os, sys
-if os.environ.get("HARNESS_DEPS"):
-    sys.path.insert(0, os.path.join(os.path.abspath(os.environ["HARNESS_DEPS"]), "site"))
-sys.path.insert(0, "tools")
-import supermat_adapters  # noqa: F401  (imports diffusers)
+from supermat_tools import supermat_adapters  # noqa: F401  (imports diffusers)
 import safetensors.torch, transformers  # noqa: F401,E401
 EOF
 

@@ -43,6 +43,7 @@
 #   round for the refine networks").
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+export PYTHONPATH="$PWD/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X (python/README.md)
 mode="${1:-}"
 if [ "$mode" = pack ]; then
     : "${HDRI:?}"
@@ -97,6 +98,7 @@ unpack() {
     PY="${PY:-python3}"
     if [ -d "$W/w/deps/site" ]; then
         export HARNESS_DEPS="$W/w/deps"
+        export PYTHONPATH="$HARNESS_DEPS/site:$PYTHONPATH"   # first on the path: a stand-in for pip
         # a real safetensors there: diffusers then imports more of it than a packed stand-in may have
         $PY -c 'import safetensors.torch' 2>/dev/null && rm -rf "$W/w/deps/site/safetensors" "$W/w/deps/site"/safetensors-*.dist-info
     fi
@@ -117,17 +119,17 @@ print(os.path.basename(ckpt), "step", st["step"], "of", st.get("total"), "done" 
 EOF
 }
 if [ "$mode" = device-mv ]; then
-    # six-view renders on the device's cores, then tools/train_mv.py from INIT (the shipped single-view model);
+    # six-view renders on the device's cores, then supermat_tools.train_mv from INIT (the shipped single-view model);
     # gives back the multi-view UNet as float16 npz (OUT/unet_mv.npz: the f32 .pth is over the lent machine's
     # size limit for returned files), its report and logs.  Import here: `train_gpu.sh import-mv NPZ RELEASE`.
     unpack
     nvidia-smi -L > "$OUT/env.txt" 2>&1
-    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 timeout -s INT "${GEN_S:-120}" $PY tools/gen_data.py --hdri-dir "$W/w/hdri" \
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 timeout -s INT "${GEN_S:-120}" $PY -m supermat_tools.gen_data --hdri-dir "$W/w/hdri" \
         --out "$W/mv" --count 100000 --size 128 --shard 8 --seed "${SEED:-21}" --jobs "$(nproc)" --views 6 \
         --photo "${PHOTO:-0.5}" --mode-probs 0.62,0.12,0.13,0.13 --shading "${SHADING:-camera}" > "$W/gen.log" 2>&1
-    pkill -f tools/gen_data.py; sleep 1
+    pkill -f supermat_tools.gen_data; sleep 1
     echo "renders: $(ls "$W/mv" | grep -c '^shard_') shards of 8 objects at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
-    timeout "${TRAIN_TIMEOUT:-230}" $PY tools/train_mv.py --data "$W/mv" --out "$W/run" \
+    timeout "${TRAIN_TIMEOUT:-230}" $PY -m supermat_tools.train_mv --data "$W/mv" --out "$W/run" \
         --init-from "${INIT:-models/supermat_default.safetensors}" --hdri-dir "$W/w/hdri" --device cuda --amp bf16 \
         --threads 8 --steps 100000 --batch "${MV_BATCH:-8}" --lr "${MV_LR:-1e-4}" --seconds "mv=${MV_S:-150}" \
         --ckpt-every 30 > "$OUT/train_mv.log" 2>&1
@@ -154,7 +156,7 @@ EOF2
     exit 0
 fi
 if [ "$mode" = device-refine ]; then
-    # procedural meshes baked by the view model on the device's cores (tools/gen_refine_data.py: needs a payload
+    # procedural meshes baked by the view model on the device's cores (supermat_tools.gen_refine_data: needs a payload
     # packed with REFINE=1 PHOTO_HDR=1), then the two UV-refine networks trained at once, one process each, from
     # INIT (default: the multi-view default, its branches as the bases); all of it ends by END_S (default 560)
     # seconds after the start.  Gives back OUT/refine_bc.npz and refine_rm.npz (float16), the logs and each
@@ -164,17 +166,17 @@ if [ "$mode" = device-refine ]; then
     export LD_LIBRARY_PATH="$W/w/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     VIEW="${VIEW_MODEL:-models/supermat_mv_default.safetensors}"
     { nvidia-smi -L; nproc; "$W/w/bin/supermat" --version; } > "$OUT/env.txt" 2>&1 || { cat "$OUT/env.txt"; exit 1; }
-    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-210}" $PY tools/gen_refine_data.py \
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-210}" $PY -m supermat_tools.gen_refine_data \
         --hdri-dir "$W/w/hdri" --out "$W/ref" --model "$VIEW" --supermat "$W/w/bin/supermat" --count 100000 --shard 8 \
         --seed "${SEED:-5}" --jobs "${JOBS:-$(nproc)}" > "$W/gen.log" 2>&1
-    pkill -f tools/gen_refine_data.py; pkill -f "$W/w/bin/supermat"; sleep 1
+    pkill -f supermat_tools.gen_refine_data; pkill -f "$W/w/bin/supermat"; sleep 1
     n=$(ls "$W/ref" | grep -c '^shard_[0-9]*\.npz$')
     echo "meshes: $n shards of 8 at $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
     tail -5 "$W/gen.log" >> "$OUT/env.txt"
     [ "$n" -gt 0 ] || { tail -40 "$W/gen.log"; exit 1; }
     left=$(( ${END_S:-560} - ($(date +%s) - T0) ))
     for net in bc rm; do
-        timeout "$left" $PY tools/train_refine.py --data "$W/ref" --out "$W/run_$net" --init-from "${INIT:-$VIEW}" \
+        timeout "$left" $PY -m supermat_tools.train_refine --data "$W/ref" --out "$W/run_$net" --init-from "${INIT:-$VIEW}" \
             --phases "$net" --device "${DEVICE:-cuda}" --amp bf16 --threads 4 --steps 100000 --batch "${BATCH:-32}" \
             --lr "${LR:-2e-4}" --seconds "$net=$(( left - ${TAIL_S:-60} ))" --ckpt-every 60 ${TRAIN_EXTRA:-} \
             > "$OUT/train_$net.log" 2>&1 &
@@ -193,9 +195,8 @@ JOBS="${JOBS:-$(nproc)}"
 # the training script's imports and one UNet step on the device, before minutes go into renders
 $PY - "$DEVICE" "$(ls "$W"/w/hdri/*.hdr | head -1)" <<'EOF' 2>&1 | tee -a "$OUT/env.txt"
 import sys, time
-sys.path.insert(0, "tools")
 import torch
-import train_default as T
+from supermat_tools import train_default as T
 T.DEV = torch.device(sys.argv[1])
 T.F.group_norm, T.F.layer_norm = T._group_norm_f32, T._layer_norm_f32   # as --amp bf16 does
 u = T.build_unet()
@@ -209,7 +210,7 @@ vae = T.make_vae()
 x = torch.rand(2, 3, 128, 128, device=T.DEV, requires_grad=True)
 with torch.autocast(T.DEV.type, dtype=torch.bfloat16):
     y = vae.decode(vae.encode(x).latent_dist.mode()).sample
-import smrender as R
+from supermat_tools import smrender as R
 env = T.TorchEnv(R.EnvLight(sys.argv[2]))
 nrm = torch.nn.functional.normalize(torch.randn(2, 3, 128, 128, device=T.DEV), dim=1)
 img = T.shade_t(env, R.rotation_y(0.3), nrm, y.float().clamp(0, 1), x[:, :1], x[:, 1:2])
@@ -221,16 +222,16 @@ EOF
 
 echo "== renders: $JOBS jobs for ${GEN_S:-160} s (seed ${SEED:-11}, material modes 0.62 / 0.12 / 0.13 / 0.13, photo ${PHOTO:-0})"
 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 timeout -s INT "${GEN_S:-160}" \
-    $PY tools/gen_data.py --hdri-dir "$W/w/hdri" --out "$W/data" --count 100000 --size 128 --shard 25 \
+    $PY -m supermat_tools.gen_data --hdri-dir "$W/w/hdri" --out "$W/data" --count 100000 --size 128 --shard 25 \
     --seed "${SEED:-11}" --jobs "$JOBS" --mode-probs 0.62,0.12,0.13,0.13 --photo "${PHOTO:-0}" --shading "${SHADING:-camera}" > "$W/gen.log" 2>&1
-pkill -f tools/gen_data.py; sleep 1
+pkill -f supermat_tools.gen_data; sleep 1
 n=$(ls "$W/data" | grep -c '^shard_[0-9]*\.npz$')
 echo "renders: $n shards of 25 in $(( $(date +%s) - T0 )) s" | tee -a "$OUT/env.txt"
 tail -3 "$W/gen.log"
 [ "$n" -gt 0 ] || { tail -30 "$W/gen.log" | tee -a "$OUT/env.txt"; exit 1; }
 
 echo "== training"
-timeout "${TRAIN_TIMEOUT:-380}" $PY tools/train_default.py --data "$W/data" --out "$W/run" --hdri-dir "$W/w/hdri" \
+timeout "${TRAIN_TIMEOUT:-380}" $PY -m supermat_tools.train_default --data "$W/data" --out "$W/run" --hdri-dir "$W/w/hdri" \
     --device "$DEVICE" --amp bf16 --threads 8 --seed 0 --init-from "${INIT:-models/supermat_default.safetensors}" \
     --phases "${PHASES:-ft,ft_e2e,export}" --ckpt-every 30 --seconds "ft=${FT_S:-30},ft_e2e=${E2E_S:-220}" \
     --ft-steps 100000 --ft-lr 3e-4 --latent-batch "${FT_BATCH:-64}" \

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Train the multi-view default (models/supermat_mv_default.safetensors) from the shipped single-view default, or
-# resume an interrupted run: six-view data -> tools/train_mv.py round 1 -> round 2 from it, each branch's
+# resume an interrupted run: six-view data -> supermat_tools.train_mv round 1 -> round 2 from it, each branch's
 # latent held near the single-view model's -> official-format release -> `supermat convert --kind supermat-mv`.
 #
 #   MIRROR_DIR=<mirrors> WORK=<scratch dir> bash scripts/train_mv_default.sh
@@ -22,10 +22,10 @@ STEPS1="${STEPS1:-179}"
 STEPS2="${STEPS2:-229}"
 
 echo "== six-view data (560 objects, seed 23, 128x128)"
-$PY tools/gen_data.py --hdri-dir "$WORK/hdri" --out "$WORK/mvdata" --count 560 --shard 8 --size 128 --seed 23 \
+$PY -m supermat_tools.gen_data --hdri-dir "$WORK/hdri" --out "$WORK/mvdata" --count 560 --shard 8 --size 128 --seed 23 \
     --views 6 --photo 0.5 --mode-probs 0.62,0.12,0.13,0.13 --jobs "$THREADS"
 
-M=("$PY" tools/train_mv.py --data "$WORK/mvdata" --hdri-dir "$WORK/hdri" --init-from models/supermat_default.safetensors
+M=("$PY" -m supermat_tools.train_mv --data "$WORK/mvdata" --hdri-dir "$WORK/hdri" --init-from models/supermat_default.safetensors
    --batch 4 --lr 3e-5 --amp "$AMP" --threads "$THREADS")
 echo "== round 1: $STEPS1 steps from the single-view default"
 "${M[@]}" --out "$WORK/mv1" --phases mv --steps "$STEPS1"

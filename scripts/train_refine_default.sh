@@ -2,7 +2,7 @@
 # Train the two UV-refine defaults (models/supermat_refine_albedo_default.safetensors and
 # models/supermat_refine_rm_default.safetensors, which `supermat mesh --refine` takes) from the multi-view default,
 # or resume an interrupted run: refine data baked by the mesh pipeline itself on procedural meshes ->
-# tools/train_refine.py, the albedo and the roughness / metallic network side by side -> official-format release
+# supermat_tools.train_refine, the albedo and the roughness / metallic network side by side -> official-format release
 # (state dicts + base folder, and the goldens of the training framework's own forward pass) -> `supermat convert
 # --kind uv-refine` -> the C runtime checked against those goldens (tests/test_golden.c).
 #
@@ -39,10 +39,10 @@ mesh_help=$(build/supermat mesh --help 2>&1 || true)
 [[ "$mesh_help" == *--refine* ]] || { echo "train_refine_default: build/supermat has no mesh command (libtinygltf-dev)" >&2; exit 1; }
 
 echo "== refine data ($COUNT procedural meshes baked by the multi-view default, seed 0, 256x256)"
-$PY tools/gen_refine_data.py --hdri-dir "$WORK/hdri" --out "$WORK/refdata" --model "$MV" --count "$COUNT" --seed 0 \
+$PY -m supermat_tools.gen_refine_data --hdri-dir "$WORK/hdri" --out "$WORK/refdata" --model "$MV" --count "$COUNT" --seed 0 \
     --jobs "$THREADS"
 
-R=("$PY" tools/train_refine.py --data "$WORK/refdata" --init-from "$MV" --batch 8 --lr 2e-4 --unseen-weight 3
+R=("$PY" -m supermat_tools.train_refine --data "$WORK/refdata" --init-from "$MV" --batch 8 --lr 2e-4 --unseen-weight 3
    --level-aug 0.3 --seed 0 --amp "$AMP")
 if [ "$THREADS" -ge 2 ]; then
   half=$((THREADS / 2))
