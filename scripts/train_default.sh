@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Train the default model from scratch, or resume an interrupted run: data -> VAE -> UNet -> a second data set
-# with fewer metals -> UNet fine-tuned on it -> official-format release -> `supermat convert --precision f16`
+# with fewer metals -> UNet fine-tuned on it -> official-format release -> `supermat convert --weights f16`
 # (the third version) -> with STAGE4=1 (the default) the fourth version: the VAE trained on with a colour term,
 # the UNet on its latents, then end to end -> models/supermat_default.safetensors.
 #
@@ -47,7 +47,7 @@ gen() {  # gen OUT SEED COUNT extra args...
 }
 convert() {  # convert RUN OUT
   build/supermat convert --force --kind supermat --unet "$1/release/supermat.pth" --base "$1/release/base" \
-      --precision f16 --work-size 256 --out "$2"
+      --weights f16 --work-size 256 --out "$2"
 }
 MODES=0.62,0.12,0.13,0.13   # material modes of the sets with fewer metals (gen_data.py --mode-probs)
 

@@ -73,7 +73,7 @@ echo "== conversion and the C runtime against the training framework's forward p
 mkdir -p "$OUTDIR"
 for n in bc:albedo rm:rm; do
   net="${n%%:*}"; file="$OUTDIR/supermat_refine_${n#*:}_default.safetensors"
-  build/supermat convert --force --kind uv-refine --unet "$REL/uv_refine_$net.pth" --base "$REL/base" --precision f16 \
+  build/supermat convert --force --kind uv-refine --unet "$REL/uv_refine_$net.pth" --base "$REL/base" --weights f16 \
       --work-size 256 --out "$file"
   build/test_golden "$file" auto "$THREADS" "$REL/golden/refine_${net}_128" | tail -n 1
 done
