@@ -395,10 +395,27 @@ static int cli_parse_int(const char *cmd, const char *opt, const char *s, int lo
     return 0;
 }
 
-/* --weights: the storage of the GEMM weights (a speed / accuracy lever, docs/levers.md) */
-static supermat_weights cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
-static supermat_compute cli_compute = SUPERMAT_COMPUTE_F32;
-static int cli_compute_given; /* --compute was on the command line */
+/* The options the commands that run a model share (image, views, refine, info, pack, bench, batch image):
+   each command parses them into its own cli_levers (cli_levers_init first), so nothing carries over from
+   one command to the next in one process (batch, the fuzz harnesses). */
+typedef struct cli_levers {
+    supermat_weights weights; /* --weights: the storage of the GEMM weights (a speed / accuracy lever, docs/levers.md) */
+    supermat_compute compute; /* --compute */
+    int compute_given;        /* --compute was on the command line (else a pre-packed file's own) */
+    supermat_conv conv;       /* --conv: how the 3x3 convolutions run (Winograd, docs/levers.md) */
+    int conv_given;           /* --conv was on the command line */
+    size_t max_memory;        /* --max-memory, 0 = none */
+    float detail;             /* --detail: -1 = the command's default (image 1/64, views off) */
+    float chroma;             /* --chroma: -1 = the command's default (image 1, views off) */
+} cli_levers;
+static void cli_levers_init(cli_levers *lv) {
+    memset(lv, 0, sizeof *lv);
+    lv->weights = SUPERMAT_WEIGHTS_DEFAULT;
+    lv->compute = SUPERMAT_COMPUTE_F32;
+    lv->conv = SUPERMAT_CONV_DIRECT;
+    lv->detail = -1.0f;
+    lv->chroma = -1.0f;
+}
 /* 'off' (0) or a number from 0 to 1 (--detail, --chroma); what: what the number is, for the message */
 static int cli_parse_unit(const char *cmd, const char *opt, const char *s, const char *what, float *out) {
     char *end = NULL;
@@ -409,22 +426,19 @@ static int cli_parse_unit(const char *cmd, const char *opt, const char *s, const
     }
     return 0;
 }
-static int cli_parse_compute(const char *cmd, const char *s) {
-    cli_compute_given = 1;
-    if (!strcmp(s, "f32")) cli_compute = SUPERMAT_COMPUTE_F32;
-    else if (!strcmp(s, "bf16")) cli_compute = SUPERMAT_COMPUTE_BF16;
-    else if (!strcmp(s, "int8")) cli_compute = SUPERMAT_COMPUTE_INT8;
+static int cli_parse_compute(const char *cmd, const char *s, cli_levers *lv) {
+    lv->compute_given = 1;
+    if (!strcmp(s, "f32")) lv->compute = SUPERMAT_COMPUTE_F32;
+    else if (!strcmp(s, "bf16")) lv->compute = SUPERMAT_COMPUTE_BF16;
+    else if (!strcmp(s, "int8")) lv->compute = SUPERMAT_COMPUTE_INT8;
     else { cli_usage_error(cmd, "--compute: '%s' is not f32, bf16 or int8", s); return -1; }
     return 0;
 }
-/* --conv: how the 3x3 convolutions run (a speed lever: Winograd, docs/levers.md) */
-static supermat_conv cli_conv = SUPERMAT_CONV_DIRECT;
-static int cli_conv_given; /* --conv was on the command line */
-static int cli_parse_conv(const char *cmd, const char *s) {
-    cli_conv_given = 1;
-    if (!strcmp(s, "direct")) cli_conv = SUPERMAT_CONV_DIRECT;
-    else if (!strcmp(s, "winograd-f2") || !strcmp(s, "f2")) cli_conv = SUPERMAT_CONV_WINOGRAD_F2;
-    else if (!strcmp(s, "winograd-f4") || !strcmp(s, "f4")) cli_conv = SUPERMAT_CONV_WINOGRAD_F4;
+static int cli_parse_conv(const char *cmd, const char *s, cli_levers *lv) {
+    lv->conv_given = 1;
+    if (!strcmp(s, "direct")) lv->conv = SUPERMAT_CONV_DIRECT;
+    else if (!strcmp(s, "winograd-f2") || !strcmp(s, "f2")) lv->conv = SUPERMAT_CONV_WINOGRAD_F2;
+    else if (!strcmp(s, "winograd-f4") || !strcmp(s, "f4")) lv->conv = SUPERMAT_CONV_WINOGRAD_F4;
     else { cli_usage_error(cmd, "--conv: '%s' is not direct, winograd-f2 or winograd-f4", s); return -1; }
     return 0;
 }
@@ -434,20 +448,17 @@ static const char *cli_compute_name(supermat_compute c) {
 static const char *cli_conv_name(supermat_conv c) {
     return c == SUPERMAT_CONV_WINOGRAD_F2 ? "winograd-f2" : c == SUPERMAT_CONV_WINOGRAD_F4 ? "winograd-f4" : "direct";
 }
-static int cli_parse_weights(const char *cmd, const char *s) {
-    if (!strcmp(s, "default")) cli_weights = SUPERMAT_WEIGHTS_DEFAULT;
-    else if (!strcmp(s, "f32")) cli_weights = SUPERMAT_WEIGHTS_F32;
-    else if (!strcmp(s, "f16")) cli_weights = SUPERMAT_WEIGHTS_F16;
-    else if (!strcmp(s, "bf16")) cli_weights = SUPERMAT_WEIGHTS_BF16;
-    else if (!strcmp(s, "int8") || !strcmp(s, "i8")) cli_weights = SUPERMAT_WEIGHTS_I8;
+static int cli_parse_weights(const char *cmd, const char *s, cli_levers *lv) {
+    if (!strcmp(s, "default")) lv->weights = SUPERMAT_WEIGHTS_DEFAULT;
+    else if (!strcmp(s, "f32")) lv->weights = SUPERMAT_WEIGHTS_F32;
+    else if (!strcmp(s, "f16")) lv->weights = SUPERMAT_WEIGHTS_F16;
+    else if (!strcmp(s, "bf16")) lv->weights = SUPERMAT_WEIGHTS_BF16;
+    else if (!strcmp(s, "int8") || !strcmp(s, "i8")) lv->weights = SUPERMAT_WEIGHTS_I8;
     else { cli_usage_error(cmd, "--weights: '%s' is not default, f32, f16, bf16 or int8", s); return -1; }
     return 0;
 }
 
 /* --max-memory SIZE: bytes, or with K, M, G, T (powers of 1024; KiB... and KB... read the same) */
-static size_t cli_max_memory;
-static float cli_detail = -1.0f; /* --detail: -1 = the command's default (image 1/64, views off) */
-static float cli_chroma = -1.0f; /* --chroma: -1 = the command's default (image 1, views off) */
 static int cli_parse_bytes(const char *cmd, const char *opt, const char *s, size_t *out) {
     char *end;
     double v, mul = 1;

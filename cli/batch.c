@@ -663,10 +663,9 @@ static int cli_batch(int argc, char **argv) {
     int ninputs = 0, nfwd = 0;
     char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
 
-    cli_detail = -1.0f;
-    cli_chroma = -1.0f;
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
+    cli_levers_init(&X.lv);
     if (argc >= 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"))) { fputs(cli_usage_batch, stdout); return CLI_OK; }
     i = 2;
     if (argc >= 3 && !strcmp(argv[2], "image")) i = 3;
@@ -737,7 +736,7 @@ static int cli_batch(int argc, char **argv) {
             if (jobs < 1 || jobs > 256) { free(inputs); free(fwd); return cli_usage_error(cmd, "--jobs J: 1 to 256 (got '%s')", v); }
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(inputs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &X.lv)) != 0) {
             if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(inputs); free(fwd);
@@ -811,7 +810,7 @@ static int cli_batch(int argc, char **argv) {
     if (rc == CLI_OK && left && !cli_batch_mesh_mode) { /* one model load for the whole batch (mesh: on its first asset) */
         rc = cli_model_path("image", model_arg, 1, &mref);
         if (rc == CLI_OK) model_path = mref.path;
-        if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &X.model, NULL);
+        if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
         if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
         if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
     }

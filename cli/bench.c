@@ -765,7 +765,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
     /* the images' sizes before the (slow) model load */
     for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(o->images[i], "image", &iw, &ih, &c)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(o->images[i], "image", &iw, &ih, &c, 0)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("image '%s' is %dx%d but image '%s' is %dx%d: all views must have the same size (supermat does not resize)",
@@ -781,7 +781,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         const char *p = i ? o->pos_path : o->mask_path, *what = i ? "the position map" : "the mask";
         int iw, ih, c;
         if (!p) continue;
-        if (!cli_pic_info(p, what, &iw, &ih, &c)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(p, what, &iw, &ih, &c, 0)) { rc = CLI_FAIL; break; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
                       "size (supermat does not resize)", what, p, iw, ih, path0, w, h);
@@ -797,7 +797,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         int ok, keep16 = cli_accept16;
         snprintf(what, sizeof what, "the %s truth", cli_bi_map_names[k]);
         cli_accept16 = 1; /* a 16-bit truth is refused below, with its reason */
-        ok = cli_pic_info(p, what, &iw, &ih, &c);
+        ok = cli_pic_info(p, what, &iw, &ih, &c, 0);
         cli_accept16 = keep16;
         if (!ok) {
             rc = CLI_FAIL;
@@ -1163,7 +1163,9 @@ static int cli_bench(int argc, char **argv) {
     cli_bench_opts bo;
     int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0;
     cli_model_ref mref;
+    cli_levers lv;
 
+    cli_levers_init(&lv);
     memset(&bo, 0, sizeof bo);
     bo.modes_all = 1;
 
@@ -1190,12 +1192,12 @@ static int cli_bench(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
             if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
-            if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE;
+            if (m < 0 || cli_parse_weights(cmd, v, &lv)) return CLI_USAGE;
             weights_given = 1;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) {
-            if (m < 0 || cli_parse_compute(cmd, v)) return CLI_USAGE;
+            if (m < 0 || cli_parse_compute(cmd, v, &lv)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) {
-            if (m < 0 || cli_parse_conv(cmd, v)) return CLI_USAGE;
+            if (m < 0 || cli_parse_conv(cmd, v, &lv)) return CLI_USAGE;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             json_path = v;
@@ -1232,7 +1234,7 @@ static int cli_bench(int argc, char **argv) {
         if (size_given) return cli_usage_error(cmd, "--size does not apply with --image (the image's own size is used)");
         if (outputs_given) return cli_usage_error(cmd, "--outputs does not apply with --image (the modes choose the outputs)");
         if (weights_given) return cli_usage_error(cmd, "--weights does not apply with --image (use --modes f16,bf16,int8)");
-        if (cli_conv_given) return cli_usage_error(cmd, "--conv does not apply with --image (use --modes winograd_f2,winograd_f4)");
+        if (lv.conv_given) return cli_usage_error(cmd, "--conv does not apply with --image (use --modes winograd_f2,winograd_f4)");
         if (pipeline_only) return cli_usage_error(cmd, "--pipeline-only does not apply with --image");
         if ((rc = cli_model_path(cmd, model_arg, 1, &mref)) != CLI_OK) return rc;
         model_path = mref.path;
@@ -1268,7 +1270,7 @@ static int cli_bench(int argc, char **argv) {
     }
 
     /* (b) */
-    rc = cli_load_model(model_path, kernel, &file, &file_size, &model, &create_s);
+    rc = cli_load_model(model_path, kernel, &lv, &file, &file_size, &model, &create_s);
     if (rc == CLI_OK) {
         supermat_model_get_info(model, &mi);
         if (mi.kind == SUPERMAT_KIND_SUPERMAT_MV) nviews = views ? views : 6;

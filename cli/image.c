@@ -58,6 +58,7 @@ typedef struct cli_image_ctx {
     int sw, sh;
     unsigned souts;       /* the outputs the session was made for */
     const char *prefix;   /* "[i/N] " before the progress line (batch), or "" */
+    cli_levers lv;        /* the model and session options of the command line */
 } cli_image_ctx;
 
 static void cli_image_ctx_release(cli_image_ctx *X) {
@@ -90,7 +91,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         if (a == CLI_FAIL) return CLI_FAIL;
         if (a == CLI_SKIPPED) { fprintf(stderr, "kept the maps of '%s' (they exist; --skip-existing)\n", input); return CLI_SKIPPED; }
     }
-    if (!cli_pic_info(input, "image", &w, &h, &c)) return CLI_FAIL;
+    if (!cli_pic_info(input, "image", &w, &h, &c, X->lv.max_memory)) return CLI_FAIL;
     if (cli_pic_is16) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
     else px = cli_load(input, &w, &h, &c, 4);
     if (!px && !fin) { cli_error("cannot read image '%s': %s", input, cli_stbi_reason()); return CLI_FAIL; }
@@ -105,16 +106,16 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         supermat_session_desc sd;
         memset(&sd, 0, sizeof sd);
         sd.model = X->model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threads = X->threads;
-        sd.max_memory = cli_session_budget(X->model);
+        sd.max_memory = cli_session_budget(X->model, X->lv.max_memory);
         cli_set_work(&sd, X->ws, w, h);
-        sd.detail_sigma = cli_detail >= 0.0f ? cli_detail : 1.0f / 64.0f;
-        sd.chroma_weight = cli_chroma >= 0.0f ? cli_chroma : 1.0f;
+        sd.detail_sigma = X->lv.detail >= 0.0f ? X->lv.detail : 1.0f / 64.0f;
+        sd.chroma_weight = X->lv.chroma >= 0.0f ? X->lv.chroma : 1.0f;
         r = supermat_session_create(&sd, &X->sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[600];
             snprintf(what, sizeof what, "session for '%s' (%dx%d)", input, w, h);
             cli_lib_error(what, r, &err);
-            cli_budget_note(X->model, r);
+            cli_budget_note(X->model, r, X->lv.max_memory);
             stbi_image_free(px); free(fin);
             X->sess = NULL;
             return CLI_FAIL;
@@ -176,9 +177,8 @@ static int cli_image(int argc, char **argv) {
     cli_image_ctx X;
     cli_model_ref mref;
 
-    cli_detail = -1.0f;
-    cli_chroma = -1.0f;
     memset(&X, 0, sizeof X);
+    cli_levers_init(&X.lv);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
     for (i = 2; i < argc; i++) {
@@ -193,7 +193,7 @@ static int cli_image(int argc, char **argv) {
             out_dir = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &X.lv)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(imgs);
@@ -214,7 +214,7 @@ static int cli_image(int argc, char **argv) {
     /* check every image before the (slow) model load */
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w, h, c;
-        if (!cli_pic_info(imgs[i], "image", &w, &h, &c)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory)) { rc = CLI_FAIL; break; }
         if (w % 8 || h % 8) {
             cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
                       "resize it first, e.g. to 512x512)", imgs[i], w, h);
@@ -222,7 +222,7 @@ static int cli_image(int argc, char **argv) {
             break;
         }
     }
-    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &X.model, NULL);
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
     if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
     if (rc == CLI_OK) rc = cli_mkdirs(out_dir);

@@ -26,10 +26,12 @@ static int cli_info(int argc, char **argv) {
     char meta[128];
     double create_s;
     cli_model_ref mref;
+    cli_levers lv;
+    cli_levers_init(&lv);
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); cli_print_default_model_help(); return CLI_OK; }
-        if ((m = cli_run_opt(cmd, argc, argv, &i, NULL, NULL, &threads, &kernel)) != 0) {
+        if ((m = cli_run_opt(cmd, argc, argv, &i, NULL, NULL, &threads, &kernel, &lv)) != 0) {
             if (m < 0) return CLI_USAGE;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
@@ -83,9 +85,9 @@ static int cli_info(int argc, char **argv) {
 
     /* the loaded model */
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
-    md.max_memory = cli_max_memory;
-    cli_packed_options(&md);
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = lv.weights; md.conv = lv.conv; md.compute = lv.compute;
+    md.max_memory = lv.max_memory;
+    cli_packed_options(&md, &lv);
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;

@@ -422,18 +422,18 @@ static int cli_write_png(const char *path, const float *px, int w, int h, int ch
 
 /* A pre-packed file (`supermat pack`) runs with the convolution and compute options it was packed for,
    unless the command line asked for another compute (then the library says why it cannot). */
-static void cli_packed_options(supermat_model_desc *md) {
+static void cli_packed_options(supermat_model_desc *md, const cli_levers *lv) {
     char v[16];
-    if (!cli_conv_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 &&
+    if (!lv->conv_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 &&
         atoi(v) < SUPERMAT_CONV_COUNT)
         md->conv = (supermat_conv)atoi(v);
-    if (!cli_compute_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.compute", v, sizeof v) == 0 && atoi(v) >= 0 &&
+    if (!lv->compute_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.compute", v, sizeof v) == 0 && atoi(v) >= 0 &&
         atoi(v) < SUPERMAT_COMPUTE_COUNT)
         md->compute = (supermat_compute)atoi(v);
 }
 
 /* loads the model file and creates the model; the buffer is borrowed by the model (free it after) */
-static int cli_load_model(const char *path, supermat_kernel kernel, unsigned char **buf, size_t *size,
+static int cli_load_model(const char *path, supermat_kernel kernel, const cli_levers *lv, unsigned char **buf, size_t *size,
                           supermat_model **model, double *create_seconds) {
     supermat_model_desc md;
     supermat_error err;
@@ -443,9 +443,9 @@ static int cli_load_model(const char *path, supermat_kernel kernel, unsigned cha
     *model = NULL;
     if (cli_read_file(path, buf, size)) return CLI_FAIL;
     memset(&md, 0, sizeof md);
-    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
-    md.max_memory = cli_max_memory;
-    cli_packed_options(&md);
+    md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = lv->weights; md.conv = lv->conv; md.compute = lv->compute;
+    md.max_memory = lv->max_memory;
+    cli_packed_options(&md, lv);
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);
     if (create_seconds) *create_seconds = cli_now() - t0;
@@ -665,8 +665,9 @@ static int cli_header_size(const unsigned char *d, size_t n, long *w, long *h) {
     return 0;
 }
 
-/* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read */
-static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c) {
+/* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read; max_memory:
+   --max-memory (0 = none), checked against the decoded size from the header */
+static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c, size_t max_memory) {
     struct stat st;
     unsigned char *data = NULL;
     size_t size = 0;
@@ -719,11 +720,11 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         cli_error("%s '%s' is %dx%d: at most 16384 pixels a side (the largest a session takes)", what, path, *w, *h);
         return 0;
     }
-    if (cli_max_memory) { /* the decoded bytes, before decoding: RGBA at 8 bits, or 16 bits and its float copy */
+    if (max_memory) { /* the decoded bytes, before decoding: RGBA at 8 bits, or 16 bits and its float copy */
         double need = (double)*w * (double)*h * 4.0 * (is16 ? 2.0 + 4.0 : 1.0);
-        if (need > (double)cli_max_memory) {
+        if (need > (double)max_memory) {
             cli_error("%s '%s' (%dx%d) needs %.1f MiB decoded, more than --max-memory %.1f MiB", what, path, *w, *h, cli_mib(need),
-                      cli_mib((double)cli_max_memory));
+                      cli_mib((double)max_memory));
             return 0;
         }
     }

@@ -159,40 +159,40 @@ static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt
    --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights, --compute, --conv, --max-memory.
    1 when argv[*i] was one of them, -1 on a usage error (said), 0 when it is none of them. */
 static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want_float, int *work_opt, int *threads,
-                       supermat_kernel *kernel) {
+                       supermat_kernel *kernel, cli_levers *lv) {
     const char *v;
     int m;
     if (want_float && !strcmp(argv[*i], "--float")) { *want_float = 1; return 1; }
     if (work_opt && (m = cli_work_opt(cmd, argc, argv, i, work_opt)) != 0) return m;
     if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--detail", &v)) != 0)
-        return m < 0 || cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &cli_detail) ? -1 : 1;
+        return m < 0 || cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &lv->detail) ? -1 : 1;
     if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--chroma", &v)) != 0)
-        return m < 0 || cli_parse_unit(cmd, "--chroma", v, "a weight", &cli_chroma) ? -1 : 1;
+        return m < 0 || cli_parse_unit(cmd, "--chroma", v, "a weight", &lv->chroma) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--threads", &v)) != 0)
         return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
     if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--conv", &v)) != 0) return m < 0 || cli_parse_conv(cmd, v) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &cli_max_memory) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v, lv) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v, lv) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--conv", &v)) != 0) return m < 0 || cli_parse_conv(cmd, v, lv) ? -1 : 1;
+    if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &lv->max_memory) ? -1 : 1;
     return 0;
 }
 
 /* --max-memory: what is left of it for a session once the model holds its part (1 when nothing is) */
-static size_t cli_session_budget(const supermat_model *model) {
+static size_t cli_session_budget(const supermat_model *model, size_t max_memory) {
     supermat_model_info mi;
-    if (!cli_max_memory) return 0;
+    if (!max_memory) return 0;
     memset(&mi, 0, sizeof mi);
     supermat_model_get_info(model, &mi);
-    return cli_max_memory > mi.model_bytes ? cli_max_memory - mi.model_bytes : 1;
+    return max_memory > mi.model_bytes ? max_memory - mi.model_bytes : 1;
 }
 /* after a session refused for its memory: how --max-memory was shared */
-static void cli_budget_note(const supermat_model *model, supermat_result r) {
+static void cli_budget_note(const supermat_model *model, supermat_result r, size_t max_memory) {
     supermat_model_info mi;
-    if (!cli_max_memory || r != SUPERMAT_ERROR_OUT_OF_MEMORY) return;
+    if (!max_memory || r != SUPERMAT_ERROR_OUT_OF_MEMORY) return;
     memset(&mi, 0, sizeof mi);
     supermat_model_get_info(model, &mi);
-    fprintf(stderr, "  (--max-memory %.1f MiB: the model holds %.1f MiB, which leaves the session the rest)\n", cli_mib((double)cli_max_memory), cli_mib((double)mi.model_bytes));
+    fprintf(stderr, "  (--max-memory %.1f MiB: the model holds %.1f MiB, which leaves the session the rest)\n", cli_mib((double)max_memory), cli_mib((double)mi.model_bytes));
 }
 
 /* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */

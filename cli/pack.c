@@ -21,15 +21,17 @@ static int cli_pack(int argc, char **argv) {
     uint64_t bytes = 0;
     double t0;
     int i, m, rc;
+    cli_levers lv;
+    cli_levers_init(&lv);
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_pack, stdout); return CLI_OK; }
         if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) { if (m < 0) return CLI_USAGE; model = v; }
         else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) { if (m < 0) return CLI_USAGE; outp = v; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) { if (m < 0 || cli_parse_weights(cmd, v)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) { if (m < 0 || cli_parse_compute(cmd, v)) return CLI_USAGE; }
+        else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) { if (m < 0 || cli_parse_weights(cmd, v, &lv)) return CLI_USAGE; }
+        else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) { if (m < 0 || cli_parse_compute(cmd, v, &lv)) return CLI_USAGE; }
         else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) { if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) { if (m < 0 || cli_parse_conv(cmd, v)) return CLI_USAGE; }
+        else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) { if (m < 0 || cli_parse_conv(cmd, v, &lv)) return CLI_USAGE; }
         else if (a[0] == '-') return cli_usage_error(cmd, "unknown option '%s'", a);
         else return cli_usage_error(cmd, "unexpected argument '%s'", a);
     }
@@ -40,7 +42,7 @@ static int cli_pack(int argc, char **argv) {
     if (o.skip) return cli_out_close(&o, 1);
     if (cli_read_file(mref.path, &file, &size)) { cli_out_close(&o, 0); return CLI_FAIL; }
     memset(&md, 0, sizeof md);
-    md.data = file; md.size = size; md.kernel = kernel; md.weights = cli_weights; md.conv = cli_conv; md.compute = cli_compute;
+    md.data = file; md.size = size; md.kernel = kernel; md.weights = lv.weights; md.conv = lv.conv; md.compute = lv.compute;
     t0 = cli_now();
     r = supermat_model_write_packed(&md, cli_pack_write, &o, &bytes, &err);
     if (r != SUPERMAT_SUCCESS) {

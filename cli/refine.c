@@ -29,9 +29,9 @@ static int cli_refine(int argc, char **argv) {
     size_t file_size = 0;
     supermat_model *model = NULL;
     supermat_session *sess = NULL;
+    cli_levers lv;
 
-    cli_detail = -1.0f;
-    cli_chroma = -1.0f;
+    cli_levers_init(&lv);
     for (i = 2; i < argc; i++) {
         const char *a = argv[i];
         int k, hit = 0;
@@ -49,7 +49,7 @@ static int cli_refine(int argc, char **argv) {
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
             if (m < 0) return CLI_USAGE;
             out_dir = v;
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &lv)) != 0) {
             if (m < 0) return CLI_USAGE;
         } else if (a[0] == '-' && a[1]) {
             return cli_usage_error(cmd, "unknown option '%s'", a);
@@ -57,8 +57,8 @@ static int cli_refine(int argc, char **argv) {
             return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
         }
     }
-    if (cli_detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
-    if (cli_chroma > 0.0f) return cli_usage_error(cmd, "--chroma: a UV map has no picture to take colour from (image and views take it)");
+    if (lv.detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
+    if (lv.chroma > 0.0f) return cli_usage_error(cmd, "--chroma: a UV map has no picture to take colour from (image and views take it)");
     if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) return rc;
     model_path = mref.path;
     for (i = 0; i < 3; i++) if (!paths[i]) return cli_usage_error(cmd, "%s FILE is required", opts[i]);
@@ -70,7 +70,7 @@ static int cli_refine(int argc, char **argv) {
     /* the three sizes before the (slow) model load */
     for (i = 0; i < 3 && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c, lv.max_memory)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
@@ -82,7 +82,7 @@ static int cli_refine(int argc, char **argv) {
             rc = CLI_FAIL;
         }
     }
-    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &lv, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_UV_REFINE);
     if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
@@ -91,15 +91,15 @@ static int cli_refine(int argc, char **argv) {
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
-        sd.max_memory = cli_session_budget(model);
+        sd.max_memory = cli_session_budget(model, lv.max_memory);
         cli_set_work(&sd, ws, w, h);
-        sd.detail_sigma = cli_detail > 0.0f ? cli_detail : 0.0f;
+        sd.detail_sigma = lv.detail > 0.0f ? lv.detail : 0.0f;
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char msg[64];
             snprintf(msg, sizeof msg, "session (%dx%d)", w, h);
             cli_lib_error(msg, r, &err);
-            cli_budget_note(model, r);
+            cli_budget_note(model, r, lv.max_memory);
             rc = CLI_FAIL;
         }
     }

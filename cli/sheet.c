@@ -281,7 +281,7 @@ static int cli_sheet(int argc, char **argv) {
             char *sel;
             if (!strcmp(cells[r][c], "-")) continue;
             sel = cli_sheet_channel(cells[r][c], &pick);
-            ok = cli_pic_info(cells[r][c], "image", &w, &h, &ch);
+            ok = cli_pic_info(cells[r][c], "image", &w, &h, &ch, 0);
             if (sel) *sel = ':';
             if (!ok) {
                 rc = CLI_FAIL;

@@ -213,9 +213,9 @@ static int cli_views(int argc, char **argv) {
     size_t file_size = 0, np = 0;
     supermat_model *model = NULL;
     supermat_session *sess = NULL;
+    cli_levers lv;
 
-    cli_detail = -1.0f;
-    cli_chroma = -1.0f;
+    cli_levers_init(&lv);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
     for (i = 2; i < argc; i++) {
@@ -233,7 +233,7 @@ static int cli_views(int argc, char **argv) {
             out_dir = v;
         } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
             if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel)) != 0) {
+        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &lv)) != 0) {
             if (m < 0) { free(imgs); return CLI_USAGE; }
         } else if (a[0] == '-' && a[1]) {
             free(imgs);
@@ -266,7 +266,7 @@ static int cli_views(int argc, char **argv) {
     }
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(imgs[i], "view", &iw, &ih, &c)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(imgs[i], "view", &iw, &ih, &c, lv.max_memory)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("view '%s' is %dx%d but view '%s' is %dx%d: all views must have the same size (supermat does not resize)",
@@ -285,7 +285,7 @@ static int cli_views(int argc, char **argv) {
         else memcpy(c2w + 16 * i, c->m, sizeof c->m);
     }
 
-    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &file, &file_size, &model, NULL);
+    if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &lv, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT_MV);
     if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
@@ -303,16 +303,16 @@ static int cli_views(int argc, char **argv) {
         supermat_result r;
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nimg; sd.threads = threads;
-        sd.max_memory = cli_session_budget(model);
+        sd.max_memory = cli_session_budget(model, lv.max_memory);
         cli_set_work(&sd, ws, w, h);
-        sd.detail_sigma = cli_detail > 0.0f ? cli_detail : 0.0f;
-        sd.chroma_weight = cli_chroma > 0.0f ? cli_chroma : 0.0f;
+        sd.detail_sigma = lv.detail > 0.0f ? lv.detail : 0.0f;
+        sd.chroma_weight = lv.chroma > 0.0f ? lv.chroma : 0.0f;
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[64];
             snprintf(what, sizeof what, "session (%d view%s, %dx%d)", nimg, nimg == 1 ? "" : "s", w, h);
             cli_lib_error(what, r, &err);
-            cli_budget_note(model, r);
+            cli_budget_note(model, r, lv.max_memory);
             rc = CLI_FAIL;
         }
     }

@@ -20,7 +20,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     int w = 0, h = 0, c = 0, lw = 0, lh = 0, lc = 0;
     if (!path) return 0;
     cli_accept16 = 1; /* as `supermat image`: 16-bit pictures are read too */
-    if (!cli_pic_info(path, "image", &w, &h, &c)) return 0;
+    if (!cli_pic_info(path, "image", &w, &h, &c, 0)) return 0;
     if (w <= 0 || h <= 0 || w > 16384 || h > 16384) __builtin_trap(); /* cli_pic_info's promise */
     if ((size_t)w * (size_t)h > ((size_t)1 << 22)) return 0;
     if (stbi_is_16_bit(path)) {
