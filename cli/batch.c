@@ -611,34 +611,38 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
     return failed || missing ? CLI_FAIL : CLI_OK;
 }
 
+/* `supermat mesh` as functions (cli/mesh.cpp): its options parsed and checked once, before any asset, then
+   one run per asset */
+typedef struct supermat_cli_mesh_opts supermat_cli_mesh_opts;
 #ifdef SUPERMAT_CLI_MESH
-int supermat_cli_mesh(int argc, char **argv); /* cli/mesh.cpp */
+int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts);
+int supermat_cli_mesh_run(const supermat_cli_mesh_opts *opts, const char *in, const char *out, int force, int allow_outside);
+void supermat_cli_mesh_opts_free(supermat_cli_mesh_opts *opts);
 void supermat_cli_mesh_keep_models(int keep);   /* the models stay loaded from one asset to the next */
 #endif
-/* one asset through `supermat mesh ARGS --force IN DIR/<stem>.<ext>` (which removes the staging folders
-   and temporary files that killed runs left in DIR: smio_clean_stale) */
-static int cli_batch_mesh_item(char **fwd, int nfwd, const cli_bitem *it, const char *dir) {
+static void cli_batch_mesh_free(supermat_cli_mesh_opts *o) {
 #ifdef SUPERMAT_CLI_MESH
-    char *out, **av;
-    int rc, n = 0, k;
+    supermat_cli_mesh_opts_free(o);
+#else
+    (void)o;
+#endif
+}
+/* one asset to DIR/<stem>.<ext>, replacing what a killed run left (the mesh run removes the staging folders and
+   temporary files that dead runs left in DIR: smio_clean_stale) */
+static int cli_batch_mesh_item(const supermat_cli_mesh_opts *mo, const cli_bitem *it, const char *dir) {
+#ifdef SUPERMAT_CLI_MESH
+    char *out;
+    int rc;
     out = cli_join(dir, it->stem, cli_ext_of(it->input));
-    av = (char **)malloc(sizeof(char *) * (size_t)(nfwd + 5));
-    if (!out || !av) { free(out); free(av); cli_error("out of memory"); return CLI_FAIL; }
-    for (k = 0; k < nfwd; k++) av[n++] = fwd[k];
-    av[n++] = (char *)"--force";
-    if (cli_allow_outside) av[n++] = (char *)"--allow-outside-refs";
-    av[n++] = it->input;
-    av[n++] = out;
-    av[n] = NULL;
+    if (!out) { cli_error("out of memory"); return CLI_FAIL; }
     fflush(stdout);
-    rc = supermat_cli_mesh(n, av);
+    rc = supermat_cli_mesh_run(mo, it->input, out, 1, cli_allow_outside);
     fflush(stdout);
     if (rc != 0) cli_error("supermat mesh %s: exit %d (its message is above)", it->input, rc);
     free(out);
-    free(av);
     return rc == 0 ? CLI_OK : CLI_FAIL;
 #else
-    (void)fwd; (void)nfwd; (void)it; (void)dir;
+    (void)mo; (void)it; (void)dir;
     cli_error("built without tinygltf");
     return CLI_FAIL;
 #endif
@@ -662,6 +666,7 @@ static int cli_batch(int argc, char **argv) {
     const char **inputs;
     int ninputs = 0, nfwd = 0;
     char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
+    supermat_cli_mesh_opts *mopts = NULL; /* batch mesh: those options, parsed once */
 
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
@@ -747,9 +752,17 @@ static int cli_batch(int argc, char **argv) {
     if (!out_dir) { free(inputs); free(fwd); return cli_usage_error(cmd, "--out DIR is required"); }
     if (!merge && !ninputs) { free(inputs); free(fwd); return cli_usage_error(cmd, "no input (pictures, folders or @LIST)"); }
     if (cli_policy == CLI_POLICY_SKIP) { free(inputs); free(fwd); return cli_usage_error(cmd, "--skip-existing does not apply: the journal says what is done"); }
+#ifdef SUPERMAT_CLI_MESH
+    if (cli_batch_mesh_mode && !merge && supermat_cli_mesh_opts_parse(nfwd, fwd, &mopts) != 0) { /* it said why */
+        free(inputs); free(fwd);
+        return CLI_USAGE;
+    }
+#endif
+    free(fwd);
+    fwd = NULL;
     cli_policy = CLI_POLICY_FORCE; /* DIR belongs to the batch: an unfinished item's outputs are replaced */
 
-    if (!merge && (rc = cli_mkdirs(out_dir)) != CLI_OK) { free(inputs); return rc; }
+    if (!merge && (rc = cli_mkdirs(out_dir)) != CLI_OK) { free(inputs); cli_batch_mesh_free(mopts); return rc; }
     if (stat(out_dir, &out_st) == 0) have_out_st = 1;
     if (!merge) cli_batch_out_real = realpath(out_dir, NULL);
     cli_out_root = out_dir; /* below DIR, no link is followed */
@@ -776,8 +789,8 @@ static int cli_batch(int argc, char **argv) {
                     rc = cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", L.v[k - 1].input, L.v[k].input, L.v[k].key);
             }
     }
-    if (rc != CLI_OK) { cli_blist_free(&L); free(fwd); return rc; }
-    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); free(fwd); return rc; }
+    if (rc != CLI_OK) { cli_blist_free(&L); cli_batch_mesh_free(mopts); return rc; }
+    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); return rc; }
 
     /* this shard's items, and what the journal says of them */
     {
@@ -785,7 +798,7 @@ static int cli_batch(int argc, char **argv) {
         if (shard_n > 1) snprintf(name, sizeof name, "journal.%d-of-%d", shard_i, shard_n);
         else snprintf(name, sizeof name, "journal");
         jpath = cli_join(out_dir, name, ".jsonl");
-        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); free(fwd); return CLI_FAIL; }
+        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); cli_batch_mesh_free(mopts); return CLI_FAIL; }
     }
     {
         int jr = cli_journal_read(jpath, cli_journal_status, &L);
@@ -884,7 +897,7 @@ static int cli_batch(int argc, char **argv) {
                 if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
                 else if ((r = cli_mkdirs_below(out_dir, it->sub)) == CLI_OK) {
                     if (!cli_batch_mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
-                    else r = cli_batch_mesh_item(fwd, nfwd, it, dir);
+                    else r = cli_batch_mesh_item(mopts, it, dir);
                 }
                 free(dir);
                 if (r == CLI_SKIPPED) r = CLI_OK;
@@ -960,6 +973,6 @@ static int cli_batch(int argc, char **argv) {
     cli_free_file(file);
     cli_blist_free(&L);
     free(jpath);
-    free(fwd);
+    cli_batch_mesh_free(mopts);
     return rc;
 }

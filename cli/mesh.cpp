@@ -54,11 +54,16 @@
 #include <cstring>
 #include <algorithm>
 #include <map>
+#include <new>
 #include <string>
 #include <vector>
 
 extern "C" int supermat_cli_mesh(int argc, char **argv);
 extern "C" void supermat_cli_mesh_keep_models(int keep);
+struct supermat_cli_mesh_opts;
+extern "C" int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts);
+extern "C" int supermat_cli_mesh_run(const supermat_cli_mesh_opts *opts, const char *in, const char *out, int force, int allow_outside);
+extern "C" void supermat_cli_mesh_opts_free(supermat_cli_mesh_opts *opts);
 
 namespace {
 
@@ -863,14 +868,29 @@ extern "C" void supermat_cli_mesh_keep_models(int keep) {
    message when there is none */
 extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **from);
 
-extern "C" int supermat_cli_mesh(int argc, char **argv) {
+/* The options of one `supermat mesh` run, parsed and checked once: by the command itself, and by `batch mesh`
+   (before any asset) for all of its assets. */
+struct supermat_cli_mesh_opts {
+    const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *dbg = nullptr;
+    int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
+    float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
+    int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
+        edge_reject = 0, supersample = 0, policy = 0; /* policy: 0 refuse existing outputs, 1 --force, 2 --skip-existing */
+    supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
+    bool allow_outside = false;
+    size_t max_memory = 0; /* --max-memory: 0 = no cap */
+};
+
+/* argv[1..]: the options, then IN and OUT where in_p is not NULL (none where it is: batch); -1 when they are
+   valid (o filled), else the exit status (0 after --help, 2 after a usage message) */
+static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, const char **in_p, const char **out_p) {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
     int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     bool allow_outside = false;
-    g_max_memory = 0;
+    size_t max_memory = 0;
     for (int i = 1; i < argc; i++) {
         std::string a = argv[i];
         bool more = i + 1 < argc;
@@ -902,7 +922,7 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
             }
         }
         else if (a == "--max-memory" && more) {
-            if (!parse_size(argv[++i], &g_max_memory)) {
+            if (!parse_size(argv[++i], &max_memory)) {
                 std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", argv[i]);
                 return 2;
             }
@@ -927,19 +947,8 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
         else if (!out) out = argv[i];
         else return usage();
     }
-    if (!in || !out) return usage();
-    { /* OUT's folder, before any work: it must exist (and be a folder) */
-        std::string od = dir_of(out);
-        char msg[1024];
-        int fd = smio_dir_open(od.c_str(), "", 0, msg, sizeof msg);
-        if (fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
-        close(fd);
-    }
-    if (exists_l(out) && policy != 1) { /* before any work */
-        if (policy == 2) { std::fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", out); return 0; }
-        std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
-        return 1;
-    }
+    if (in_p && (!in || !out)) return usage();
+    if (!in_p && in) { std::fprintf(stderr, "supermat batch mesh: unexpected argument '%s' (the assets are the batch's inputs)\n", in); return 2; }
     if (no_refine && (passthrough || bc_path || rm_path || refine)) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --refine, --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
@@ -958,6 +967,39 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
     if (!passthrough && !mv_path && (bc_path || rm_path)) {
         std::fprintf(stderr, "supermat mesh: --albedo-refine and --rm-refine need --mv-model\n");
         return 2;
+    }
+    o.mv_path = mv_path; o.bc_path = bc_path; o.rm_path = rm_path; o.dbg = dbg;
+    o.work_opt = work_opt; o.detail = detail;
+    o.passthrough = passthrough; o.no_refine = no_refine; o.refine = refine; o.keep_observed = keep_observed;
+    o.size = size; o.views = views; o.threads = threads; o.gutter = gutter; o.edge_reject = edge_reject;
+    o.supersample = supersample; o.policy = policy; o.weight = weight; o.allow_outside = allow_outside;
+    o.max_memory = max_memory;
+    if (in_p) { *in_p = in; *out_p = out; }
+    return -1;
+}
+
+/* one asset, IN to OUT, with options parse_mesh_opts checked */
+static int run_mesh(const supermat_cli_mesh_opts &opt, const char *in, const char *out) {
+    const char *mv_path = opt.mv_path, *bc_path = opt.bc_path, *rm_path = opt.rm_path, *dbg = opt.dbg;
+    int work_opt = opt.work_opt;
+    float detail = opt.detail;
+    int passthrough = opt.passthrough, refine = opt.refine, keep_observed = opt.keep_observed, size = opt.size,
+        views = opt.views, threads = opt.threads, gutter = opt.gutter, edge_reject = opt.edge_reject, supersample = opt.supersample,
+        policy = opt.policy;
+    supermat_uv_weight weight = opt.weight;
+    bool allow_outside = opt.allow_outside;
+    g_max_memory = opt.max_memory;
+    { /* OUT's folder, before any work: it must exist (and be a folder) */
+        std::string od = dir_of(out);
+        char msg[1024];
+        int fd = smio_dir_open(od.c_str(), "", 0, msg, sizeof msg);
+        if (fd < 0) { std::fprintf(stderr, "supermat mesh: cannot write %s: %s\n", out, msg); return 1; }
+        close(fd);
+    }
+    if (exists_l(out) && policy != 1) { /* before any work */
+        if (policy == 2) { std::fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", out); return 0; }
+        std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
+        return 1;
     }
     static char default_path[4096];
     static std::string default_mv, default_bc, default_rm;
@@ -1562,6 +1604,32 @@ extern "C" int supermat_cli_mesh(int argc, char **argv) {
                 st.texels_chart ? 100.0 * st.texels_seen / st.texels_chart : 0.0, secs, ru.ru_maxrss / 1024.0);
     return 0;
 }
+
+extern "C" int supermat_cli_mesh(int argc, char **argv) {
+    supermat_cli_mesh_opts o;
+    const char *in = nullptr, *out = nullptr;
+    int rc = parse_mesh_opts(argc, argv, o, &in, &out);
+    return rc >= 0 ? rc : run_mesh(o, in, out);
+}
+
+/* `batch mesh`: the options once (argv[0] "mesh", no IN OUT), then one run per asset, each writing over what
+   the batch's journal says is not done (force) */
+extern "C" int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts) {
+    supermat_cli_mesh_opts *o = new (std::nothrow) supermat_cli_mesh_opts();
+    *opts = nullptr;
+    if (!o) { std::fprintf(stderr, "supermat batch mesh: out of memory\n"); return 1; }
+    int rc = parse_mesh_opts(argc, argv, *o, nullptr, nullptr);
+    if (rc >= 0) { delete o; return rc == 0 ? 2 : rc; }
+    *opts = o;
+    return 0;
+}
+extern "C" int supermat_cli_mesh_run(const supermat_cli_mesh_opts *opts, const char *in, const char *out, int force, int allow_outside) {
+    supermat_cli_mesh_opts o = *opts;
+    if (force) o.policy = 1;
+    if (allow_outside) o.allow_outside = true;
+    return run_mesh(o, in, out);
+}
+extern "C" void supermat_cli_mesh_opts_free(supermat_cli_mesh_opts *opts) { delete opts; }
 
 #ifdef SUPERMAT_MESH_MAIN
 /* standalone: no installed or source-tree default model; $SUPERMAT_MODEL when set */

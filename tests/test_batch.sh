@@ -298,6 +298,13 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     check "batch mesh: the asset mirrored, its textures as supermat mesh bakes them" cmp -s mref_baseColor.png mout/a/deep/asset_1_baseColor.png
     check "batch mesh: a .gltf with its buffer beside it" [ -f mout/b/asset_2.gltf ] && [ -f mout/b/geo_2.bin ]
     "$BIN" batch mesh --model x --out mout m 2>/dev/null; check "batch mesh: an image option is a usage error" [ $? -eq 2 ]
+    # mesh's options are checked once, by mesh's own parser, before any asset or folder: a usage error
+    "$BIN" batch mesh "${MESH[@]}" --work-size 7 --out mbad m > /dev/null 2> log; rc=$?
+    check "batch mesh --work-size 7: a usage error before any asset (got $rc)" [ $rc -eq 2 ]
+    check "batch mesh --work-size 7: mesh's message" grep -q -- "--work-size: 'native' or a multiple of 8" log
+    check "batch mesh --work-size 7: no output folder, no journal" [ ! -e mbad ]
+    "$BIN" batch mesh --passthrough --refine --out mbad m > /dev/null 2> log; rc=$?
+    check "batch mesh --passthrough --refine: a usage error before any asset (got $rc)" [ $rc -eq 2 ] && [ ! -e mbad ]
     rm -f m/b/broken.gltf
     for k in $(seq 6); do
         "$BIN" batch mesh "${MESH[@]}" --out mkill m >/dev/null 2>&1 &
