@@ -114,6 +114,7 @@ static int cli_convert(int argc, char **argv) {
     if (!d.base_dir) return cli_usage_error(cmd, "--base DIR is required");
     if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
     d.progress = isatty(2);
+    if (cli_out_folder_ok(d.output) != CLI_OK) return CLI_FAIL; /* before the (minutes of) conversion */
     switch (cli_out_allowed(d.output)) {       /* the overwrite policy (sm_convert writes OUT.tmp, renames) */
     case CLI_FAIL: return CLI_FAIL;
     case CLI_SKIPPED: fprintf(stderr, "kept '%s' (it exists; --skip-existing)\n", d.output); return CLI_OK;

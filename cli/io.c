@@ -200,6 +200,16 @@ static int cli_out_dirfd(const char *path, const char **base) {
     return fd;
 }
 
+/* The output-folder policy of every command: a folder named by --out DIR is created; the folder of an
+   output FILE must exist, and is checked here before any work (CLI_OK, or CLI_FAIL after the message). */
+static int cli_out_folder_ok(const char *path) {
+    const char *base;
+    int fd = cli_out_dirfd(path, &base);
+    if (fd < 0) return CLI_FAIL;
+    close(fd);
+    return CLI_OK;
+}
+
 /* The folders whose leftovers of dead runs were removed (smio_clean_stale), once per folder and process */
 typedef struct cli_dir_id { dev_t dev; ino_t ino; } cli_dir_id;
 static cli_dir_id *cli_cleaned;

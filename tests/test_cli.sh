@@ -154,6 +154,11 @@ run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/
 check "convert --dtype f16 (kind detected) exits 0" [ $RC -eq 0 ]
 run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8.safetensors" --precision int8
 check "convert --precision int8 exits 0" [ $RC -eq 0 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/no_such_dir/x.safetensors"
+check "convert into a missing folder exits 1" [ $RC -eq 1 ]
+check "convert into a missing folder names it" grep -q "no_such_dir" "$T/err"
+check "convert into a missing folder fails before reading the base folder" bash -c "! grep -q 'text_encoder' '$T/err'"
+absent "$T/no_such_dir"
 run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8w.safetensors" --weights int8
 check "convert --weights int8 exits 0" [ $RC -eq 0 ]
 check "convert --weights int8 writes what --precision int8 (its old spelling) writes" cmp -s "$T/tiny_i8.safetensors" "$T/tiny_i8w.safetensors"
