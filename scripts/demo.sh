@@ -19,14 +19,20 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 export PYTHONPATH="$PWD/python${PYTHONPATH:+:$PYTHONPATH}"   # the tools: python -m supermat_tools.X (python/README.md)
 need=()
-for p in cmake make gcc g++ libstb-dev libtinygltf-dev python3 python3-numpy python3-pil python3-scipy; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+# nlohmann-json3-dev: `supermat mesh` needs it beside libtinygltf-dev (which does not depend on it)
+for p in cmake make gcc g++ libstb-dev libtinygltf-dev nlohmann-json3-dev python3 python3-numpy python3-pil python3-scipy; do
+  dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
+done
 if [ ${#need[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
-  $SUDO apt-get update -qq
-  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
+  echo "demo: updating the package lists (apt-get update)"
+  $SUDO apt-get -o DPkg::Lock::Timeout=600 update -qq
+  echo "demo: installing ${#need[@]} package$([ ${#need[@]} -eq 1 ] || echo s): ${need[*]} (waits up to 10 minutes for another apt)"
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq "${need[@]}" >/dev/null
 fi
+echo "demo: building build/supermat"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
-cmake --build build -j"$(nproc 2>/dev/null || echo 2)" --target supermat
+cmake --build build -j"$(nproc 2>/dev/null || echo 2)" --target supermat >/dev/null
 SM=build/supermat
 mkdir -p out
 
@@ -122,5 +128,5 @@ if grep -q "usage: supermat mesh" <<<"$mesh_help"; then
   echo "relit: out/mesh_relight.png (the input mesh as given, the baked one and the truth under studio_small_03,"
   echo "       two views, one exposure)"
 else
-  echo "mesh: skipped (this supermat was built without tinygltf: apt install libtinygltf-dev)"
+  echo "mesh: skipped (this supermat was built without glTF support: apt install libtinygltf-dev nlohmann-json3-dev)"
 fi
