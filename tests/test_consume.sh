@@ -45,6 +45,9 @@ cflags=$(PKG_CONFIG_PATH="$pc" pkg-config --cflags supermat)
 libs=$(PKG_CONFIG_PATH="$pc" pkg-config --libs supermat)
 [ "$(PKG_CONFIG_PATH="$pc" pkg-config --modversion supermat)" = "$(sed -n 's/^Version: //p' "$pc/supermat.pc" | head -1)" ] || fail "pkg-config version"
 echo "pkg-config: $cflags $libs"
+modeldir=$(PKG_CONFIG_PATH="$pc" pkg-config --variable=modeldir supermat)
+[ -f "$modeldir/supermat_default.safetensors" ] || fail "pkg-config modeldir '$modeldir' has no supermat_default.safetensors"
+[ "$(cd "$modeldir" && pwd -P)" = "$(cd "$work/prefix/share/supermat" && pwd -P)" ] || fail "pkg-config modeldir '$modeldir' is not the installed folder"
 # shellcheck disable=SC2086
 $CC -std=c99 -Wall -Wextra -pedantic -Werror $cflags -o "$work/pc_consumer" "$src"/tests/consumer/{main,impl,static_a,static_b}.c $libs \
   || fail "pkg-config compile"
