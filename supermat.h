@@ -556,6 +556,10 @@ SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
  * rounded up: a container limited to 1.5 CPUs gets 2) allows fewer; at most 64, at least 1; 1 without
  * pthreads. */
 SUPERMAT_API int supermat_default_threads(void);
+/* 1 when this implementation was compiled with optimisation (GCC and Clang define __OPTIMIZE__ at -O1 and
+ * above), 0 when without (-O0, a build type left empty: about 10x slower), -1 where the compiler does not
+ * say (MSVC). Tools print a warning on 0, so nobody measures a debug build by accident. */
+SUPERMAT_API int supermat_build_optimized(void);
 SUPERMAT_API int supermat_cpu_has_avx2(void);
 SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
 SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
@@ -767,6 +771,16 @@ static int supermat__cpu_count(void) {
 }
 
 SUPERMAT__DEF int supermat_default_threads(void) { return supermat__cpu_count(); }
+
+SUPERMAT__DEF int supermat_build_optimized(void) {
+#if defined(__OPTIMIZE__)
+    return 1;
+#elif defined(__GNUC__) || defined(__clang__)
+    return 0;
+#else
+    return -1;
+#endif
+}
 
 /* >>errors */
 SUPERMAT__DEF const char *supermat_result_string(supermat_result r) {

@@ -105,6 +105,8 @@ static int cli_info(int argc, char **argv) {
         else printf("work size     none: image, views and refine run each picture at its own size\n");
     }
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
+    printf("build         %s\n", supermat_build_optimized() == 1 ? "optimised" :
+                                  supermat_build_optimized() == 0 ? "NOT optimised (-O0: about 10x slower)" : "optimisation unknown");
     {
         static const char *wn[] = {"default", "f32", "f16", "bf16", "int8"};
         printf("weights       %s (GEMM weight storage; %.1f MiB held by the model)\n", (unsigned)mi.weights < 5 ? wn[mi.weights] : "?", (double)mi.model_bytes / 1048576.0);

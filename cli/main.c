@@ -100,6 +100,9 @@ int main(int argc, char **argv) {
         return CLI_OK;
     }
     cli_accept16 = !strcmp(c, "image") || !strcmp(c, "sheet"); /* image: float input; sheet: shown at 8 bits */
+    if (supermat_build_optimized() == 0 && strcmp(c, "sheet")) /* nobody measures a debug build by accident */
+        fprintf(stderr, "supermat: warning: this supermat was built without optimisation (-O0): about 10x slower; "
+                        "build it with -DCMAKE_BUILD_TYPE=Release\n");
     if (!strcmp(c, "convert")) return cli_convert(argc, argv);
     if (!strcmp(c, "pack")) return cli_pack(argc, argv);
     if (!strcmp(c, "image")) return cli_image(argc, argv);

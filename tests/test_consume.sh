@@ -27,7 +27,10 @@ for mode in find_package fetchcontent subdirectory; do
   if [ $mode = find_package ]; then args+=(-DCMAKE_PREFIX_PATH="$work/prefix"); else args+=(-DSUPERMAT_SRC="$src"); fi
   cmake -S "$src/tests/consumer" -B "$work/$mode" "${args[@]}" >"$work/$mode.log" 2>&1 || { cat "$work/$mode.log"; fail "$mode: configure"; }
   cmake --build "$work/$mode" >>"$work/$mode.log" 2>&1 || { cat "$work/$mode.log"; fail "$mode: build"; }
-  "$work/$mode/consumer" || fail "$mode: the consumer failed"
+  "$work/$mode/consumer" > "$work/$mode.out" || { cat "$work/$mode.out"; fail "$mode: the consumer failed"; }
+  cat "$work/$mode.out"
+  # no build type given: the target's -O2 for the empty configuration (GCC, Clang) makes it an optimised build
+  case "$CC" in *gcc*|*clang*|cc) grep -qx 'optimized 1' "$work/$mode.out" || fail "$mode: built without optimisation (no build type)";; esac
   if [ $mode != find_package ]; then
     # the consumer gets the library alone: no supermat CLI or test targets, no C++ enabled, no install rules
     grep -q '^CMAKE_CXX_COMPILER:' "$work/$mode/CMakeCache.txt" && fail "$mode: C++ enabled in a C consumer"

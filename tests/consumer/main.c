@@ -21,6 +21,7 @@ int main(void) {
     supermat_uv_cameras(cams);
     printf("supermat %d.%d.%d, %d threads; junk model: %s (%s)\n", SUPERMAT_VERSION_MAJOR, SUPERMAT_VERSION_MINOR,
            SUPERMAT_VERSION_PATCH, n, supermat_result_string(r), err.message);
+    printf("optimized %d\n", supermat_build_optimized());
     if (r == SUPERMAT_SUCCESS || model || !err.message[0]) return 1;
     if (n < 1 || static_a() != n || static_b() != n) return 1;
     return 0;
