@@ -58,6 +58,11 @@ static int cli_default_places(char places[3][CLI_PATH_CAP], const char *what[3])
     return n;
 }
 
+static int cli_is_file(const char *path) {
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
 /* the DEFAULT MODEL part of `image`, `info` and `bench --help` */
 static void cli_print_default_model_help(void) {
     char places[3][CLI_PATH_CAP];
@@ -72,12 +77,24 @@ static void cli_print_default_model_help(void) {
            "  3. the source tree's models/%s (a build that was not installed)\n"
            "Here:\n", SUPERMAT_CLI_DATADIR_FROM_BIN, CLI_DEFAULT_MODEL, SUPERMAT_CLI_DATADIR, CLI_DEFAULT_MODEL, CLI_DEFAULT_MODEL);
     for (i = 0; i < n; i++) printf("  %s (%s)\n", places[i], what[i]);
+    { /* the one that is used, and the work size it records: the size pictures are resized to by default */
+        const char *env = getenv("SUPERMAT_MODEL"), *used = env && env[0] ? env : NULL;
+        for (i = 0; !used && i < n; i++)
+            if (cli_is_file(places[i])) used = places[i];
+        if (used) {
+            unsigned char *file = NULL;
+            size_t size = 0;
+            char v[32];
+            if (cli_is_file(used) && cli_read_file(used, &file, &size) == 0 &&
+                supermat_safetensors_metadata(file, size, "pipeline.work_size", v, sizeof v) == 0)
+                printf("  used: %s, work size %sx%s (what pictures are resized to by default)\n", used, v, v);
+            else
+                printf("  used: %s\n", used);
+            cli_free_file(file);
+        } else
+            printf("  none of them exists\n");
+    }
     printf("`supermat info` without a FILE shows the default model.\n");
-}
-
-static int cli_is_file(const char *path) {
-    struct stat st;
-    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
 
 /* The model file a command runs: --model's (given) when there is one; else, when allow_default, the

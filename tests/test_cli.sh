@@ -201,6 +201,11 @@ check "convert --work-size 100 exits 2" [ $RC -eq 2 ]
 run convert --from "$T/tiny_ws128.safetensors" --work-size 64 --out "$T/tiny_ws64.safetensors"
 check "convert --from --work-size 64 exits 0" [ $RC -eq 0 ]
 absent "$T/tiny_ws64.safetensors.tmp"
+# --help states the work size of the default model actually found (one source of truth: the file)
+run_env SUPERMAT_MODEL="$T/tiny_ws64.safetensors" -- image --help
+check "image --help names the default model used and its work size, 64x64" grep -q "used: $T/tiny_ws64.safetensors, work size 64x64" "$T/out"
+run_env SUPERMAT_MODEL="$T/tiny_ws128.safetensors" -- bench --help
+check "bench --help: the work size of the model used, 128x128" grep -q "used: $T/tiny_ws128.safetensors, work size 128x128" "$T/out"
 run info "$T/tiny_ws64.safetensors"
 check "convert --from: --work-size 64 recorded" grep -Eq '^work size +64x64' "$T/out"
 check "convert --from: the same size (the header padded back to its length)" [ "$(stat -c %s "$T/tiny_ws64.safetensors")" = "$(stat -c %s "$T/tiny_ws128.safetensors")" ]
