@@ -874,7 +874,7 @@ struct supermat_cli_mesh_opts {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *dbg = nullptr;
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
-    int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
+    int passthrough = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
         edge_reject = 0, supersample = 0, policy = 0; /* policy: 0 refuse existing outputs, 1 --force, 2 --skip-existing */
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     bool allow_outside = false;
@@ -884,30 +884,25 @@ struct supermat_cli_mesh_opts {
 /* argv[1..]: the options, then IN and OUT where in_p is not NULL (none where it is: batch); -1 when they are
    valid (o filled), else the exit status (0 after --help, 2 after a usage message) */
 static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, const char **in_p, const char **out_p) {
-    const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *in = nullptr, *out = nullptr, *dbg = nullptr;
-    int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
-    float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
-    int passthrough = 0, no_refine = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0, edge_reject = 0, supersample = 0, policy = 0;
-    supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
-    bool allow_outside = false;
-    size_t max_memory = 0;
+    const char *in = nullptr, *out = nullptr;
+    int no_refine = 0; /* --no-refine, or no refine flag: only checked here (the bake follows from the others) */
     for (int i = 1; i < argc; i++) {
         std::string a = argv[i];
         bool more = i + 1 < argc;
-        if (a == "--mv-model" && more) mv_path = argv[++i];
-        else if (a == "--albedo-refine" && more) bc_path = argv[++i];
-        else if (a == "--rm-refine" && more) rm_path = argv[++i];
-        else if (a == "--debug-dir" && more) dbg = argv[++i];
-        else if ((a == "--texture-size" || a == "--size") && more) size = std::atoi(argv[++i]);
-        else if (a == "--views-size" && more) views = std::atoi(argv[++i]);
-        else if (a == "--threads" && more) threads = std::atoi(argv[++i]);
-        else if (a == "--gutter" && more) gutter = std::atoi(argv[++i]);
-        else if (a == "--edge-reject" && more) edge_reject = std::atoi(argv[++i]);
-        else if (a == "--supersample" && more) supersample = std::atoi(argv[++i]);
+        if (a == "--mv-model" && more) o.mv_path = argv[++i];
+        else if (a == "--albedo-refine" && more) o.bc_path = argv[++i];
+        else if (a == "--rm-refine" && more) o.rm_path = argv[++i];
+        else if (a == "--debug-dir" && more) o.dbg = argv[++i];
+        else if ((a == "--texture-size" || a == "--size") && more) o.size = std::atoi(argv[++i]);
+        else if (a == "--views-size" && more) o.views = std::atoi(argv[++i]);
+        else if (a == "--threads" && more) o.threads = std::atoi(argv[++i]);
+        else if (a == "--gutter" && more) o.gutter = std::atoi(argv[++i]);
+        else if (a == "--edge-reject" && more) o.edge_reject = std::atoi(argv[++i]);
+        else if (a == "--supersample" && more) o.supersample = std::atoi(argv[++i]);
         else if (a == "--work-size" && more) {
             std::string w = argv[++i];
-            work_opt = w == "native" ? 0 : std::atoi(w.c_str());
-            if (w != "native" && (work_opt < 8 || work_opt % 8 || work_opt > 16384)) {
+            o.work_opt = w == "native" ? 0 : std::atoi(w.c_str());
+            if (w != "native" && (o.work_opt < 8 || o.work_opt % 8 || o.work_opt > 16384)) {
                 std::fprintf(stderr, "supermat mesh: --work-size: 'native' or a multiple of 8 from 8 to 16384, not '%s'\n", argv[i]);
                 return 2;
             }
@@ -915,31 +910,31 @@ static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, con
         else if (a == "--detail" && more) {
             std::string w = argv[++i];
             char *end = nullptr;
-            detail = w == "off" ? 0.0f : std::strtof(w.c_str(), &end);
-            if (w != "off" && (!end || *end || !(detail >= 0.0f && detail <= 1.0f))) {
+            o.detail = w == "off" ? 0.0f : std::strtof(w.c_str(), &end);
+            if (w != "off" && (!end || *end || !(o.detail >= 0.0f && o.detail <= 1.0f))) {
                 std::fprintf(stderr, "supermat mesh: --detail: 'off' or a fraction of the texture size from 0 to 1, not '%s'\n", argv[i]);
                 return 2;
             }
         }
         else if (a == "--max-memory" && more) {
-            if (!parse_size(argv[++i], &max_memory)) {
+            if (!parse_size(argv[++i], &o.max_memory)) {
                 std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", argv[i]);
                 return 2;
             }
         }
         else if ((a == "--view-weight" || a == "--weight") && more) {
             std::string w = argv[++i];
-            if (w == "cos") weight = SUPERMAT_UV_WEIGHT_COS_POWER;
+            if (w == "cos") o.weight = SUPERMAT_UV_WEIGHT_COS_POWER;
             else if (w != "average") return usage();
-        } else if (a == "--passthrough") passthrough = 1;
+        } else if (a == "--passthrough") o.passthrough = 1;
         else if (a == "--no-refine") no_refine = 1;
-        else if (a == "--refine") refine = 1;
-        else if (a == "--keep-observed") keep_observed = 1;
-        else if (a == "--allow-outside-refs") allow_outside = true;
+        else if (a == "--refine") o.refine = 1;
+        else if (a == "--keep-observed") o.keep_observed = 1;
+        else if (a == "--allow-outside-refs") o.allow_outside = true;
         else if (a == "--force" || a == "--skip-existing") {
             int want = a == "--force" ? 1 : 2;
-            if (policy && policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
-            policy = want;
+            if (o.policy && o.policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
+            o.policy = want;
         }
         else if (a == "-h" || a == "--help") return usage();
         else if (a.size() > 1 && a[0] == '-' && a != "-") { std::fprintf(stderr, "supermat mesh: unknown option %s\n", a.c_str()); return usage(); }
@@ -949,31 +944,25 @@ static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, con
     }
     if (in_p && (!in || !out)) return usage();
     if (!in_p && in) { std::fprintf(stderr, "supermat batch mesh: unexpected argument '%s' (the assets are the batch's inputs)\n", in); return 2; }
-    if (no_refine && (passthrough || bc_path || rm_path || refine)) {
+    if (no_refine && (o.passthrough || o.bc_path || o.rm_path || o.refine)) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --refine, --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
     }
-    if (refine && (passthrough || bc_path || rm_path)) {
+    if (o.refine && (o.passthrough || o.bc_path || o.rm_path)) {
         std::fprintf(stderr, "supermat mesh: --refine takes the default refine networks: not with %s\n",
-                     passthrough ? "--passthrough" : "--albedo-refine or --rm-refine (name both files instead)");
+                     o.passthrough ? "--passthrough" : "--albedo-refine or --rm-refine (name both files instead)");
         return 2;
     }
-    if (!passthrough && !refine && !bc_path && !rm_path) no_refine = 1; /* no refine flag: the view model alone */
-    if (keep_observed && (passthrough || no_refine)) {
+    if (!o.passthrough && !o.refine && !o.bc_path && !o.rm_path) no_refine = 1; /* no refine flag: the view model alone */
+    if (o.keep_observed && (o.passthrough || no_refine)) {
         std::fprintf(stderr, "supermat mesh: --keep-observed keeps the seen texels out of the refinement: not with %s\n",
-                     passthrough ? "--passthrough" : "no refine network (--refine, --albedo-refine or --rm-refine)");
+                     o.passthrough ? "--passthrough" : "no refine network (--refine, --albedo-refine or --rm-refine)");
         return 2;
     }
-    if (!passthrough && !mv_path && (bc_path || rm_path)) {
+    if (!o.passthrough && !o.mv_path && (o.bc_path || o.rm_path)) {
         std::fprintf(stderr, "supermat mesh: --albedo-refine and --rm-refine need --mv-model\n");
         return 2;
     }
-    o.mv_path = mv_path; o.bc_path = bc_path; o.rm_path = rm_path; o.dbg = dbg;
-    o.work_opt = work_opt; o.detail = detail;
-    o.passthrough = passthrough; o.no_refine = no_refine; o.refine = refine; o.keep_observed = keep_observed;
-    o.size = size; o.views = views; o.threads = threads; o.gutter = gutter; o.edge_reject = edge_reject;
-    o.supersample = supersample; o.policy = policy; o.weight = weight; o.allow_outside = allow_outside;
-    o.max_memory = max_memory;
     if (in_p) { *in_p = in; *out_p = out; }
     return -1;
 }
