@@ -2,6 +2,8 @@
  * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
 
 /* >>args */
+#include "opt_table.h" /* the option tables: parsing and --help from one table per command */
+
 static const char cli_usage_main[] =
     "supermat - SuperMat PBR material estimation on the CPU (albedo, roughness, metallic)\n"
     "\n"
@@ -90,60 +92,6 @@ static const char cli_usage_pack[] =
     "  --compute X       f32 | bf16 | int8: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to\n"
     "                    load) or int8 compute (int8 quads; needs AVX512_VNNI or AVX-VNNI to load)\n"
     "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (the panels are the same for every kernel)\n";
-
-static const char cli_usage_image[] =
-    "usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
-    "\n"
-    "Runs the single-view SuperMat pipeline (a supermat model) on each image and writes, at the\n"
-    "image's own size,\n"
-    "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
-    "  DIR/<stem>_roughness.png    gray, 8-bit\n"
-    "  DIR/<stem>_metallic.png     gray, 8-bit\n"
-    "where <stem> is the image's file name without its folder and extension.\n"
-    "\n"
-    "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha\n"
-    "(16-bit PNGs at full precision; JPEGs turned upright by their EXIF orientation; WebP through\n"
-    "libwebp when built with it); transparent pixels are composited over gray 0.5. Width and height\n"
-    "must both be multiples of 8.\n"
-    "\n"
-    "PREPROCESSING, as the official scripts: each picture is resized to the model's work size, a square\n"
-    "the model file records (512x512 for a converted official checkpoint; the default model's is under\n"
-    "DEFAULT MODEL below; `supermat info` shows any file's), the network runs there, and the maps are\n"
-    "resized back to the picture's size.\n"
-    "  --native          run each picture at its own size instead\n"
-    "  --work-size N     at N x N (a multiple of 8)\n"
-    "  --detail F|off    the albedo keeps the picture's detail: picture x low-pass(albedo) / low-pass\n"
-    "                    (picture) in linear light, the lighting taken as smooth over F x the picture's\n"
-    "                    larger side (default 1/64; off: the network's albedo as it is; supermat.h,\n"
-    "                    session_desc.detail_sigma)\n"
-    "  --chroma W|off    then the albedo takes the picture's colour (chromaticity) at the network's\n"
-    "                    luminance, with weight W from 0 to 1 (default 1; off: the network's colour;\n"
-    "                    supermat.h, session_desc.chroma_weight). Both steps are on by default: they\n"
-    "                    measured closer to ground truth on validation assets (docs/quality.md); with\n"
-    "                    `--detail off --chroma off` the albedo is the network's alone\n"
-    "\n"
-    "options:\n"
-    "  --model FILE      a model file made by `supermat convert` (default: the default model,\n"
-    "                    see DEFAULT MODEL below)\n"
-    "  --out DIR         the output folder, created if missing (required)\n"
-    "  --outputs LIST    comma list of albedo,roughness,metallic (default: all three);\n"
-    "                    only what is asked for is computed\n"
-    "  --float           also write the maps before 8-bit quantisation as PFM files (float32,\n"
-    "                    little endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n"
-    "                    <stem>_metallic.pfm (Pf, gray)\n"
-    "  --threads N       threads (default 0 = all cores, 1 = the calling thread only)\n"
-    "  --kernel K        auto | scalar | avx2 | avx512 | neon | amx (default auto: the best this CPU has)\n"
-    "  --max-memory SIZE refuse a model + session that would need more memory than SIZE (512M, 4G),\n"
-    "                    before allocating it; the message says how much it needs\n"
-    "  --weights W       default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)\n"
-    "  --compute C       f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\n"
-    "                    AVX512_VNNI or AVX-VNNI CPUs; default f32)\n"
-    "  --conv C          direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\n"
-    "                    Winograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)\n"
-    "\n"
-    "Each file is written to a temporary file and renamed when complete. Progress (and the default model's\n"
-    "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
-    "for a uv-refine model `supermat refine`. `supermat sheet` puts inputs and maps side by side.\n";
 
 static const char cli_usage_views[] =
     "usage: supermat views --model FILE --cameras meta.json --out DIR [options] VIEW...\n"
@@ -360,17 +308,6 @@ static const char cli_usage_bench_truth[] =
     "A truth file that cannot be read, is not of the image's size, is 16-bit or has the wrong colour\n"
     "type (albedo: colour; roughness, metallic: gray), or an image without object pixels, is an error\n"
     "(exit status 1) before anything runs.\n";
-
-static int cli_usage_error(const char *cmd, const char *fmt, ...) CLI_PRINTF(2, 3);
-static int cli_usage_error(const char *cmd, const char *fmt, ...) {
-    va_list ap;
-    fprintf(stderr, "supermat%s%s: ", cmd ? " " : "", cmd ? cmd : "");
-    va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
-    va_end(ap);
-    fprintf(stderr, "\nTry 'supermat%s%s --help'.\n", cmd ? " " : "", cmd ? cmd : "");
-    return CLI_USAGE;
-}
 
 /* Matches argv[*i] against `--name value` or `--name=value`. Returns 1 and *val on a match, 0 if
    argv[*i] is another argument, -1 (after a usage message) if the value is missing. */

@@ -165,6 +165,50 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
     return rc;
 }
 
+/* `supermat image`: its options and --help */
+enum { CLI_IMAGE_MODEL = 1, CLI_IMAGE_OUT, CLI_IMAGE_OUTPUTS };
+#define CLI_HELP_OUTPUTS "comma list of albedo,roughness,metallic (default: all three);\nonly what is asked for is computed"
+static const cli_optdef cli_opts_image[] = {
+    CLI_TEXT("usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
+             "\n"
+             "Runs the single-view SuperMat pipeline (a supermat model) on each image and writes, at the\n"
+             "image's own size,\n"
+             "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
+             "  DIR/<stem>_roughness.png    gray, 8-bit\n"
+             "  DIR/<stem>_metallic.png     gray, 8-bit\n"
+             "where <stem> is the image's file name without its folder and extension.\n"
+             "\n"
+             "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha\n"
+             "(16-bit PNGs at full precision; JPEGs turned upright by their EXIF orientation; WebP through\n"
+             "libwebp when built with it); transparent pixels are composited over gray 0.5. Width and height\n"
+             "must both be multiples of 8.\n"
+             "\n"
+             "PREPROCESSING, as the official scripts: each picture is resized to the model's work size, a square\n"
+             "the model file records (512x512 for a converted official checkpoint; the default model's is under\n"
+             "DEFAULT MODEL below; `supermat info` shows any file's), the network runs there, and the maps are\n"
+             "resized back to the picture's size.\n"),
+    CLI_OPTS(cli_opts_work),
+    {CLI_O_DETAIL, "--detail", "F|off", "the albedo keeps the picture's detail: picture x low-pass(albedo) / low-pass\n"
+                                        "(picture) in linear light, the lighting taken as smooth over F x the picture's\n"
+                                        "larger side (default 1/64; off: the network's albedo as it is; supermat.h,\n"
+                                        "session_desc.detail_sigma)", NULL, NULL},
+    {CLI_O_CHROMA, "--chroma", "W|off", "then the albedo takes the picture's colour (chromaticity) at the network's\n"
+                                        "luminance, with weight W from 0 to 1 (default 1; off: the network's colour;\n"
+                                        "supermat.h, session_desc.chroma_weight). Both steps are on by default: they\n"
+                                        "measured closer to ground truth on validation assets (docs/quality.md); with\n"
+                                        "`--detail off --chroma off` the albedo is the network's alone", NULL, NULL},
+    CLI_TEXT("\noptions:\n"),
+    {CLI_IMAGE_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL below)", NULL, NULL},
+    {CLI_IMAGE_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
+    {CLI_IMAGE_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS, NULL, NULL},
+    {CLI_O_FLOAT, "--float", NULL, CLI_HELP_FLOAT3, NULL, NULL},
+    CLI_OPTS(cli_opts_machine),
+    CLI_TEXT("\n"
+             "Each file is written to a temporary file and renamed when complete. Progress (and the default model's\n"
+             "path) is printed on stderr when it is a terminal. For a supermat-mv model use `supermat views`,\n"
+             "for a uv-refine model `supermat refine`. `supermat sheet` puts inputs and maps side by side.\n"),
+    CLI_END};
+
 static int cli_image(int argc, char **argv) {
     const char *cmd = "image", *v, *model_arg = NULL, *model_path = NULL, *out_dir = NULL;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
@@ -176,31 +220,21 @@ static int cli_image(int argc, char **argv) {
     size_t file_size = 0;
     cli_image_ctx X;
     cli_model_ref mref;
+    cli_argp P;
 
     memset(&X, 0, sizeof X);
     cli_levers_init(&X.lv);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_image, stdout); cli_print_default_model_help(); free(imgs); return CLI_OK; }
-        if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-            model_arg = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-            out_dir = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
-            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &X.lv)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-        } else if (a[0] == '-' && a[1]) {
-            free(imgs);
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            imgs[nimg++] = a;
-        }
+    cli_argp_init(&P, cmd, cli_opts_image, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_image); cli_print_default_model_help(); free(imgs); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) { free(imgs); return CLI_USAGE; }
+        if (m == CLI_ARG_OPERAND) imgs[nimg++] = v;
+        else if (m == CLI_IMAGE_MODEL) model_arg = v;
+        else if (m == CLI_IMAGE_OUT) out_dir = v;
+        else if (m == CLI_IMAGE_OUTPUTS) { if (cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; } }
+        else if (cli_run_value(cmd, m, v, &want_float, &work_opt, &threads, &kernel, &X.lv) < 0) { free(imgs); return CLI_USAGE; }
     }
     if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }
     if (!nimg) { free(imgs); return cli_usage_error(cmd, "no input image"); }

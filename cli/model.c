@@ -195,6 +195,59 @@ static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want
     return 0;
 }
 
+/* The options the commands that run a model share: their ids (a command's own options count from 1),
+   their tables (spliced into each command's with CLI_OPTS) and cli_run_value, which reads their values. */
+enum {
+    CLI_O_FLOAT = 100, CLI_O_NATIVE, CLI_O_WORK_SIZE, CLI_O_DETAIL, CLI_O_CHROMA,
+    CLI_O_THREADS, CLI_O_KERNEL, CLI_O_MAX_MEMORY, CLI_O_WEIGHTS, CLI_O_COMPUTE, CLI_O_CONV
+};
+#define CLI_KERNEL_VALUES "auto | scalar | avx2 | avx512 | neon | amx"
+#define CLI_HELP_THREADS "threads (default 0 = all cores, 1 = the calling thread only)"
+#define CLI_HELP_KERNEL CLI_KERNEL_VALUES " (default auto: the best this CPU has)"
+#define CLI_HELP_MAX_MEMORY "refuse a model + session that would need more memory than SIZE (512M, 4G),\nbefore allocating it; the message says how much it needs"
+#define CLI_HELP_FLOAT3 "also write the maps before 8-bit quantisation as PFM files (float32,\nlittle endian): <stem>_albedo.pfm (PF, RGB), <stem>_roughness.pfm and\n<stem>_metallic.pfm (Pf, gray)"
+/* --weights, --compute, --conv: the speed / accuracy levers (docs/levers.md) */
+static const cli_optdef cli_opts_levers[] = {
+    {CLI_O_WEIGHTS, "--weights", "W", "default | f32 | f16 | bf16 | int8: GEMM weight storage (default: as the file stores it)", NULL, NULL},
+    {CLI_O_COMPUTE, "--compute", "C", "f32 | bf16 | int8: what the GEMMs multiply (bf16: AVX512_BF16 CPUs, int8:\nAVX512_VNNI or AVX-VNNI CPUs; default f32)", NULL, NULL},
+    {CLI_O_CONV, "--conv", "C", "direct | winograd-f2 | winograd-f4: how 3x3 convolutions run (default direct;\nWinograd: fewer multiplies, maps within ~1e-4 of direct; docs/levers.md)", NULL, NULL},
+    CLI_END};
+/* --threads, --kernel, --max-memory and the levers, as image, views and refine take them */
+static const cli_optdef cli_opts_machine[] = {
+    {CLI_O_THREADS, "--threads", "N", CLI_HELP_THREADS, NULL, NULL},
+    {CLI_O_KERNEL, "--kernel", "K", CLI_HELP_KERNEL, NULL, NULL},
+    {CLI_O_MAX_MEMORY, "--max-memory", "SIZE", CLI_HELP_MAX_MEMORY, NULL, NULL},
+    CLI_OPTS(cli_opts_levers),
+    CLI_END};
+/* --native and --work-size: the network's size (cli_work_size) */
+static const cli_optdef cli_opts_work[] = {
+    {CLI_O_NATIVE, "--native", NULL, "run each picture at its own size instead", NULL, NULL},
+    {CLI_O_WORK_SIZE, "--work-size", "N", "at N x N (a multiple of 8)", NULL, NULL},
+    CLI_END};
+
+/* the value of a shared option (id, v): 1 when id is one, -1 after a usage message, 0 when it is none.
+   A NULL pointer: the command does not take that option (its table does not list it). */
+static int cli_run_value(const char *cmd, int id, const char *v, int *want_float, int *work_opt, int *threads,
+                         supermat_kernel *kernel, cli_levers *lv) {
+    switch (id) {
+    case CLI_O_FLOAT: *want_float = 1; return 1;
+    case CLI_O_NATIVE: *work_opt = 0; return 1;
+    case CLI_O_WORK_SIZE:
+        if (cli_parse_int(cmd, "--work-size", v, 8, 16384, work_opt)) return -1;
+        if (*work_opt % 8) { cli_usage_error(cmd, "--work-size %d: a multiple of 8", *work_opt); return -1; }
+        return 1;
+    case CLI_O_DETAIL: return cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &lv->detail) ? -1 : 1;
+    case CLI_O_CHROMA: return cli_parse_unit(cmd, "--chroma", v, "a weight", &lv->chroma) ? -1 : 1;
+    case CLI_O_THREADS: return cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
+    case CLI_O_KERNEL: return cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
+    case CLI_O_WEIGHTS: return cli_parse_weights(cmd, v, lv) ? -1 : 1;
+    case CLI_O_COMPUTE: return cli_parse_compute(cmd, v, lv) ? -1 : 1;
+    case CLI_O_CONV: return cli_parse_conv(cmd, v, lv) ? -1 : 1;
+    case CLI_O_MAX_MEMORY: return cli_parse_bytes(cmd, "--max-memory", v, &lv->max_memory) ? -1 : 1;
+    default: return 0;
+    }
+}
+
 /* --max-memory: what is left of it for a session once the model holds its part (1 when nothing is) */
 static size_t cli_session_budget(const supermat_model *model, size_t max_memory) {
     supermat_model_info mi;
