@@ -574,6 +574,34 @@ SUPERMAT_API void supermat_session_flops(const supermat_session *session, superm
 /* FLOPs the last successful supermat_run performed (less than the session's when background tiles
    were skipped); zeros before the first run. */
 SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, supermat_flops *out);
+/* The threads a session created with this desc runs on: threading.max_threads when a caller's hook is
+ * given, else `threads` (0: supermat_default_threads()), at most 64; 1 without pthreads. What
+ * supermat_session_memory plans the per-thread scratch for (`supermat info` prints it). */
+SUPERMAT_API int supermat_session_desc_threads(const supermat_session_desc *desc);
+
+/* ---- testing hooks: for benchmarks and tests; an application running models needs none ---------- */
+/* One 3x3 convolution (stride 1, zero padding 1, bias) of a size x size x cin input (NHWC) to cout
+ * channels, as the UNet's convolutions run: one GEMM of M = size^2, K = 9 cin, N = cout over packed f32
+ * weights, with the micro-kernel of one kernel set. Weights, bias and input are a fixed pseudo-random
+ * pattern (the same values on every machine and every call), so kernels and machines can be compared:
+ * `supermat bench` part (c) times it (size 64, 320 -> 320 channels, the first UNet level at 512x512).
+ *   supermat_bench_conv_create   allocates everything (default allocator) for runs on up to `threads`
+ *                                threads (a threading hook's max_threads); size, cin, cout 1 to 4096
+ *   supermat_bench_conv_run      one convolution with `kernel`'s GEMM micro-kernel: SCALAR, AVX2, AVX512,
+ *                                NEON, or AUTO (the widest this CPU and build have), on `threading` (NULL:
+ *                                the calling thread). Allocates nothing, so that a caller can time it.
+ *                                UNSUPPORTED for a kernel this CPU or build lacks, and for AMX (a bf16
+ *                                compute kernel, not an f32 micro-kernel). AVX512 gives AVX2's bits; the
+ *                                scalar kernel differs from them by rounding (no FMA).
+ *   supermat_bench_conv_output   the last successful run's output, size x size x cout floats (NHWC);
+ *                                NULL before one */
+typedef struct supermat_bench_conv supermat_bench_conv;
+SUPERMAT_API supermat_result supermat_bench_conv_create(int size, int cin, int cout, int threads, supermat_bench_conv **out,
+                                                        supermat_error *err);
+SUPERMAT_API supermat_result supermat_bench_conv_run(supermat_bench_conv *bench, supermat_kernel kernel,
+                                                     const supermat_threading *threading, supermat_error *err);
+SUPERMAT_API const float *supermat_bench_conv_output(const supermat_bench_conv *bench);
+SUPERMAT_API void supermat_bench_conv_destroy(supermat_bench_conv *bench);
 
 /* ======================================== the API ends here ==================================== */
 #ifdef __cplusplus
@@ -5862,6 +5890,138 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     supermat__ok(err);
     return SUPERMAT_SUCCESS;
 }
+
+SUPERMAT__DEF int supermat_session_desc_threads(const supermat_session_desc *desc) {
+    return desc ? supermat__threads_for(desc) : 1;
+}
+
+/* >>benchhook : supermat_bench_conv_*, one 3x3 convolution GEMM with a chosen micro-kernel (testing hook) */
+struct supermat_bench_conv {
+    supermat_allocator alloc;
+    supermat__conv cv;
+    supermat__t in, out;
+    float **scratch;
+    float *scratch_mem;
+    int threads, done;
+    size_t np, nin, nout;
+};
+
+static uint32_t supermat__bench_rand(uint32_t *s) { *s = *s * 1664525u + 1013904223u; return *s >> 8; }
+
+static void supermat__bench_serial(void *user, int count, supermat_task_fn task, void *task_user) {
+    int i;
+    (void)user;
+    for (i = 0; i < count; i++) task(task_user, i, 0);
+}
+
+SUPERMAT__DEF void supermat_bench_conv_destroy(supermat_bench_conv *b) {
+    supermat_allocator a;
+    size_t K;
+    if (!b) return;
+    a = b->alloc;
+    K = (size_t)b->cv.w.K;
+    supermat__free(&a, b->cv.w.p, sizeof(float) * b->np * SUPERMAT__NR * K);
+    supermat__free(&a, b->cv.w.bias, sizeof(float) * b->np * SUPERMAT__NR);
+    supermat__free(&a, b->in.d, sizeof(float) * b->nin);
+    supermat__free(&a, b->out.d, sizeof(float) * b->nout);
+    supermat__free(&a, b->scratch, sizeof(float *) * (size_t)b->threads);
+    supermat__free(&a, b->scratch_mem, sizeof(float) * (size_t)SUPERMAT__MC * SUPERMAT__KC * (size_t)b->threads);
+    supermat__free(&a, b, sizeof *b);
+}
+
+SUPERMAT__DEF supermat_result supermat_bench_conv_create(int size, int cin, int cout, int threads, supermat_bench_conv **out,
+                                                         supermat_error *err) {
+    supermat_allocator a = supermat__resolve_allocator(NULL);
+    supermat_bench_conv *b;
+    size_t sf = (size_t)SUPERMAT__MC * SUPERMAT__KC, K, N, n, k, i;
+    uint32_t seed = 12345u;
+    if (!out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "supermat_bench_conv_create: out is NULL");
+    *out = NULL;
+    if (size < 1 || size > 4096 || cin < 1 || cin > 4096 || cout < 1 || cout > 4096 || threads < 1 || threads > 1024)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "supermat_bench_conv_create: size %d, cin %d, cout %d (1 to 4096), threads %d (1 to 1024)",
+                              size, cin, cout, threads);
+    b = (supermat_bench_conv *)supermat__alloc(&a, sizeof *b);
+    if (!b) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "supermat_bench_conv_create: out of memory");
+    memset(b, 0, sizeof *b);
+    b->alloc = a;
+    b->threads = threads;
+    K = (size_t)9 * (size_t)cin;
+    N = (size_t)cout;
+    b->np = (N + SUPERMAT__NR - 1) / SUPERMAT__NR;
+    b->nin = (size_t)size * (size_t)size * (size_t)cin;
+    b->nout = (size_t)size * (size_t)size * (size_t)cout;
+    b->cv.k = 3; b->cv.stride = 1; b->cv.cin = cin; b->cv.cout = cout;
+    b->cv.w.K = (int)K; b->cv.w.N = (int)N;
+    b->cv.w.p = (float *)supermat__alloc(&a, sizeof(float) * b->np * SUPERMAT__NR * K);
+    b->cv.w.bias = (float *)supermat__alloc(&a, sizeof(float) * b->np * SUPERMAT__NR);
+    b->in.d = (float *)supermat__alloc(&a, sizeof(float) * b->nin);
+    b->out.d = (float *)supermat__alloc(&a, sizeof(float) * b->nout);
+    b->scratch = (float **)supermat__alloc(&a, sizeof(float *) * (size_t)threads);
+    b->scratch_mem = (float *)supermat__alloc(&a, sizeof(float) * sf * (size_t)threads);
+    if (!b->cv.w.p || !b->cv.w.bias || !b->in.d || !b->out.d || !b->scratch || !b->scratch_mem) {
+        supermat_bench_conv_destroy(b);
+        return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "supermat_bench_conv_create: out of memory");
+    }
+    memset(b->cv.w.p, 0, sizeof(float) * b->np * SUPERMAT__NR * K);
+    memset(b->cv.w.bias, 0, sizeof(float) * b->np * SUPERMAT__NR);
+    for (i = 0; i < (size_t)threads; i++) b->scratch[i] = b->scratch_mem + sf * i;
+    /* W[n][k] packed as panel n/16, row k, column n%16 (k = (ky*3 + kx)*cin + ci, the model's order) */
+    for (n = 0; n < N; n++) {
+        b->cv.w.bias[n] = (float)(supermat__bench_rand(&seed) % 2001u) * 1e-4f - 0.1f;
+        for (k = 0; k < K; k++)
+            b->cv.w.p[((n / SUPERMAT__NR) * K + k) * SUPERMAT__NR + n % SUPERMAT__NR] = (float)(supermat__bench_rand(&seed) % 2001u) * 1e-5f - 0.01f;
+    }
+    for (i = 0; i < b->nin; i++) b->in.d[i] = (float)(supermat__bench_rand(&seed) % 2001u) * 1e-3f - 1.0f;
+    b->in.n = b->out.n = 1;
+    b->in.h = b->out.h = size;
+    b->in.w = b->out.w = size;
+    b->in.c = cin;
+    b->out.c = cout;
+    *out = b;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF supermat_result supermat_bench_conv_run(supermat_bench_conv *b, supermat_kernel kernel,
+                                                      const supermat_threading *threading, supermat_error *err) {
+    supermat__ctx X;
+    if (!b) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "supermat_bench_conv_run: bench is NULL");
+    if (threading && (!threading->parallel_for || threading->max_threads < 1 || threading->max_threads > b->threads))
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "supermat_bench_conv_run: a threading hook of %d threads (created for 1 to %d)",
+                              threading->max_threads, b->threads);
+    memset(&X, 0, sizeof X);
+    X.mr = SUPERMAT__MR;
+    if (kernel == SUPERMAT_KERNEL_AUTO) {
+        kernel = supermat_cpu_has_avx512() ? SUPERMAT_KERNEL_AVX512 : supermat_cpu_has_avx2() ? SUPERMAT_KERNEL_AVX2
+                 : supermat_cpu_has_neon() ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR;
+    }
+    switch (kernel) {
+    case SUPERMAT_KERNEL_SCALAR: X.ukr = supermat__ukr_scalar; break;
+#if SUPERMAT__HAS_AVX2
+    case SUPERMAT_KERNEL_AVX2: if (supermat_cpu_has_avx2()) X.ukr = supermat__ukr_avx2; break;
+#endif
+#if SUPERMAT__HAS_AVX512
+    case SUPERMAT_KERNEL_AVX512: if (supermat_cpu_has_avx512()) { X.ukr = supermat__ukr_avx512; X.mr = SUPERMAT__MR512; } break;
+#endif
+#if SUPERMAT__HAS_NEON
+    case SUPERMAT_KERNEL_NEON: X.ukr = supermat__ukr_neon; break;
+#endif
+    default: break;
+    }
+    if (!X.ukr) return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "supermat_bench_conv_run: kernel %d is not an f32 micro-kernel of this CPU and build", (int)kernel);
+    if (threading) X.thr = *threading;
+    else { X.thr.parallel_for = supermat__bench_serial; X.thr.user = NULL; X.thr.max_threads = 1; }
+    X.scratch = b->scratch;
+    X.scratch_floats = (size_t)SUPERMAT__MC * SUPERMAT__KC;
+    X.status = SUPERMAT_SUCCESS;
+    supermat__conv2d(&X, &b->in, b->in.h, b->in.w, &b->cv, 0, &b->out, NULL, NULL);
+    if (X.status != SUPERMAT_SUCCESS) return supermat__fail(err, X.status, NULL, "supermat_bench_conv_run: the convolution failed");
+    b->done = 1;
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+
+SUPERMAT__DEF const float *supermat_bench_conv_output(const supermat_bench_conv *b) { return b && b->done ? b->out.d : NULL; }
 
 #endif /* SUPERMAT_IMPLEMENTATION_DONE */
 #endif /* SUPERMAT_IMPLEMENTATION */

@@ -154,7 +154,7 @@ static int cli_info(int argc, char **argv) {
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = 512; sd.height = 512; sd.threads = threads;
         sd.views = mi.kind == SUPERMAT_KIND_SUPERMAT_MV ? 6 : 1;
-        nthreads = supermat__threads_for(&sd);
+        nthreads = supermat_session_desc_threads(&sd);
         sd.outputs = SUPERMAT_OUTPUT_ALL;
         r = supermat_session_memory(&sd, &all, &err);
         if (r == SUPERMAT_SUCCESS) {
