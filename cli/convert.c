@@ -53,54 +53,79 @@ static int cli_convert_from(const char *from, const char *outp, int work_size) {
     return rc;
 }
 
+/* `supermat convert`: its options and --help */
+enum { CLI_CONV_KIND = 1, CLI_CONV_UNET, CLI_CONV_BASE, CLI_CONV_OUT, CLI_CONV_WEIGHTS, CLI_CONV_PACKED, CLI_CONV_THREADS,
+       CLI_CONV_WORK_SIZE, CLI_CONV_FROM };
+static const cli_optdef cli_opts_convert[] = {
+    CLI_TEXT("usage: supermat convert --unet FILE.pth --base DIR --out FILE.safetensors [options]\n"
+             "       supermat convert --from MODEL.safetensors --work-size N|native --out FILE.safetensors\n"
+             "\n"
+             "Turns an official SuperMat checkpoint (torch.save format) plus a Stable Diffusion 2.1 folder in\n"
+             "diffusers layout (unet/config.json, vae/, text_encoder/, scheduler/) into the one model file that\n"
+             "`supermat image` loads. No Python is needed. The output is written to a temporary file, then renamed.\n"
+             "\n"
+             "options:\n"),
+    {CLI_CONV_KIND, "--kind", "K", "supermat | supermat-mv | uv-refine (default: detected from the checkpoint)", NULL, NULL},
+    {CLI_CONV_UNET, "--unet", "FILE", "the official checkpoint, e.g. supermat.pth (required)", NULL, NULL},
+    {CLI_CONV_BASE, "--base", "DIR", "the Stable Diffusion 2.1 folder (required)", NULL, NULL},
+    {CLI_CONV_OUT, "--out", "FILE", "the model file to write (required)", NULL, NULL},
+    {CLI_CONV_WEIGHTS, "--weights", "W", "f32 | f16 | bf16 | int8: the weights' storage in the file (f16 / bf16: round to\n"
+                                         "nearest even; int8: the GEMM weights as int8 with a scale per output channel,\n"
+                                         "kernel tap and 64 input channels, the rest as stored; loads to the same bits as\n"
+                                         "`--weights int8` of the other commands on an f32 file). Default: keep every\n"
+                                         "tensor's stored dtype", "--precision --dtype", NULL},
+    {CLI_CONV_PACKED, "--packed", NULL, "write the pre-packed form (`supermat pack` with its default options: the GEMM\n"
+                                        "panels used in place where the file is mapped, shared by processes)", NULL, NULL},
+    {CLI_CONV_THREADS, "--threads", "N", "text encoder threads (default 0 = 2, 1 = none)", NULL, NULL},
+    {CLI_CONV_WORK_SIZE, "--work-size", "N", "the square size `image`, `views` and `refine` resize pictures to by default, as\n"
+                                             "the official scripts do (default: theirs, 512; uv-refine 1024); `native` = none:\n"
+                                             "each picture at its own size (for a model trained at one size, give that size)", NULL, NULL},
+    {CLI_CONV_FROM, "--from", "MODEL", "instead of a checkpoint: an already converted model file (pre-packed or not),\n"
+                                       "written again with the --work-size given and nothing else changed (its tensors\n"
+                                       "byte for byte; the file written is checked to load)", NULL, NULL},
+    CLI_TEXT("\nProgress is printed on stderr when it is a terminal.\n"),
+    CLI_END};
+
 static int cli_convert(int argc, char **argv) {
     const char *cmd = "convert", *v, *from = NULL;
     sm_convert_desc d;
     char err[1024];
-    int i, m, r, packed = 0;
+    int m, r, packed = 0;
     struct stat st;
+    cli_argp P;
     memset(&d, 0, sizeof d);
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_convert, stdout); return CLI_OK; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--kind", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
+    cli_argp_init(&P, cmd, cli_opts_convert, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        switch (m) {
+        case CLI_ARG_HELP: cli_help_print(stdout, cli_opts_convert); return CLI_OK;
+        case CLI_ARG_ERROR: return CLI_USAGE;
+        case CLI_ARG_OPERAND: return cli_usage_error(cmd, "unexpected argument '%s'", v);
+        case CLI_CONV_KIND:
             if (strcmp(v, "supermat") && strcmp(v, "supermat-mv") && strcmp(v, "uv-refine"))
                 return cli_usage_error(cmd, "--kind: '%s' is not supermat, supermat-mv or uv-refine", v);
             d.kind = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--unet", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            d.checkpoint = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--from", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            from = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--base", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            d.base_dir = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            d.output = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0 || (m = cli_opt(cmd, argc, argv, &i, "--precision", &v)) != 0 ||
-                   (m = cli_opt(cmd, argc, argv, &i, "--dtype", &v)) != 0) {   /* --precision, --dtype: until the next release */
-            if (m < 0) return CLI_USAGE;
+            break;
+        case CLI_CONV_UNET: d.checkpoint = v; break;
+        case CLI_CONV_FROM: from = v; break;
+        case CLI_CONV_BASE: d.base_dir = v; break;
+        case CLI_CONV_OUT: d.output = v; break;
+        case CLI_CONV_WEIGHTS:
             if (!strcmp(v, "f32")) d.dtype = SUPERMAT_DTYPE_F32;
             else if (!strcmp(v, "f16")) d.dtype = SUPERMAT_DTYPE_F16;
             else if (!strcmp(v, "bf16")) d.dtype = SUPERMAT_DTYPE_BF16;
             else if (!strcmp(v, "int8") || !strcmp(v, "i8")) d.dtype = SUPERMAT_DTYPE_I8;
             else return cli_usage_error(cmd, "--weights: '%s' is not f32, f16, bf16 or int8", v);
-        } else if (!strcmp(a, "--packed")) {
-            packed = 1;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--work-size", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
+            break;
+        case CLI_CONV_PACKED: packed = 1; break;
+        case CLI_CONV_THREADS:
+            if (cli_parse_int(cmd, "--threads", v, 0, 1024, &d.threads)) return CLI_USAGE;
+            break;
+        case CLI_CONV_WORK_SIZE:
             if (!strcmp(v, "native")) d.work_size = -1;
             else if (cli_parse_int(cmd, "--work-size", v, 8, 16384, &d.work_size)) return CLI_USAGE;
             else if (d.work_size % 8) return cli_usage_error(cmd, "--work-size %d: a multiple of 8", d.work_size);
-        } else if (a[0] == '-') {
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            return cli_usage_error(cmd, "unexpected argument '%s'", a);
+            break;
+        default: break;
         }
     }
     if (from) {

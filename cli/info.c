@@ -11,8 +11,25 @@ static void cli_print_count(const char *label, uint64_t n) {
     printf("%s%llu (%.2f M)", label, (unsigned long long)n, (double)n / 1e6);
 }
 
+/* `supermat info`: its options and --help */
+static const cli_optdef cli_opts_info[] = {
+    CLI_TEXT("usage: supermat info [options] [FILE]\n"
+             "\n"
+             "Prints a model file's kind and architecture (with the camera embedding of a supermat-mv model\n"
+             "and the input channels of a uv-refine model), its parameter counts (UNet trunk, per branch,\n"
+             "VAE), the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
+             "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv). Without FILE: the\n"
+             "default model (below), after a line saying which file that is.\n"
+             "\n"
+             "options:\n"),
+    {CLI_O_THREADS, "--threads", "N", "thread count the session memory is planned for (default 0 = all cores)", NULL, NULL},
+    {CLI_O_KERNEL, "--kernel", "K", CLI_KERNEL_VALUES " (default auto)", NULL, NULL},
+    {CLI_O_MAX_MEMORY, "--max-memory", "SIZE", "refuse a model that needs more than SIZE (512M, 4G) while it is created", NULL, NULL},
+    CLI_OPTS(cli_opts_levers),
+    CLI_END};
+
 static int cli_info(int argc, char **argv) {
-    const char *cmd = "info", *path = NULL;
+    const char *cmd = "info", *path = NULL, *v;
     int i, m, threads = 0, ntens = 0, counts[SUPERMAT_DTYPE_COUNT];
     uint64_t bytes_by[SUPERMAT_DTYPE_COUNT], tensor_bytes = 0;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
@@ -27,18 +44,17 @@ static int cli_info(int argc, char **argv) {
     double create_s;
     cli_model_ref mref;
     cli_levers lv;
+    cli_argp P;
     cli_levers_init(&lv);
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_info, stdout); cli_print_default_model_help(); return CLI_OK; }
-        if ((m = cli_run_opt(cmd, argc, argv, &i, NULL, NULL, &threads, &kernel, &lv)) != 0) {
-            if (m < 0) return CLI_USAGE;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else if (path) {
-            return cli_usage_error(cmd, "one model file at a time ('%s' and '%s')", path, a);
-        } else {
-            path = a;
+    cli_argp_init(&P, cmd, cli_opts_info, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_info); cli_print_default_model_help(); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) return CLI_USAGE;
+        if (m == CLI_ARG_OPERAND) {
+            if (path) return cli_usage_error(cmd, "one model file at a time ('%s' and '%s')", path, v);
+            path = v;
+        } else if (cli_run_value(cmd, m, v, NULL, NULL, &threads, &kernel, &lv) < 0) {
+            return CLI_USAGE;
         }
     }
     if ((m = cli_model_path(cmd, path, 1, &mref)) != CLI_OK) return m;

@@ -8,6 +8,27 @@ static int cli_pack_write(void *user, const void *data, size_t size) {
     return o->err ? -1 : 0;
 }
 
+/* `supermat pack`: its options and --help */
+enum { CLI_PACK_MODEL = 1, CLI_PACK_OUT };
+static const cli_optdef cli_opts_pack[] = {
+    CLI_TEXT("usage: supermat pack [--model FILE] --out FILE.safetensors [--weights W] [--conv C] [--compute X]\n"
+             "\n"
+             "Writes the pre-packed form of a model file: the same file with its GEMM weights already in the\n"
+             "runtime's packed panel layout for the chosen options. A process that loads it uses the panels where\n"
+             "the file is mapped (no copy, no packing): the model is created in milliseconds and every process on\n"
+             "the machine shares one copy of the weights in the page cache. Every command loads it like any model\n"
+             "file, with the options it was packed for (asking for others is an error: pack again). The output is\n"
+             "written to a temporary file, then renamed.\n"
+             "\n"
+             "options:\n"),
+    {CLI_PACK_MODEL, "--model", "FILE", "the model file (default: the default model, see `supermat image --help`)", NULL, NULL},
+    {CLI_PACK_OUT, "--out", "FILE", "the pre-packed file to write (required)", NULL, NULL},
+    {CLI_O_WEIGHTS, "--weights", "W", "default | f32 | f16 | bf16 | int8: the storage of the GEMM weights (default: as\nthe file stores them)", NULL, NULL},
+    {CLI_O_CONV, "--conv", "C", "direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\nWinograd weights are stored transformed, in f32: 16/9 or 4x their size)", NULL, NULL},
+    {CLI_O_COMPUTE, "--compute", "X", "f32 | bf16 | int8: bf16 compute (weights as bf16 pairs; needs AVX512_BF16 to\nload) or int8 compute (int8 quads; needs AVX512_VNNI or AVX-VNNI to load)", NULL, NULL},
+    {CLI_O_KERNEL, "--kernel", "K", CLI_KERNEL_VALUES " (the panels are the same for every kernel)", NULL, NULL},
+    CLI_END};
+
 static int cli_pack(int argc, char **argv) {
     const char *cmd = "pack", *v, *model = NULL, *outp = NULL;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
@@ -20,20 +41,18 @@ static int cli_pack(int argc, char **argv) {
     size_t size = 0;
     uint64_t bytes = 0;
     double t0;
-    int i, m, rc;
+    int m, rc;
     cli_levers lv;
+    cli_argp P;
     cli_levers_init(&lv);
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_pack, stdout); return CLI_OK; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) { if (m < 0) return CLI_USAGE; model = v; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) { if (m < 0) return CLI_USAGE; outp = v; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) { if (m < 0 || cli_parse_weights(cmd, v, &lv)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) { if (m < 0 || cli_parse_compute(cmd, v, &lv)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) { if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE; }
-        else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) { if (m < 0 || cli_parse_conv(cmd, v, &lv)) return CLI_USAGE; }
-        else if (a[0] == '-') return cli_usage_error(cmd, "unknown option '%s'", a);
-        else return cli_usage_error(cmd, "unexpected argument '%s'", a);
+    cli_argp_init(&P, cmd, cli_opts_pack, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_pack); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) return CLI_USAGE;
+        if (m == CLI_ARG_OPERAND) return cli_usage_error(cmd, "unexpected argument '%s'", v);
+        if (m == CLI_PACK_MODEL) model = v;
+        else if (m == CLI_PACK_OUT) outp = v;
+        else if (cli_run_value(cmd, m, v, NULL, NULL, NULL, &kernel, &lv) < 0) return CLI_USAGE;
     }
     if (!outp) return cli_usage_error(cmd, "--out FILE is required");
     if ((m = cli_model_path(cmd, model, 1, &mref)) != CLI_OK) return m;

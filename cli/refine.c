@@ -17,6 +17,36 @@ static unsigned char *cli_load_gray(const char *path, int *w, int *h) {
     return p;
 }
 
+/* `supermat refine`: its options and --help */
+enum { CLI_REFINE_MODEL = 1, CLI_REFINE_MAP, CLI_REFINE_MASK, CLI_REFINE_POSITION, CLI_REFINE_OUT };
+static const cli_optdef cli_opts_refine[] = {
+    CLI_TEXT("usage: supermat refine --model FILE --map MAP --mask MASK --position POS --out DIR [options]\n"
+             "\n"
+             "Runs the UV refinement network (a uv-refine model) on a partial UV texture map: it fills in and\n"
+             "cleans up the map, guided by the observation mask and the surface position of each texel, and\n"
+             "writes\n"
+             "  DIR/<stem>_refined.png      RGB, 8-bit\n"
+             "where <stem> is the --map file's name without its folder and extension. Use uv_refine_bc for a\n"
+             "base colour (albedo) map, uv_refine_rm for a roughness/metallic map (R 0, G roughness, B metallic).\n"
+             "\n"
+             "The map and the position map are read as 8-bit RGB (alpha is dropped), the mask as 8-bit gray\n"
+             "(colour converted as 0.299 R + 0.587 G + 0.114 B, alpha dropped), as the official script does.\n"
+             "All three must have the same size, width and height multiples of 8; they run at the model's work\n"
+             "size (1024x1024 as the official script).\n"),
+    CLI_OPTS(cli_opts_work),
+    {CLI_O_DETAIL, "--detail", "off", "as `supermat image --detail`, off only: a UV map has no picture to keep detail from", NULL, NULL},
+    {CLI_O_CHROMA, "--chroma", "off", "as `supermat image --chroma`, off only: a UV map has no picture to take colour from", NULL, NULL},
+    CLI_TEXT("\noptions:\n"),
+    {CLI_REFINE_MODEL, "--model", "FILE", "a uv-refine model file made by `supermat convert` (required)", NULL, NULL},
+    {CLI_REFINE_MAP, "--map", "FILE", "the partial UV map (required)", NULL, NULL},
+    {CLI_REFINE_MASK, "--mask", "FILE", "the mask: where the map was observed (required)", NULL, NULL},
+    {CLI_REFINE_POSITION, "--position", "FILE", "the position map (required)", NULL, NULL},
+    {CLI_REFINE_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
+    {CLI_O_FLOAT, "--float", NULL, "also write the map before 8-bit quantisation as <stem>_refined.pfm (PF, RGB,\nfloat32, little endian)", NULL, NULL},
+    CLI_OPTS(cli_opts_machine),
+    CLI_TEXT("\nProgress is printed on stderr when it is a terminal.\n"),
+    CLI_END};
+
 static int cli_refine(int argc, char **argv) {
     const char *cmd = "refine", *v, *model_arg = NULL, *model_path, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
     static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
@@ -30,32 +60,18 @@ static int cli_refine(int argc, char **argv) {
     supermat_model *model = NULL;
     supermat_session *sess = NULL;
     cli_levers lv;
+    cli_argp P;
 
     cli_levers_init(&lv);
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        int k, hit = 0;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_refine, stdout); return CLI_OK; }
-        for (k = 0; k < 3 && !hit; k++)
-            if ((m = cli_opt(cmd, argc, argv, &i, opts[k], &v)) != 0) {
-                if (m < 0) return CLI_USAGE;
-                paths[k] = v;
-                hit = 1;
-            }
-        if (hit) continue;
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            model_arg = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            out_dir = v;
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &lv)) != 0) {
-            if (m < 0) return CLI_USAGE;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", a);
-        }
+    cli_argp_init(&P, cmd, cli_opts_refine, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_refine); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) return CLI_USAGE;
+        if (m == CLI_ARG_OPERAND) return cli_usage_error(cmd, "unexpected argument '%s' (the inputs are given with --map, --mask and --position)", v);
+        if (m >= CLI_REFINE_MAP && m <= CLI_REFINE_POSITION) paths[m - CLI_REFINE_MAP] = v;
+        else if (m == CLI_REFINE_MODEL) model_arg = v;
+        else if (m == CLI_REFINE_OUT) out_dir = v;
+        else if (cli_run_value(cmd, m, v, &want_float, &work_opt, &threads, &kernel, &lv) < 0) return CLI_USAGE;
     }
     if (lv.detail > 0.0f) return cli_usage_error(cmd, "--detail: a UV map has no picture to keep detail from (image and views take it)");
     if (lv.chroma > 0.0f) return cli_usage_error(cmd, "--chroma: a UV map has no picture to take colour from (image and views take it)");

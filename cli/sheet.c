@@ -2,31 +2,34 @@
  * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
 
 /* >>sheet */
-static const char cli_usage_sheet[] =
-    "usage: supermat sheet --out SHEET.png [--cell N] [--labels LIST] ROW...\n"
-    "\n"
-    "Puts pictures side by side in one PNG, a contact sheet. Each ROW is one row of the sheet: a comma\n"
-    "list of image files (read with stb_image: PNG, JPEG, BMP, TGA, ...), one per column; - leaves a\n"
-    "cell empty, and a row shorter than the longest leaves its last cells empty. For a picture and its\n"
-    "maps:\n"
-    "  supermat sheet --out sheet.png --labels input,albedo,roughness,metallic \\\n"
-    "      photo.png,out/photo_albedo.png,out/photo_roughness.png,out/photo_metallic.png\n"
-    "\n"
-    "Each image is resized to fit an N x N cell keeping its shape (square images fill it; a box\n"
-    "filter when shrinking, bilinear when enlarging) and centred in it. Transparent pixels show a\n"
-    "light checkerboard behind them; gray images are shown as gray. FILE:r, :g, :b or :a shows that one\n"
-    "channel of FILE as gray (e.g. a glTF metallicRoughness texture: roughness :g, metallic :b). Cells are separated by 4-pixel\n"
-    "gutters on a white background: the sheet is 4 + C * (N + 4) pixels wide and 4 + R * (N + 4)\n"
-    "high for C columns and R rows, plus 8 * S + 4 rows for the labels when --labels is given\n"
-    "(S = 1 + N / 256, the text scale: 1 up to N = 255). The PNG is RGB, 8-bit, written as\n"
-    "a temporary file and renamed when complete; on any error nothing is written.\n"
-    "\n"
-    "options:\n"
-    "  --out FILE        the PNG to write (required)\n"
-    "  --cell N          the cell size in pixels, 8 to 1024 (default 128)\n"
-    "  --labels LIST     comma list of column titles, printed above the columns in a small bitmap\n"
-    "                    font (letters, digits, space and . , _ - / ( ) : = + % ' ! ?; any other\n"
-    "                    character prints as ?); a title wider than its column is cut\n";
+/* `supermat sheet`: its options and --help */
+enum { CLI_SHEET_OUT = 1, CLI_SHEET_CELL, CLI_SHEET_LABELS };
+static const cli_optdef cli_opts_sheet[] = {
+    CLI_TEXT("usage: supermat sheet --out SHEET.png [--cell N] [--labels LIST] ROW...\n"
+             "\n"
+             "Puts pictures side by side in one PNG, a contact sheet. Each ROW is one row of the sheet: a comma\n"
+             "list of image files (read with stb_image: PNG, JPEG, BMP, TGA, ...), one per column; - leaves a\n"
+             "cell empty, and a row shorter than the longest leaves its last cells empty. For a picture and its\n"
+             "maps:\n"
+             "  supermat sheet --out sheet.png --labels input,albedo,roughness,metallic \\\n"
+             "      photo.png,out/photo_albedo.png,out/photo_roughness.png,out/photo_metallic.png\n"
+             "\n"
+             "Each image is resized to fit an N x N cell keeping its shape (square images fill it; a box\n"
+             "filter when shrinking, bilinear when enlarging) and centred in it. Transparent pixels show a\n"
+             "light checkerboard behind them; gray images are shown as gray. FILE:r, :g, :b or :a shows that one\n"
+             "channel of FILE as gray (e.g. a glTF metallicRoughness texture: roughness :g, metallic :b). Cells are separated by 4-pixel\n"
+             "gutters on a white background: the sheet is 4 + C * (N + 4) pixels wide and 4 + R * (N + 4)\n"
+             "high for C columns and R rows, plus 8 * S + 4 rows for the labels when --labels is given\n"
+             "(S = 1 + N / 256, the text scale: 1 up to N = 255). The PNG is RGB, 8-bit, written as\n"
+             "a temporary file and renamed when complete; on any error nothing is written.\n"
+             "\n"
+             "options:\n"),
+    {CLI_SHEET_OUT, "--out", "FILE", "the PNG to write (required)", NULL, NULL},
+    {CLI_SHEET_CELL, "--cell", "N", "the cell size in pixels, 8 to 1024 (default 128)", NULL, NULL},
+    {CLI_SHEET_LABELS, "--labels", "LIST", "comma list of column titles, printed above the columns in a small bitmap\n"
+                                           "font (letters, digits, space and . , _ - / ( ) : = + % ' ! ?; any other\n"
+                                           "character prints as ?); a title wider than its column is cut", NULL, NULL},
+    CLI_END};
 
 /* 5x8 glyphs of the characters in cli_font_chars: 8 rows top to bottom (rows 0-6 above the
    baseline, row 7 below it), bit 4 = the leftmost column */
@@ -195,32 +198,23 @@ static char *cli_sheet_channel(char *name, int *pick) {
 
 static int cli_sheet(int argc, char **argv) {
     const char *cmd = "sheet", *v, *out_path = NULL, *labels_arg = NULL, **row_args;
-    int cell = 128, i, m, r, c, nrows = 0, ncols = 0, nlabels = 0, rc = CLI_OK, s, label_h, sw, sh, q;
+    int cell = 128, m, r, c, nrows = 0, ncols = 0, nlabels = 0, rc = CLI_OK, s, label_h, sw, sh, q;
     char **row_bufs = NULL, ***cells = NULL, *labels_buf = NULL, **labels = NULL;
     int *row_len = NULL;
     unsigned char *sheet = NULL;
     size_t npx;
+    cli_argp P;
 
     row_args = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!row_args) { cli_error("out of memory"); return CLI_FAIL; }
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_sheet, stdout); free(row_args); return CLI_OK; }
-        if (!strcmp(a, "--")) { for (i++; i < argc; i++) row_args[nrows++] = argv[i]; break; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) { free(row_args); return CLI_USAGE; }
-            out_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cell", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--cell", v, 8, 1024, &cell)) { free(row_args); return CLI_USAGE; }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--labels", &v)) != 0) {
-            if (m < 0) { free(row_args); return CLI_USAGE; }
-            labels_arg = v;
-        } else if (a[0] == '-' && a[1]) {
-            free(row_args);
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            row_args[nrows++] = a;
-        }
+    cli_argp_init(&P, cmd, cli_opts_sheet, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_sheet); free(row_args); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) { free(row_args); return CLI_USAGE; }
+        if (m == CLI_ARG_OPERAND) row_args[nrows++] = v;
+        else if (m == CLI_SHEET_OUT) out_path = v;
+        else if (m == CLI_SHEET_LABELS) labels_arg = v;
+        else if (m == CLI_SHEET_CELL && cli_parse_int(cmd, "--cell", v, 8, 1024, &cell)) { free(row_args); return CLI_USAGE; }
     }
     if (!out_path) { free(row_args); return cli_usage_error(cmd, "--out SHEET.png is required"); }
     if (!nrows) { free(row_args); return cli_usage_error(cmd, "no rows: give one or more ROWs, each a comma list of images (- for an empty cell)"); }

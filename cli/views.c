@@ -196,6 +196,41 @@ static void cli_ring_cameras(int views, float *c2w) {
     }
 }
 
+/* `supermat views`: its options and --help */
+enum { CLI_VIEWS_MODEL = 1, CLI_VIEWS_CAMERAS, CLI_VIEWS_OUT, CLI_VIEWS_OUTPUTS };
+static const cli_optdef cli_opts_views[] = {
+    CLI_TEXT("usage: supermat views --model FILE --cameras meta.json --out DIR [options] VIEW...\n"
+             "\n"
+             "Runs the multi-view SuperMatMV pipeline (a supermat-mv model) on all the views of one object\n"
+             "together (they attend to each other, each with its camera) and writes, for each view,\n"
+             "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
+             "  DIR/<stem>_roughness.png    gray, 8-bit\n"
+             "  DIR/<stem>_metallic.png     gray, 8-bit\n"
+             "where <stem> is the view's file name without its folder and extension.\n"
+             "\n"
+             "Cameras come from a meta.json in the official example format:\n"
+             "  {\"locations\": [{\"index\": \"0000\", \"transform_matrix\": [[4 numbers], x4]}, ...]}\n"
+             "(the 4x4 camera-to-world matrix, row by row; a flat list of 16 numbers is also read). A view's\n"
+             "camera is the location whose index (\"0003\" or 3) equals the number that ends the view's file\n"
+             "name: color_0003.png -> 3. Every view needs one; indices must be unique.\n"
+             "\n"
+             "Views are read like `image` reads images (8-bit RGBA, straight alpha, over gray 0.5). They must\n"
+             "all have the same size, width and height multiples of 8; they run at the model's work size\n"
+             "(512x512 as the official script), the maps come back at the views' size. 1 to 64 views (the\n"
+             "official model is trained on 6 orthogonal views).\n"),
+    CLI_OPTS(cli_opts_work),
+    {CLI_O_DETAIL, "--detail", "F|off", "each view's albedo keeps that view's detail, as `supermat image --detail`\n(default off here)", NULL, NULL},
+    {CLI_O_CHROMA, "--chroma", "W|off", "each view's albedo takes that view's colour, as `supermat image --chroma`\n(default off here)", NULL, NULL},
+    CLI_TEXT("\noptions:\n"),
+    {CLI_VIEWS_MODEL, "--model", "FILE", "a supermat-mv model file made by `supermat convert` (required)", NULL, NULL},
+    {CLI_VIEWS_CAMERAS, "--cameras", "FILE", "the meta.json with the views' cameras (required)", NULL, NULL},
+    {CLI_VIEWS_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
+    {CLI_VIEWS_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS, NULL, NULL},
+    {CLI_O_FLOAT, "--float", NULL, CLI_HELP_FLOAT3, NULL, NULL},
+    CLI_OPTS(cli_opts_machine),
+    CLI_TEXT("\nProgress is printed on stderr when it is a terminal.\n"),
+    CLI_END};
+
 static int cli_views(int argc, char **argv) {
     const char *cmd = "views", *v, *model_arg = NULL, *model_path, *cam_path = NULL, *out_dir = NULL;
     cli_model_ref mref;
@@ -214,33 +249,21 @@ static int cli_views(int argc, char **argv) {
     supermat_model *model = NULL;
     supermat_session *sess = NULL;
     cli_levers lv;
+    cli_argp P;
 
     cli_levers_init(&lv);
     imgs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
     if (!imgs) { cli_error("out of memory"); return CLI_FAIL; }
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_views, stdout); free(imgs); return CLI_OK; }
-        if (!strcmp(a, "--")) { for (i++; i < argc; i++) imgs[nimg++] = argv[i]; break; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-            model_arg = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cameras", &v)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-            cam_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-            out_dir = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
-            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &lv)) != 0) {
-            if (m < 0) { free(imgs); return CLI_USAGE; }
-        } else if (a[0] == '-' && a[1]) {
-            free(imgs);
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            imgs[nimg++] = a;
-        }
+    cli_argp_init(&P, cmd, cli_opts_views, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_views); free(imgs); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) { free(imgs); return CLI_USAGE; }
+        if (m == CLI_ARG_OPERAND) imgs[nimg++] = v;
+        else if (m == CLI_VIEWS_MODEL) model_arg = v;
+        else if (m == CLI_VIEWS_CAMERAS) cam_path = v;
+        else if (m == CLI_VIEWS_OUT) out_dir = v;
+        else if (m == CLI_VIEWS_OUTPUTS) { if (cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; } }
+        else if (cli_run_value(cmd, m, v, &want_float, &work_opt, &threads, &kernel, &lv) < 0) { free(imgs); return CLI_USAGE; }
     }
     if ((rc = cli_model_path(cmd, model_arg, 0, &mref)) != CLI_OK) { free(imgs); return rc; }
     model_path = mref.path;
