@@ -42,7 +42,8 @@ typedef struct cli_optdef {
 #define CLI_OPTS(t) {-1, NULL, NULL, NULL, NULL, t}
 #define CLI_END {0, NULL, NULL, NULL, NULL, NULL}
 
-#define CLI_HELP_COL 20 /* where an option's help starts, unless a longer name in its block pushes it right */
+#define CLI_HELP_COL 20 /* where an option's help starts, unless a longer name in its block pushes it right (then
+                           2 spaces after the longest) */
 
 enum { CLI_ARG_END = 0, CLI_ARG_HELP = -1, CLI_ARG_ERROR = -2, CLI_ARG_OPERAND = -3 };
 
@@ -167,7 +168,7 @@ static void cli_help_print_table(FILE *f, const cli_optdef *t, int *col) {
         if (!*col) {
             int stop = 0;
             size_t w = cli_opt_block_width(t, &stop);
-            *col = w + 3 > CLI_HELP_COL ? (int)w + 3 : CLI_HELP_COL;
+            *col = w + 3 > CLI_HELP_COL ? (int)w + 4 : CLI_HELP_COL; /* "  NAME VALUE" and one space fit, else two */
         }
         if (t->id < 0) { cli_help_print_table(f, t->more, col); continue; }
         {
