@@ -33,13 +33,7 @@ static const char cli_usage_main[] =
     "file beside it and renamed (linked) into place when complete, so a failed write leaves the old file\n"
     "or none; no write follows a symbolic link (docs/security.md). A folder named by --out DIR is\n"
     "created when missing; the folder of an output FILE (convert, pack, sheet, mesh) must exist, and is\n"
-    "checked before any work.\n"
-    "  --force                replace existing files (a symbolic link itself, not its target)\n"
-    "  --skip-existing        keep existing files and go on (an input whose maps all exist is not run)\n"
-    "  --allow-outside-refs   trusted files only: `mesh` reads references outside the asset's folder,\n"
-    "                         `batch` takes linked pictures that lead outside an input folder\n"
-    "\n"
-    "exit status: 0 ok, 1 runtime error, 2 usage error\n";
+    "checked before any work.\n"; /* then the global options (cli_opts_global, io.c) and the exit status: main.c's cli_help_main */
 
 static const char cli_usage_bench[] =
     "usage: supermat bench [--model FILE] [options]\n"

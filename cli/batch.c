@@ -94,11 +94,17 @@ oom:
     return CLI_FAIL;
 }
 
-static int cli_batch_mesh_mode; /* 1: items are glTF assets (`batch mesh`), 0: pictures */
-static int cli_is_picture_name(const char *name) {
+/* What the batch's functions share, passed to each that needs it (no file-scope state) */
+typedef struct cli_batch_ctx {
+    int mesh_mode;     /* 1: items are glTF assets (`batch mesh`), 0: pictures */
+    char *out_real;    /* the output folder, resolved: outputs are never taken as inputs (NULL: not yet) */
+    int allow_outside; /* --allow-outside-refs (a global option: cli_g): linked pictures outside a folder */
+} cli_batch_ctx;
+
+static int cli_is_picture_name(const cli_batch_ctx *B, const char *name) {
     static const char *const pics[] = {"png", "jpg", "jpeg", "webp", "bmp", "tga"}, *const meshes[] = {"gltf", "glb"};
-    const char *const *ext = cli_batch_mesh_mode ? meshes : pics;
-    size_t next = cli_batch_mesh_mode ? 2 : 6;
+    const char *const *ext = B->mesh_mode ? meshes : pics;
+    size_t next = B->mesh_mode ? 2 : 6;
     const char *d = strrchr(name, '.');
     size_t k;
     if (!d || d == name) return 0;
@@ -111,7 +117,7 @@ static int cli_is_picture_name(const char *name) {
 }
 
 /* the pictures under folder root/rel (recursive), skipping hidden entries and the output folder */
-static int cli_walk(cli_blist *L, const char *root, const char *rel, const struct stat *out_st, int depth, unsigned outputs,
+static int cli_walk(const cli_batch_ctx *B, cli_blist *L, const char *root, const char *rel, const struct stat *out_st, int depth, unsigned outputs,
                     int want_float) {
     char *dir;
     DIR *d;
@@ -139,15 +145,15 @@ static int cli_walk(cli_blist *L, const char *root, const char *rel, const struc
                 if (!(sub = (char *)malloc(pn))) { cli_error("out of memory"); rc = CLI_FAIL; }
                 else {
                     snprintf(sub, pn, "%s%s%s", rel, rel[0] ? "/" : "", e->d_name);
-                    rc = cli_walk(L, root, sub, out_st, depth + 1, outputs, want_float);
+                    rc = cli_walk(B, L, root, sub, out_st, depth + 1, outputs, want_float);
                     free(sub);
                 }
             }
-        } else if (S_ISREG(st.st_mode) && cli_is_picture_name(e->d_name)) {
+        } else if (S_ISREG(st.st_mode) && cli_is_picture_name(B, e->d_name)) {
             struct stat lst;
             char *real_root = NULL;
             int in = 1;
-            if (!cli_allow_outside && lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode) && (real_root = realpath(root, NULL)) != NULL)
+            if (!B->allow_outside && lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode) && (real_root = realpath(root, NULL)) != NULL)
                 in = smio_inside(real_root, path, NULL) == 1;
             free(real_root);
             if (in) rc = cli_blist_add(L, path, rel, outputs, want_float);
@@ -294,9 +300,9 @@ static int cli_manifest_member(void *user, const char *key, const char *v) {
     return 0;
 }
 
-static int cli_add_input(cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float);
+static int cli_add_input(const cli_batch_ctx *B, cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float);
 
-static int cli_manifest(cli_blist *L, const char *cmd, const char *path, const struct stat *out_st, unsigned outputs, int want_float) {
+static int cli_manifest(const cli_batch_ctx *B, cli_blist *L, const char *cmd, const char *path, const struct stat *out_st, unsigned outputs, int want_float) {
     char why[256];
     int fd = smio_open_regular(path, 0, why, sizeof why);
     FILE *f = fd >= 0 ? fdopen(fd, "r") : NULL;
@@ -322,9 +328,9 @@ static int cli_manifest(cli_blist *L, const char *cmd, const char *path, const s
                 rc = cli_usage_error(cmd, "%s:%ld: %s", path, no, m.why[0] ? m.why : m.has_input ? "not a JSON object" : "no \"input\"");
                 break;
             }
-            rc = cli_add_input(L, cmd, m.input, out_st, m.outputs, m.want_float);
+            rc = cli_add_input(B, L, cmd, m.input, out_st, m.outputs, m.want_float);
         } else
-            rc = cli_add_input(L, cmd, s, out_st, outputs, want_float);
+            rc = cli_add_input(B, L, cmd, s, out_st, outputs, want_float);
     }
     if (rc == CLI_OK && ferror(f)) { cli_error("cannot read the list '%s'", path); rc = CLI_FAIL; }
     free(line);
@@ -332,17 +338,16 @@ static int cli_manifest(cli_blist *L, const char *cmd, const char *path, const s
     return rc;
 }
 
-static char *cli_batch_out_real; /* the output folder, resolved: outputs are never taken as inputs */
-static int cli_add_input(cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float) {
+static int cli_add_input(const cli_batch_ctx *B, cli_blist *L, const char *cmd, const char *in, const struct stat *out_st, unsigned outputs, int want_float) {
     struct stat st;
-    if (in[0] == '@') return cli_manifest(L, cmd, in + 1, out_st, outputs, want_float);
+    if (in[0] == '@') return cli_manifest(B, L, cmd, in + 1, out_st, outputs, want_float);
     if (stat(in, &st) != 0) { cli_error("'%s': %s", in, strerror(errno)); return CLI_FAIL; }
-    if (cli_batch_out_real && smio_inside(cli_batch_out_real, in, NULL) == 1)
+    if (B->out_real && smio_inside(B->out_real, in, NULL) == 1)
         return cli_usage_error(cmd, "%s '%s' is %s the output folder '%s': what the batch writes there would be read as %s on the next "
                                "run; give --out a folder outside it", S_ISDIR(st.st_mode) ? "the input folder" : "the input",
-                               in, S_ISDIR(st.st_mode) ? "(or is inside)" : "inside", cli_batch_out_real,
-                               cli_batch_mesh_mode ? "assets" : "pictures");
-    if (S_ISDIR(st.st_mode)) return cli_walk(L, in, "", out_st, 0, outputs, want_float);
+                               in, S_ISDIR(st.st_mode) ? "(or is inside)" : "inside", B->out_real,
+                               B->mesh_mode ? "assets" : "pictures");
+    if (S_ISDIR(st.st_mode)) return cli_walk(B, L, in, "", out_st, 0, outputs, want_float);
     return cli_blist_add(L, in, "", outputs, want_float);
 }
 
@@ -405,10 +410,10 @@ static const char *cli_ext_of(const char *path) {
     const char *d = strrchr(path, '.'), *sl = strrchr(path, '/');
     return d && (!sl || d > sl) ? d : "";
 }
-static void cli_item_outputs(FILE *f, const cli_bitem *it) {
+static void cli_item_outputs(const cli_batch_ctx *B, FILE *f, const cli_bitem *it) {
     int k, e, first = 1;
     fputc('[', f);
-    if (cli_batch_mesh_mode) { /* the asset file (its textures and buffer lie beside it) */
+    if (B->mesh_mode) { /* the asset file (its textures and buffer lie beside it) */
         char name[8192];
         snprintf(name, sizeof name, "%s%s%s%s", it->sub, it->sub[0] ? "/" : "", it->stem, cli_ext_of(it->input));
         cli_json_string(f, name);
@@ -430,7 +435,7 @@ static void cli_item_outputs(FILE *f, const cli_bitem *it) {
 }
 
 /* one record, one write(), then fsync: CLI_OK or CLI_FAIL with the message */
-static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, int done, double secs, const char *error) {
+static int cli_journal_append(const cli_batch_ctx *B, int fd, const char *jpath, const cli_bitem *it, int done, double secs, const char *error) {
     char *buf = NULL;
     size_t len = 0, off = 0;
     FILE *f = open_memstream(&buf, &len);
@@ -441,7 +446,7 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
     fputs(",\"input\":", f);
     cli_json_string(f, it->input);
     fprintf(f, ",\"status\":\"%s\",\"seconds\":%.3f,\"outputs\":", done ? "done" : "failed", secs);
-    if (done) cli_item_outputs(f, it);
+    if (done) cli_item_outputs(B, f, it);
     else fputs("[]", f);
     fputs(",\"error\":", f);
     if (error) cli_json_string(f, error);
@@ -459,47 +464,66 @@ static int cli_journal_append(int fd, const char *jpath, const cli_bitem *it, in
     return rc;
 }
 
-static const char cli_usage_batch[] =
-    "usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
-    "       supermat batch mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --passthrough] --out DIR\n"
-    "                           [mesh options] [batch options] INPUT...\n"
-    "       supermat batch --merge --out DIR [INPUT...]\n"
-    "\n"
-    "Runs `supermat image` over an asset library, resumably. INPUT is a picture, a folder (searched\n"
-    "recursively for .png .jpg .jpeg .webp .bmp .tga; hidden entries and DIR itself left out) or @LIST: a\n"
-    "file with one path per line, or JSON Lines objects {\"input\": PATH, \"outputs\": \"albedo,...\",\n"
-    "\"float\": true} (paths relative to the current folder; blank lines and # comments skipped).\n"
-    "Each item's maps go where `supermat image` would put them, below DIR in the same sub-folder as the\n"
-    "picture below the folder it was found in: DIR/<sub>/<stem>_albedo.png, ...\n"
-    "\n"
-    "The journal DIR/journal.jsonl (with --shard: DIR/journal.I-of-N.jsonl) gets one JSON line per\n"
-    "finished item, written after its outputs: item, input, status (done / failed), seconds, outputs,\n"
-    "error. A re-run skips done items (and failed ones, unless --retry-failed); a killed run loses no\n"
-    "finished item and leaves no partial file. DIR belongs to the batch: outputs of an item that is not\n"
-    "done are replaced.\n"
-    "\n"
-    "options:\n"
-    "  --model FILE      as `supermat image` (default: the default model), loaded once for the batch\n"
-    "  --out DIR         the output folder (required)\n"
-    "  --shard I/N       only the items I, I+N, I+2N, ... (0-based) of the list sorted by output name:\n"
-    "                    N processes or machines, one shard each, share the work (journal per shard)\n"
-    "  --jobs J          J worker processes (forked after the model load: one copy of the weights),\n"
-    "                    each on every J-th item, with threads / J threads (default 1)\n"
-    "  --retry-failed    run the items the journal says failed again\n"
-    "  --fail-fast       stop at the first failed item (default: go on, exit 1 at the end)\n"
-    "  --json FILE       a summary: items, done, failed, skipped, seconds, journal\n"
-    "  --outputs, --float, --native, --work-size, --detail, --chroma, --threads, --kernel, --weights   as `supermat image`\n"
-    "\n"
-    "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
-    "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. Options\n"
-    "--mv-model, --refine, --albedo-refine, --rm-refine, --no-refine, --keep-observed, --passthrough, --size, --views-size,\n"
-    "--work-size, --threads, --gutter, --edge-reject, --weight, --supersample, --detail go to `supermat mesh`; each process\n"
-    "loads the models once.\n"
-    "  --merge           write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
-    "                    with INPUTs, also the items that have no done record (exit 1 if any)\n"
-    "\n"
-    "One line per item on stderr ([i/N] item seconds status); a progress line on a terminal.\n"
-    "exit status: 0 every item done, 1 some failed or missing, 2 usage error\n";
+/* `supermat batch`: its options and --help. Every batch takes cli_opts_batch_run; `batch image` the options of
+   `supermat image` it passes on (cli_opts_batch_image), `batch mesh` those of `supermat mesh`
+   (supermat_cli_mesh_bake_options, mesh.cpp's own table: each goes to supermat_cli_mesh_opt_set). */
+enum { CLI_BATCH_OUT = 1, CLI_BATCH_SHARD, CLI_BATCH_JOBS, CLI_BATCH_RETRY, CLI_BATCH_FAIL_FAST, CLI_BATCH_JSON, CLI_BATCH_MERGE,
+       CLI_BATCH_MODEL, CLI_BATCH_OUTPUTS };
+static const cli_optdef cli_opts_batch_run[] = {
+    {CLI_BATCH_OUT, "--out", "DIR", "the output folder (required)", NULL, NULL},
+    {CLI_BATCH_SHARD, "--shard", "I/N", "only the items I, I+N, I+2N, ... (0-based) of the list sorted by output name:\n"
+                                        "N processes or machines, one shard each, share the work (journal per shard)", NULL, NULL},
+    {CLI_BATCH_JOBS, "--jobs", "J", "J worker processes (forked after the model load: one copy of the weights),\n"
+                                    "each on every J-th item, with threads / J threads (default 1)", NULL, NULL},
+    {CLI_BATCH_RETRY, "--retry-failed", NULL, "run the items the journal says failed again", NULL, NULL},
+    {CLI_BATCH_FAIL_FAST, "--fail-fast", NULL, "stop at the first failed item (default: go on, exit 1 at the end)", NULL, NULL},
+    {CLI_BATCH_JSON, "--json", "FILE", "a summary: items, done, failed, skipped, seconds, journal", NULL, NULL},
+    {CLI_BATCH_MERGE, "--merge", NULL, "write DIR/journal.jsonl from DIR/journal.*-of-*.jsonl (the last record per item);\n"
+                                       "with INPUTs, also the items that have no done record (exit 1 if any)", NULL, NULL},
+    CLI_END};
+static const cli_optdef cli_opts_batch_image[] = {
+    {CLI_BATCH_MODEL, "--model", "FILE", "as `supermat image` (default: the default model), loaded once for the batch", NULL, NULL},
+    {CLI_BATCH_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS "; a manifest line's \"outputs\" wins", NULL, NULL},
+    {CLI_O_FLOAT, "--float", NULL, "also the PFM maps, as `supermat image --float`; a manifest line's \"float\" wins", NULL, NULL},
+    CLI_OPTS(cli_opts_work),
+    {CLI_O_DETAIL, "--detail", "F|off", "as `supermat image`", NULL, NULL},
+    {CLI_O_CHROMA, "--chroma", "W|off", "as `supermat image`", NULL, NULL},
+    CLI_OPTS(cli_opts_machine),
+    CLI_END};
+static const cli_optdef cli_opts_batch[] = {
+    CLI_TEXT("usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
+             "       supermat batch mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --passthrough] --out DIR\n"
+             "                           [mesh options] [batch options] INPUT...\n"
+             "       supermat batch --merge --out DIR [INPUT...]\n"
+             "\n"
+             "Runs `supermat image` over an asset library, resumably. INPUT is a picture, a folder (searched\n"
+             "recursively for .png .jpg .jpeg .webp .bmp .tga; hidden entries and DIR itself left out) or @LIST: a\n"
+             "file with one path per line, or JSON Lines objects {\"input\": PATH, \"outputs\": \"albedo,...\",\n"
+             "\"float\": true} (paths relative to the current folder; blank lines and # comments skipped).\n"
+             "Each item's maps go where `supermat image` would put them, below DIR in the same sub-folder as the\n"
+             "picture below the folder it was found in: DIR/<sub>/<stem>_albedo.png, ...\n"
+             "\n"
+             "The journal DIR/journal.jsonl (with --shard: DIR/journal.I-of-N.jsonl) gets one JSON line per\n"
+             "finished item, written after its outputs: item, input, status (done / failed), seconds, outputs,\n"
+             "error. A re-run skips done items (and failed ones, unless --retry-failed); a killed run loses no\n"
+             "finished item and leaves no partial file. DIR belongs to the batch: outputs of an item that is not\n"
+             "done are replaced.\n"
+             "\n"
+             "options:\n"),
+    CLI_OPTS(cli_opts_batch_run),
+    CLI_TEXT("\nbatch image: the options of `supermat image`, for every picture:\n"),
+    CLI_OPTS(cli_opts_batch_image),
+    CLI_TEXT("\n"
+             "batch mesh: INPUTs are .gltf / .glb assets (folders searched for them); each is baked as `supermat mesh`\n"
+             "does into DIR/<sub>/<stem>.gltf|.glb (the input's extension) with its textures beside it. The options\n"
+             "of `supermat mesh` (`supermat mesh --help`) but --debug-dir, and those of the batch, are taken; each\n"
+             "process loads the models once.\n"
+             "\n"
+             "One line per item on stderr ([i/N] item seconds status); a progress line on a terminal.\n"
+             "exit status: 0 every item done, 1 some failed or missing, 2 usage error\n"),
+    CLI_END};
+/* what `batch image` (and `batch --merge`) parses */
+static const cli_optdef cli_opts_batch_image_args[] = {CLI_OPTS(cli_opts_batch_run), CLI_OPTS(cli_opts_batch_image), CLI_END};
 
 typedef struct cli_merge_ctx {
     cli_blist *L;     /* the inputs' items, when given */
@@ -579,7 +603,7 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
                     t = M.lines[a2]; M.lines[a2] = M.lines[b2]; M.lines[b2] = t;
                 }
         for (i = 0; i < M.n; i++) if (strstr(M.lines[i], "\"status\":\"done\"") == NULL) failed++;
-        cli_policy = CLI_POLICY_FORCE; /* the merged journal is the batch's own file */
+        /* the merged journal is the batch's own file: cli_io_own_outputs made the policy --force */
         if (!(f = cli_mem_open(&mem, target))) rc = CLI_FAIL;
         else {
             for (i = 0; i < M.n; i++) fputs(M.lines[i], f);
@@ -615,10 +639,16 @@ static int cli_batch_merge(const char *out_dir, cli_blist *L, int have_inputs) {
    one run per asset */
 typedef struct supermat_cli_mesh_opts supermat_cli_mesh_opts;
 #ifdef SUPERMAT_CLI_MESH
-int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts);
 int supermat_cli_mesh_run(const supermat_cli_mesh_opts *opts, const char *in, const char *out, int force, int allow_outside);
 void supermat_cli_mesh_opts_free(supermat_cli_mesh_opts *opts);
 void supermat_cli_mesh_keep_models(int keep);   /* the models stay loaded from one asset to the next */
+extern const cli_optdef supermat_cli_mesh_bake_options[]; /* `supermat mesh`'s options but --debug-dir (ids >= 300) */
+supermat_cli_mesh_opts *supermat_cli_mesh_opts_new(void);
+/* 1: id is one of supermat_cli_mesh_bake_options and its value is in o; -1 after a usage message; 0: not one */
+int supermat_cli_mesh_opt_set(supermat_cli_mesh_opts *o, int id, const char *value);
+int supermat_cli_mesh_opts_check(const supermat_cli_mesh_opts *o); /* 0, or 2 after a usage message */
+/* what `batch mesh` parses */
+static const cli_optdef cli_opts_batch_mesh_args[] = {CLI_OPTS(cli_opts_batch_run), CLI_OPTS(supermat_cli_mesh_bake_options), CLI_END};
 #endif
 static void cli_batch_mesh_free(supermat_cli_mesh_opts *o) {
 #ifdef SUPERMAT_CLI_MESH
@@ -629,20 +659,20 @@ static void cli_batch_mesh_free(supermat_cli_mesh_opts *o) {
 }
 /* one asset to DIR/<stem>.<ext>, replacing what a killed run left (the mesh run removes the staging folders and
    temporary files that dead runs left in DIR: smio_clean_stale) */
-static int cli_batch_mesh_item(const supermat_cli_mesh_opts *mo, const cli_bitem *it, const char *dir) {
+static int cli_batch_mesh_item(const cli_batch_ctx *B, const supermat_cli_mesh_opts *mo, const cli_bitem *it, const char *dir) {
 #ifdef SUPERMAT_CLI_MESH
     char *out;
     int rc;
     out = cli_join(dir, it->stem, cli_ext_of(it->input));
     if (!out) { cli_error("out of memory"); return CLI_FAIL; }
     fflush(stdout);
-    rc = supermat_cli_mesh_run(mo, it->input, out, 1, cli_allow_outside);
+    rc = supermat_cli_mesh_run(mo, it->input, out, 1, B->allow_outside);
     fflush(stdout);
     if (rc != 0) cli_error("supermat mesh %s: exit %d (its message is above)", it->input, rc);
     free(out);
     return rc == 0 ? CLI_OK : CLI_FAIL;
 #else
-    (void)mo; (void)it; (void)dir;
+    (void)B; (void)mo; (void)it; (void)dir;
     cli_error("built without tinygltf");
     return CLI_FAIL;
 #endif
@@ -664,21 +694,27 @@ static int cli_batch(int argc, char **argv) {
     char *jpath = NULL;
     double t0 = cli_now();
     const char **inputs;
-    int ninputs = 0, nfwd = 0;
-    char **fwd = NULL;      /* batch mesh: the `supermat mesh` arguments before IN OUT */
-    supermat_cli_mesh_opts *mopts = NULL; /* batch mesh: those options, parsed once */
+    int ninputs = 0;
+    supermat_cli_mesh_opts *mopts = NULL; /* batch mesh: `supermat mesh`'s options, checked once */
+    const cli_optdef *args = cli_opts_batch_image_args;
+    cli_batch_ctx B;
+    cli_argp P;
 
     memset(&L, 0, sizeof L);
     memset(&X, 0, sizeof X);
+    memset(&B, 0, sizeof B);
+    B.allow_outside = cli_g.allow_outside;
     cli_levers_init(&X.lv);
-    if (argc >= 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"))) { fputs(cli_usage_batch, stdout); return CLI_OK; }
+    if (argc >= 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"))) { cli_help_print(stdout, cli_opts_batch); return CLI_OK; }
     i = 2;
     if (argc >= 3 && !strcmp(argv[2], "image")) i = 3;
-    else if (argc >= 3 && !strcmp(argv[2], "--merge")) { merge = 1; i = 3; }
+    else if (argc >= 3 && !strcmp(argv[2], "--merge")) i = 2; /* an option of the table */
     else if (argc >= 3 && !strcmp(argv[2], "mesh")) {
 #ifdef SUPERMAT_CLI_MESH
-        cli_batch_mesh_mode = 1;
+        B.mesh_mode = 1;
+        args = cli_opts_batch_mesh_args;
         i = 3;
+        if (!(mopts = supermat_cli_mesh_opts_new())) return CLI_FAIL;
 #else
         cli_error("this supermat was built without tinygltf (libtinygltf-dev): `batch mesh` is not available");
         return CLI_FAIL;
@@ -686,90 +722,63 @@ static int cli_batch(int argc, char **argv) {
     }
     else return cli_usage_error(cmd, "give what to run: `supermat batch image ...` (or `supermat batch --merge --out DIR`)");
     inputs = (const char **)malloc(sizeof(char *) * (size_t)(argc > 0 ? argc : 1));
-    fwd = (char **)malloc(sizeof(char *) * (size_t)(argc + 8));
-    if (!inputs || !fwd) { free(inputs); free(fwd); cli_error("out of memory"); return CLI_FAIL; }
-    fwd[nfwd++] = (char *)"mesh";
-    for (; i < argc; i++) {
-        const char *a = argv[i];
-        if (cli_batch_mesh_mode) { /* the options of `supermat mesh`, passed on */
-            static const char *const with_value[] = {"--mv-model", "--albedo-refine", "--rm-refine", "--texture-size", "--size", "--views-size", "--threads",
-                                                     "--work-size", "--gutter", "--edge-reject", "--view-weight", "--weight", "--supersample", "--detail"};
-            size_t q;
-            int hit = 0;
-            if (!strcmp(a, "--passthrough") || !strcmp(a, "--no-refine") || !strcmp(a, "--refine") || !strcmp(a, "--keep-observed")) {
-                fwd[nfwd++] = argv[i];
-                continue;
-            }
-            for (q = 0; q < sizeof with_value / sizeof with_value[0]; q++)
-                if (!strcmp(a, with_value[q])) {
-                    if (i + 1 >= argc) { free(inputs); free(fwd); return cli_usage_error(cmd, "option '%s' needs a value", a); }
-                    fwd[nfwd++] = argv[i]; fwd[nfwd++] = argv[++i];
-                    hit = 1;
-                    break;
-                }
-            if (hit) continue;
-            if (!strcmp(a, "--model") || !strcmp(a, "--outputs") || !strcmp(a, "--float") || !strcmp(a, "--native") ||
-                !strcmp(a, "--kernel") || !strcmp(a, "--weights") || !strcmp(a, "--compute") || !strcmp(a, "--conv")) {
-                free(inputs); free(fwd);
-                return cli_usage_error(cmd, "'%s' is an option of `batch image`, not of `batch mesh`", a);
+    if (!inputs) { cli_batch_mesh_free(mopts); cli_error("out of memory"); return CLI_FAIL; }
+    cli_argp_init(&P, cmd, args, argc, argv, i);
+    for (;;) {
+        const char *a = P.i < P.argc && !P.operands_only ? P.argv[P.i] : "";
+        if (B.mesh_mode && a[0] == '-' && a[1] == '-') { /* an option of `batch image` alone: say so */
+            size_t n = strcspn(a, "=");
+            if (!cli_opt_find(args, a, n) && cli_opt_find(cli_opts_batch_image, a, n)) {
+                rc = cli_usage_error(cmd, "'%.*s' is an option of `batch image`, not of `batch mesh`", (int)n, a);
+                break;
             }
         }
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_batch, stdout); free(inputs); free(fwd); return CLI_OK; }
-        if (!strcmp(a, "--")) { for (i++; i < argc; i++) inputs[ninputs++] = argv[i]; break; }
-        if (!strcmp(a, "--merge")) { merge = 1; continue; }
-        if (!strcmp(a, "--retry-failed")) { retry = 1; continue; }
-        if (!strcmp(a, "--fail-fast")) { fail_fast = 1; continue; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
-            model_arg = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--out", &v)) != 0) {
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
-            out_dir = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
-            json_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--shard", &v)) != 0) {
+        if ((m = cli_argp_next(&P, &v)) == CLI_ARG_END) break;
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, cli_opts_batch); free(inputs); cli_batch_mesh_free(mopts); return CLI_OK; }
+        if (m == CLI_ARG_ERROR) { rc = CLI_USAGE; break; }
+        if (m == CLI_ARG_OPERAND) inputs[ninputs++] = v;
+        else if (m == CLI_BATCH_OUT) out_dir = v;
+        else if (m == CLI_BATCH_JSON) json_path = v;
+        else if (m == CLI_BATCH_MERGE) merge = 1;
+        else if (m == CLI_BATCH_RETRY) retry = 1;
+        else if (m == CLI_BATCH_FAIL_FAST) fail_fast = 1;
+        else if (m == CLI_BATCH_SHARD) {
             char extra;
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
             if (sscanf(v, "%d/%d%c", &shard_i, &shard_n, &extra) != 2 || shard_n < 1 || shard_i < 0 || shard_i >= shard_n) {
-                free(inputs); free(fwd);
-                return cli_usage_error(cmd, "--shard I/N: 0 <= I < N (got '%s')", v);
+                rc = cli_usage_error(cmd, "--shard I/N: 0 <= I < N (got '%s')", v);
+                break;
             }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--jobs", &v)) != 0) {
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
+        } else if (m == CLI_BATCH_JOBS) {
             jobs = atoi(v);
-            if (jobs < 1 || jobs > 256) { free(inputs); free(fwd); return cli_usage_error(cmd, "--jobs J: 1 to 256 (got '%s')", v); }
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
-            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) { free(inputs); return CLI_USAGE; }
-        } else if ((m = cli_run_opt(cmd, argc, argv, &i, &want_float, &work_opt, &threads, &kernel, &X.lv)) != 0) {
-            if (m < 0) { free(inputs); free(fwd); return CLI_USAGE; }
-        } else if (a[0] == '-' && a[1]) {
-            free(inputs); free(fwd);
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else
-            inputs[ninputs++] = a;
-    }
-    if (!out_dir) { free(inputs); free(fwd); return cli_usage_error(cmd, "--out DIR is required"); }
-    if (!merge && !ninputs) { free(inputs); free(fwd); return cli_usage_error(cmd, "no input (pictures, folders or @LIST)"); }
-    if (cli_policy == CLI_POLICY_SKIP) { free(inputs); free(fwd); return cli_usage_error(cmd, "--skip-existing does not apply: the journal says what is done"); }
+            if (jobs < 1 || jobs > 256) { rc = cli_usage_error(cmd, "--jobs J: 1 to 256 (got '%s')", v); break; }
+        } else if (m == CLI_BATCH_MODEL) model_arg = v;
+        else if (m == CLI_BATCH_OUTPUTS) {
+            if (cli_parse_outputs(cmd, v, &outputs)) { rc = CLI_USAGE; break; }
+        }
 #ifdef SUPERMAT_CLI_MESH
-    if (cli_batch_mesh_mode && !merge && supermat_cli_mesh_opts_parse(nfwd, fwd, &mopts) != 0) { /* it said why */
-        free(inputs); free(fwd);
-        return CLI_USAGE;
-    }
+        else if (B.mesh_mode) { /* one of `supermat mesh`'s (its table is args' second half) */
+            if (supermat_cli_mesh_opt_set(mopts, m, v) <= 0) { rc = CLI_USAGE; break; }
+        }
 #endif
-    free(fwd);
-    fwd = NULL;
-    cli_policy = CLI_POLICY_FORCE; /* DIR belongs to the batch: an unfinished item's outputs are replaced */
+        else if (cli_run_value(cmd, m, v, &want_float, &work_opt, &threads, &kernel, &X.lv) <= 0) { rc = CLI_USAGE; break; }
+    }
+    if (rc == CLI_OK && !out_dir) rc = cli_usage_error(cmd, "--out DIR is required");
+    if (rc == CLI_OK && !merge && !ninputs) rc = cli_usage_error(cmd, "no input (pictures, folders or @LIST)");
+    if (rc == CLI_OK && cli_g.policy == CLI_POLICY_SKIP) rc = cli_usage_error(cmd, "--skip-existing does not apply: the journal says what is done");
+#ifdef SUPERMAT_CLI_MESH
+    if (rc == CLI_OK && B.mesh_mode && !merge && supermat_cli_mesh_opts_check(mopts) != 0) rc = CLI_USAGE; /* it said why */
+#endif
+    if (rc != CLI_OK) { free(inputs); cli_batch_mesh_free(mopts); return rc; }
+    cli_io_own_outputs(out_dir); /* DIR belongs to the batch: below it no link is followed, and an unfinished
+                                    item's outputs are replaced */
 
     if (!merge && (rc = cli_mkdirs(out_dir)) != CLI_OK) { free(inputs); cli_batch_mesh_free(mopts); return rc; }
     if (stat(out_dir, &out_st) == 0) have_out_st = 1;
-    if (!merge) cli_batch_out_real = realpath(out_dir, NULL);
-    cli_out_root = out_dir; /* below DIR, no link is followed */
-    for (i = 0; i < ninputs && rc == CLI_OK; i++) rc = cli_add_input(&L, cmd, inputs[i], have_out_st ? &out_st : NULL, outputs, want_float);
+    if (!merge) B.out_real = realpath(out_dir, NULL);
+    for (i = 0; i < ninputs && rc == CLI_OK; i++) rc = cli_add_input(&B, &L, cmd, inputs[i], have_out_st ? &out_st : NULL, outputs, want_float);
     have_inputs = ninputs > 0;
     free(inputs);
-    if (rc == CLI_OK && cli_batch_mesh_mode) { /* the asset keeps its extension: a.gltf and a.glb share a key */
+    if (rc == CLI_OK && B.mesh_mode) { /* the asset keeps its extension: a.gltf and a.glb share a key */
         for (k = 0; k < L.n; k++) {
             const char *e = cli_ext_of(L.v[k].input);
             if (strcmp(e, ".gltf") && strcmp(e, ".glb")) { rc = cli_usage_error(cmd, "'%s' is not a .gltf or .glb asset", L.v[k].input); break; }
@@ -789,8 +798,8 @@ static int cli_batch(int argc, char **argv) {
                     rc = cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", L.v[k - 1].input, L.v[k].input, L.v[k].key);
             }
     }
-    if (rc != CLI_OK) { cli_blist_free(&L); cli_batch_mesh_free(mopts); return rc; }
-    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); return rc; }
+    if (rc != CLI_OK) { cli_blist_free(&L); cli_batch_mesh_free(mopts); free(B.out_real); return rc; }
+    if (merge) { rc = cli_batch_merge(out_dir, &L, have_inputs); cli_blist_free(&L); cli_batch_mesh_free(mopts); return rc; }
 
     /* this shard's items, and what the journal says of them */
     {
@@ -798,7 +807,7 @@ static int cli_batch(int argc, char **argv) {
         if (shard_n > 1) snprintf(name, sizeof name, "journal.%d-of-%d", shard_i, shard_n);
         else snprintf(name, sizeof name, "journal");
         jpath = cli_join(out_dir, name, ".jsonl");
-        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); cli_batch_mesh_free(mopts); return CLI_FAIL; }
+        if (!jpath) { cli_error("out of memory"); cli_blist_free(&L); cli_batch_mesh_free(mopts); free(B.out_real); return CLI_FAIL; }
     }
     {
         int jr = cli_journal_read(jpath, cli_journal_status, &L);
@@ -820,7 +829,7 @@ static int cli_batch(int argc, char **argv) {
         fprintf(stderr, "batch: %zu item(s)%s: %zu done before, %zu failed before%s, %zu to run; journal %s\n", mine, of,
                 done_before, failed_before, failed_before ? " (--retry-failed runs them)" : "", left, jpath);
     }
-    if (rc == CLI_OK && left && !cli_batch_mesh_mode) { /* one model load for the whole batch (mesh: on its first asset) */
+    if (rc == CLI_OK && left && !B.mesh_mode) { /* one model load for the whole batch (mesh: on its first asset) */
         rc = cli_model_path("image", model_arg, 1, &mref);
         if (rc == CLI_OK) model_path = mref.path;
         if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
@@ -874,7 +883,7 @@ static int cli_batch(int argc, char **argv) {
 #endif
             }
 #ifdef SUPERMAT_CLI_MESH
-            if (cli_batch_mesh_mode) supermat_cli_mesh_keep_models(1); /* each process loads the models once */
+            if (B.mesh_mode) supermat_cli_mesh_keep_models(1); /* each process loads the models once */
 #endif
             X.outputs = outputs; X.want_float = want_float; X.tty = tty && nworkers == 1;
             X.threads = nworkers > 1 ? (threads_total / nworkers > 0 ? threads_total / nworkers : 1) : threads;
@@ -896,12 +905,12 @@ static int cli_batch(int argc, char **argv) {
                 cli_last_error[0] = 0;
                 if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
                 else if ((r = cli_mkdirs_below(out_dir, it->sub)) == CLI_OK) {
-                    if (!cli_batch_mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
-                    else r = cli_batch_mesh_item(mopts, it, dir);
+                    if (!B.mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
+                    else r = cli_batch_mesh_item(&B, mopts, it, dir);
                 }
                 free(dir);
                 if (r == CLI_SKIPPED) r = CLI_OK;
-                if (cli_journal_append(fd, jpath, it, r == CLI_OK, cli_now() - s0, r == CLI_OK ? NULL : cli_last_error) != CLI_OK) {
+                if (cli_journal_append(&B, fd, jpath, it, r == CLI_OK, cli_now() - s0, r == CLI_OK ? NULL : cli_last_error) != CLI_OK) {
                     wrc = CLI_FAIL;
                     break;
                 }
@@ -914,7 +923,7 @@ static int cli_batch(int argc, char **argv) {
             }
             cli_image_ctx_release(&X);
 #ifdef SUPERMAT_CLI_MESH
-            if (cli_batch_mesh_mode) supermat_cli_mesh_keep_models(0);
+            if (B.mesh_mode) supermat_cli_mesh_keep_models(0);
 #endif
             if (nworkers > 1) _exit(wrc == CLI_OK && !ran_failed ? 0 : 1);
             if (wrc != CLI_OK && !ran_failed) rc = CLI_FAIL; /* the journal itself failed */
@@ -974,5 +983,6 @@ static int cli_batch(int argc, char **argv) {
     cli_blist_free(&L);
     free(jpath);
     cli_batch_mesh_free(mopts);
+    free(B.out_real);
     return rc;
 }

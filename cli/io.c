@@ -126,8 +126,57 @@ static char *cli_stem(const char *path) {
    PATH.tmp to PATH without replacing anything (link(): atomic, so a file that appears meanwhile is not
    clobbered either). --force replaces it (a symbolic link itself is replaced, its target untouched);
    --skip-existing keeps it and goes on. A path this run wrote itself may be written again. */
-enum { CLI_POLICY_REFUSE = 0, CLI_POLICY_FORCE, CLI_POLICY_SKIP };
-static int cli_policy = CLI_POLICY_REFUSE;
+enum { CLI_POLICY_REFUSE = 0, CLI_POLICY_FORCE, CLI_POLICY_SKIP }; /* = supermat_cli_mesh_global's 0, 1, 2 */
+
+/* The global options (`supermat --help` prints cli_opts_global): main() fills one cli_global_opts from argv
+   through that table (cli_global_parse, before any command sees its own options) and hands it here with
+   cli_global_set; the I/O layer reads it from cli_g alone. A single static rather than a pointer through
+   every write, since every command writes through this file: these are process-wide options, fixed
+   before any command runs. The one change after that: `batch` owns its output folder (cli_io_own_outputs,
+   below). Commands that run another one pass them on explicitly (mesh: supermat_cli_mesh_global). */
+typedef struct cli_global_opts {
+    int policy;        /* CLI_POLICY_*: --force, --skip-existing, neither (refuse existing outputs) */
+    int allow_outside; /* --allow-outside-refs: trusted local use (mesh: references outside the asset's
+                          folder; batch: linked pictures outside an input folder) */
+} cli_global_opts;
+static cli_global_opts cli_g = {CLI_POLICY_REFUSE, 0};
+static void cli_global_set(const cli_global_opts *g) { cli_g = *g; }
+
+enum { CLI_G_FORCE = 1, CLI_G_SKIP_EXISTING, CLI_G_ALLOW_OUTSIDE };
+static const cli_optdef cli_opts_global[] = {
+    {CLI_G_FORCE, "--force", NULL, "replace existing files (a symbolic link itself, not its target)", NULL, NULL},
+    {CLI_G_SKIP_EXISTING, "--skip-existing", NULL, "keep existing files and go on (an input whose maps all exist is not run)", NULL, NULL},
+    {CLI_G_ALLOW_OUTSIDE, "--allow-outside-refs", NULL, "trusted files only: `mesh` reads references outside the asset's folder,\n"
+                                                        "`batch` takes linked pictures that lead outside an input folder", NULL, NULL},
+    CLI_END};
+
+/* The global options, anywhere after the command name and before a "--": into *g, and taken out of argv
+   (*argc shrinks; argv[*argc] = NULL), so that a command sees only its own options. CLI_OK, or CLI_USAGE
+   after the message. */
+static int cli_global_parse(int *argc, char **argv, cli_global_opts *g) {
+    int i, j;
+    memset(g, 0, sizeof *g);
+    g->policy = CLI_POLICY_REFUSE;
+    if (*argc <= 2) return CLI_OK;
+    for (i = j = 2; i < *argc; i++) {
+        const char *a = argv[i], *eq = strchr(a, '=');
+        size_t n = eq ? (size_t)(eq - a) : strlen(a);
+        const cli_optdef *o;
+        if (!strcmp(a, "--")) { while (i < *argc) argv[j++] = argv[i++]; break; }
+        o = a[0] == '-' && a[1] == '-' ? cli_opt_find(cli_opts_global, a, n) : NULL;
+        if (!o) { argv[j++] = argv[i]; continue; }
+        if (eq) return cli_usage_error(NULL, "option '%s' takes no value", o->name);
+        if (o->id == CLI_G_ALLOW_OUTSIDE) { g->allow_outside = 1; continue; }
+        {
+            int want = o->id == CLI_G_FORCE ? CLI_POLICY_FORCE : CLI_POLICY_SKIP;
+            if (g->policy != CLI_POLICY_REFUSE && g->policy != want) return cli_usage_error(NULL, "--force and --skip-existing exclude each other");
+            g->policy = want;
+        }
+    }
+    *argc = j;
+    argv[j] = NULL;
+    return CLI_OK;
+}
 static char **cli_written;
 static size_t cli_nwritten, cli_capwritten;
 #define CLI_SKIPPED 3 /* cli_out_allowed: keep the existing file (not an exit status) */
@@ -141,7 +190,7 @@ static int cli_wrote(const char *path) {
 static void cli_note_written(const char *path) {
     size_t n = strlen(path) + 1;
     char *c;
-    if (cli_policy == CLI_POLICY_FORCE || cli_wrote(path)) return; /* --force consults no list (a batch writes many files) */
+    if (cli_g.policy == CLI_POLICY_FORCE || cli_wrote(path)) return; /* --force consults no list (a batch writes many files) */
     if (cli_nwritten == cli_capwritten) {
         size_t cap = cli_capwritten ? 2 * cli_capwritten : 64;
         char **w = (char **)realloc(cli_written, cap * sizeof *w);
@@ -155,8 +204,8 @@ static void cli_note_written(const char *path) {
 /* CLI_OK: write PATH; CLI_SKIPPED: keep it (--skip-existing); CLI_FAIL: refused, with the message */
 static int cli_out_allowed(const char *path) {
     struct stat st;
-    if (lstat(path, &st) != 0 || cli_wrote(path) || cli_policy == CLI_POLICY_FORCE) return CLI_OK;
-    if (cli_policy == CLI_POLICY_SKIP) return CLI_SKIPPED;
+    if (lstat(path, &st) != 0 || cli_wrote(path) || cli_g.policy == CLI_POLICY_FORCE) return CLI_OK;
+    if (cli_g.policy == CLI_POLICY_SKIP) return CLI_SKIPPED;
     cli_error("'%s' exists%s and was not written by this run: --force replaces it, --skip-existing keeps it",
               path, S_ISLNK(st.st_mode) ? " (a symbolic link)" : S_ISDIR(st.st_mode) ? " (a folder)" : "");
     return CLI_FAIL;
@@ -166,7 +215,14 @@ static int cli_out_allowed(const char *path) {
    folder is opened without following a link (smio_dir_open), so a link planted there is refused. A path
    outside it is written in the folder its name says (the user's choice, links included). */
 static const char *cli_out_root;
-static int cli_allow_outside; /* --allow-outside-refs: trusted local use (batch: linked pictures outside the folder) */
+
+/* `batch`: DIR belongs to the batch. Below it no link is followed (cli_out_root), and an output there that
+   the journal does not say is done is replaced: the policy becomes --force (batch refuses
+   --skip-existing itself). */
+static void cli_io_own_outputs(const char *dir) {
+    cli_out_root = dir;
+    cli_g.policy = CLI_POLICY_FORCE;
+}
 
 /* the folder of path (opened as above) and its last component; -1 and the message when it cannot be */
 static int cli_out_dirfd(const char *path, const char **base) {
@@ -257,7 +313,7 @@ static int cli_out_open(cli_out *o, const char *path) {
     a = cli_out_allowed(path);
     if (a == CLI_FAIL) return CLI_FAIL;
     if (a == CLI_SKIPPED) { o->skip = 1; return CLI_OK; }
-    o->replace = cli_policy == CLI_POLICY_FORCE || cli_wrote(path);
+    o->replace = cli_g.policy == CLI_POLICY_FORCE || cli_wrote(path);
     if ((o->dirfd = cli_out_dirfd(path, &o->base)) < 0) return CLI_FAIL;
     cli_clean_once(o->dirfd);
     fd = smio_tmp_create(o->dirfd, o->base, o->tmp, sizeof o->tmp);
@@ -351,7 +407,7 @@ typedef struct cli_mem {
    with the message; --skip-existing does not apply to a report: it refuses */
 static int cli_report_allowed(const char *path) {
     if (cli_out_allowed(path) == CLI_OK) return CLI_OK;
-    if (cli_policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", path);
+    if (cli_g.policy == CLI_POLICY_SKIP) cli_error("'%s' exists: --skip-existing keeps files, --force replaces this report", path);
     return CLI_FAIL;
 }
 

@@ -61,28 +61,28 @@
 
 /* >>main */
 #ifdef SUPERMAT_CLI_MESH
-int supermat_cli_mesh(int argc, char **argv); /* cli/mesh.cpp (tinygltf), when built with it */
+/* cli/mesh.cpp (tinygltf), when built with it: `supermat mesh`, the global options passed in (policy:
+   CLI_POLICY_*, allow_outside) */
+int supermat_cli_mesh_global(int argc, char **argv, int policy, int allow_outside);
 #endif
+
+/* `supermat --help`: the text of args.c, the global options, the exit status */
+static const cli_optdef cli_help_main[] = {
+    CLI_TEXT(cli_usage_main),
+    CLI_OPTS(cli_opts_global),
+    CLI_TEXT("\nexit status: 0 ok, 1 runtime error, 2 usage error\n"),
+    CLI_END};
 
 int main(int argc, char **argv) {
     const char *c;
-    int i, j;
-    /* the overwrite policy, for every command (before a "--", anywhere after the command name) */
-    for (i = j = 2; i < argc; i++) {
-        if (!strcmp(argv[i], "--")) { while (i < argc) argv[j++] = argv[i++]; break; }
-        if (!strcmp(argv[i], "--force") || !strcmp(argv[i], "--skip-existing")) {
-            int want = argv[i][2] == 'f' ? CLI_POLICY_FORCE : CLI_POLICY_SKIP;
-            if (cli_policy != CLI_POLICY_REFUSE && cli_policy != want) return cli_usage_error(NULL, "--force and --skip-existing exclude each other");
-            cli_policy = want;
-            continue;
-        }
-        if (!strcmp(argv[i], "--allow-outside-refs")) { cli_allow_outside = 1; continue; }
-        argv[j++] = argv[i];
-    }
-    if (argc > 2) { argc = j; argv[argc] = NULL; }
-    if (argc < 2) { fputs(cli_usage_main, stderr); return CLI_USAGE; }
+    cli_global_opts g;
+    /* the global options, for every command (before a "--", anywhere after the command name): fixed here,
+       before the command runs */
+    if (cli_global_parse(&argc, argv, &g) != CLI_OK) return CLI_USAGE;
+    cli_global_set(&g);
+    if (argc < 2) { cli_help_print(stderr, cli_help_main); return CLI_USAGE; }
     c = argv[1];
-    if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) { fputs(cli_usage_main, stdout); return CLI_OK; }
+    if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) { cli_help_print(stdout, cli_help_main); return CLI_OK; }
     if (!strcmp(c, "--version") || !strcmp(c, "-V")) {
         printf("supermat %d.%d.%d\n", (SUPERMAT_VERSION >> 16) & 255, (SUPERMAT_VERSION >> 8) & 255, SUPERMAT_VERSION & 255);
         printf("built with:%s%s\n",
@@ -114,11 +114,7 @@ int main(int argc, char **argv) {
     if (!strcmp(c, "batch")) return cli_batch(argc, argv);
     if (!strcmp(c, "mesh")) {
 #ifdef SUPERMAT_CLI_MESH
-        if (cli_policy != CLI_POLICY_REFUSE) /* the mesh command reads the policy from its arguments */
-            argv[argc++] = (char *)(cli_policy == CLI_POLICY_FORCE ? "--force" : "--skip-existing");
-        if (cli_allow_outside) argv[argc++] = (char *)"--allow-outside-refs";
-        argv[argc] = NULL;
-        return supermat_cli_mesh(argc - 1, argv + 1);
+        return supermat_cli_mesh_global(argc - 1, argv + 1, g.policy, g.allow_outside);
 #else
         cli_error("this supermat was built without tinygltf (libtinygltf-dev): `mesh` is not available");
         return CLI_FAIL;

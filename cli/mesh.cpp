@@ -23,7 +23,7 @@
  *
  * Build: standalone with -DSUPERMAT_MESH_MAIN (which also compiles supermat.h's implementation), or
  * linked into the `supermat` CLI, whose translation unit has SUPERMAT_IMPLEMENTATION, by calling
- * supermat_cli_mesh(). Link -ltinygltf -lstb (Debian's libtinygltf.so uses libstb's stb_image).
+ * supermat_cli_mesh_global() (supermat_cli_mesh() parses the output options itself). Link -ltinygltf -lstb (Debian's libtinygltf.so uses libstb's stb_image).
  */
 #ifdef SUPERMAT_MESH_MAIN
 #define SUPERMAT_IMPLEMENTATION
@@ -35,6 +35,7 @@
 #include <nlohmann/json.hpp> /* what a replaced .gltf refers to (Debian's nlohmann-json3-dev; CMake checks for it) */
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
+#include "opt_table.h" /* the option table: parsing and --help */
 #include "picture_check.h"
 #include "smio.h"
 
@@ -59,8 +60,13 @@
 #include <vector>
 
 extern "C" int supermat_cli_mesh(int argc, char **argv);
+extern "C" int supermat_cli_mesh_global(int argc, char **argv, int policy, int allow_outside);
 extern "C" void supermat_cli_mesh_keep_models(int keep);
 struct supermat_cli_mesh_opts;
+extern "C" const cli_optdef supermat_cli_mesh_bake_options[];
+extern "C" supermat_cli_mesh_opts *supermat_cli_mesh_opts_new(void);
+extern "C" int supermat_cli_mesh_opt_set(supermat_cli_mesh_opts *o, int id, const char *value);
+extern "C" int supermat_cli_mesh_opts_check(const supermat_cli_mesh_opts *o);
 extern "C" int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts);
 extern "C" int supermat_cli_mesh_run(const supermat_cli_mesh_opts *opts, const char *in, const char *out, int force, int allow_outside);
 extern "C" void supermat_cli_mesh_opts_free(supermat_cli_mesh_opts *opts);
@@ -679,45 +685,6 @@ void list_files(const std::string &root, const std::string &rel, std::vector<std
 #define MESH_DEFAULT_BC "supermat_refine_albedo_default.safetensors"
 #define MESH_DEFAULT_RM "supermat_refine_rm_default.safetensors"
 
-int usage() {
-    std::fprintf(stderr,
-                 "usage: supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf\n"
-                 "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]\n"
-                 "       [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]\n"
-                 "  --mv-model F    a SuperMatMV model (the six views together), or a single-view model (view by\n"
-                 "                  view, no cross-view attention: the paper's ablation)\n"
-                 "  no model flags  the view model in the default model's folder (as `supermat image` finds\n"
-                 "                  it): " MESH_DEFAULT_MV " (else the default model,\n"
-                 "                  view by view), without refinement (measured better than with the refine\n"
-                 "                  networks trained here: docs/mesh.md)\n"
-                 "  --refine        also the UV-refine defaults in that folder, " MESH_DEFAULT_BC "\n"
-                 "                  and " MESH_DEFAULT_RM " (each where present;\n"
-                 "                  neither: exit 1); with --mv-model too, that view model\n"
-                 "  --albedo-refine F, --rm-refine F  the UV-refine networks, either or both (the same file may\n"
-                 "                  serve both; with --mv-model); a map without one is the view model's\n"
-                 "  --passthrough   no networks: albedo = the rendered base colour, roughness 0.5, metallic 0\n"
-                 "  --no-refine     the view model alone (what no refine flag does): its back-projected maps,\n"
-                 "                  unseen texels filled from their neighbours (the refine networks' inputs;\n"
-                 "                  the paper's ablation without refinement)\n"
-                 "  --keep-observed the refined maps fill only the texels no view saw; the others keep the\n"
-                 "                  back-projection (default: refined everywhere, as the official pipeline)\n"
-                 "  --force / --skip-existing   replace / keep existing output files (default: refuse them)\n"
-                 "  --allow-outside-refs  trusted assets only: read referenced files outside IN's folder (by '..'\n"
-                 "                  or a symbolic link); absolute paths, schemes and non-regular files stay refused\n"
-                 "  --texture-size N  output texture size (default 1024); --views-size N: rendered views (512)\n"
-                 "  --view-weight average|cos  how the views' texels are blended (default average; cos: by the\n"
-                 "                  cosine of the view angle, supermat_uv.h WEIGHT)\n"
-                 "  --size, --weight  the old spellings of --texture-size and --view-weight, until the next release\n"
-                 "  --work-size N|native  the networks' size: views (and UV maps) are resampled to N x N and the\n"
-                 "                  maps back (default: the size each model file records, as `supermat image`:\n"
-                 "                  128 for the multi-view default; native = the view / texture size)\n"
-                 "  --detail F|off  the albedo keeps the input texture's detail: input x low-pass(albedo) /\n"
-                 "                  low-pass(input), lighting assumed smooth over F x the texture size\n"
-                 "                  (default 1/32 with networks, off with --passthrough; supermat_uv.h DETAIL)\n"
-                 "  --max-memory SIZE  refuse models + bake needing more than SIZE (512M, 4G), before allocating\n");
-    return 2;
-}
-
 /* A loaded model and the read-only mapping of its file (which it borrows: small tensors, and a
    pre-packed file's panels). In a batch (supermat_cli_mesh_keep_models) the models stay loaded from one
    asset to the next, keyed by path; otherwise each run releases them. */
@@ -876,74 +843,141 @@ struct supermat_cli_mesh_opts {
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
     int passthrough = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
         edge_reject = 0, supersample = 0, policy = 0; /* policy: 0 refuse existing outputs, 1 --force, 2 --skip-existing */
+    int no_refine = 0; /* --no-refine: only the option checks read it (the bake follows from the others) */
     supermat_uv_weight weight = SUPERMAT_UV_WEIGHT_AVERAGE;
     bool allow_outside = false;
     size_t max_memory = 0; /* --max-memory: 0 = no cap */
 };
 
-/* argv[1..]: the options, then IN and OUT where in_p is not NULL (none where it is: batch); -1 when they are
-   valid (o filled), else the exit status (0 after --help, 2 after a usage message) */
-static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, const char **in_p, const char **out_p) {
-    const char *in = nullptr, *out = nullptr;
-    int no_refine = 0; /* --no-refine, or no refine flag: only checked here (the bake follows from the others) */
-    for (int i = 1; i < argc; i++) {
-        std::string a = argv[i];
-        bool more = i + 1 < argc;
-        if (a == "--mv-model" && more) o.mv_path = argv[++i];
-        else if (a == "--albedo-refine" && more) o.bc_path = argv[++i];
-        else if (a == "--rm-refine" && more) o.rm_path = argv[++i];
-        else if (a == "--debug-dir" && more) o.dbg = argv[++i];
-        else if ((a == "--texture-size" || a == "--size") && more) o.size = std::atoi(argv[++i]);
-        else if (a == "--views-size" && more) o.views = std::atoi(argv[++i]);
-        else if (a == "--threads" && more) o.threads = std::atoi(argv[++i]);
-        else if (a == "--gutter" && more) o.gutter = std::atoi(argv[++i]);
-        else if (a == "--edge-reject" && more) o.edge_reject = std::atoi(argv[++i]);
-        else if (a == "--supersample" && more) o.supersample = std::atoi(argv[++i]);
-        else if (a == "--work-size" && more) {
-            std::string w = argv[++i];
-            o.work_opt = w == "native" ? 0 : std::atoi(w.c_str());
-            if (w != "native" && (o.work_opt < 8 || o.work_opt % 8 || o.work_opt > 16384)) {
-                std::fprintf(stderr, "supermat mesh: --work-size: 'native' or a multiple of 8 from 8 to 16384, not '%s'\n", argv[i]);
-                return 2;
-            }
+/* `supermat mesh`: its options (one table: the parser below and --help come from it). The ids count from
+   SUPERMAT_CLI_MESH_OPT_FIRST, clear of the ids of `supermat batch`, which parses the bake options with its
+   own (supermat_cli_mesh_bake_options) and hands each to supermat_cli_mesh_opt_set. */
+enum {
+    MESH_O_MV = 300, MESH_O_ALBEDO_REFINE, MESH_O_RM_REFINE, MESH_O_REFINE, MESH_O_NO_REFINE, MESH_O_PASSTHROUGH,
+    MESH_O_KEEP_OBSERVED, MESH_O_TEXTURE_SIZE, MESH_O_VIEWS_SIZE, MESH_O_VIEW_WEIGHT, MESH_O_WORK_SIZE, MESH_O_DETAIL,
+    MESH_O_THREADS, MESH_O_GUTTER, MESH_O_EDGE_REJECT, MESH_O_SUPERSAMPLE, MESH_O_MAX_MEMORY, MESH_O_DEBUG_DIR,
+    MESH_O_FORCE, MESH_O_SKIP_EXISTING, MESH_O_ALLOW_OUTSIDE
+};
+/* what every asset of a run shares: `supermat mesh`'s options, and those `batch mesh` passes on */
+extern "C" const cli_optdef supermat_cli_mesh_bake_options[] = {
+    {MESH_O_MV, "--mv-model", "F", "a SuperMatMV model (the six views together), or a single-view model (view by\n"
+                                   "view, no cross-view attention: the paper's ablation)", NULL, NULL},
+    {MESH_O_REFINE, "--refine", NULL, "also the UV-refine defaults in that folder, each where present (neither:\n"
+                                      "exit 1): " MESH_DEFAULT_BC " and\n"
+                                      MESH_DEFAULT_RM "; with --mv-model too, that view model", NULL, NULL},
+    {MESH_O_ALBEDO_REFINE, "--albedo-refine", "F", "the UV-refine networks, either or both (the same file may serve both;\n"
+                                                   "with --mv-model); a map without one is the view model's", NULL, NULL},
+    {MESH_O_RM_REFINE, "--rm-refine", "F", "(as --albedo-refine: the roughness / metallic one)", NULL, NULL},
+    {MESH_O_PASSTHROUGH, "--passthrough", NULL, "no networks: albedo = the rendered base colour, roughness 0.5, metallic 0", NULL, NULL},
+    {MESH_O_NO_REFINE, "--no-refine", NULL, "the view model alone (what no refine flag does): its back-projected maps,\n"
+                                            "unseen texels filled from their neighbours (the refine networks' inputs;\n"
+                                            "the paper's ablation without refinement)", NULL, NULL},
+    {MESH_O_KEEP_OBSERVED, "--keep-observed", NULL, "the refined maps fill only the texels no view saw; the others keep the\n"
+                                                    "back-projection (default: refined everywhere, as the official pipeline)", NULL, NULL},
+    {MESH_O_TEXTURE_SIZE, "--texture-size", "N", "output texture size (default 1024)", "--size", NULL},
+    {MESH_O_VIEWS_SIZE, "--views-size", "N", "rendered views (default 512)", NULL, NULL},
+    {MESH_O_VIEW_WEIGHT, "--view-weight", "W", "average | cos: how the views' texels are blended (default average; cos: by\n"
+                                               "the cosine of the view angle, supermat_uv.h WEIGHT)", "--weight", NULL},
+    {MESH_O_WORK_SIZE, "--work-size", "N|native", "the networks' size: views (and UV maps) are resampled to N x N and the\n"
+                                                  "maps back (default: the size each model file records, as `supermat image`:\n"
+                                                  "128 for the multi-view default; native = the view / texture size)", NULL, NULL},
+    {MESH_O_DETAIL, "--detail", "F|off", "the albedo keeps the input texture's detail: input x low-pass(albedo) /\n"
+                                         "low-pass(input), lighting assumed smooth over F x the texture size\n"
+                                         "(default 1/32 with networks, off with --passthrough; supermat_uv.h DETAIL)", NULL, NULL},
+    {MESH_O_THREADS, "--threads", "N", "threads (default 0 = all cores)", NULL, NULL},
+    {MESH_O_GUTTER, "--gutter", "N", "texels filled around the baked ones (default 0 = 16; < 0 the whole texture)", NULL, NULL},
+    {MESH_O_EDGE_REJECT, "--edge-reject", "N", "view pixels closer than N to a silhouette or depth edge left out (default 0)", NULL, NULL},
+    {MESH_O_SUPERSAMPLE, "--supersample", "N", "samples per view pixel per axis, 1 to 8 (default 0 = 4)", NULL, NULL},
+    {MESH_O_MAX_MEMORY, "--max-memory", "SIZE", "refuse models + bake needing more than SIZE (512M, 4G), before allocating", NULL, NULL},
+    CLI_END};
+/* the output files' options: in the `supermat` CLI these are its global options (main() takes them from
+   anywhere on the command line and passes them in: supermat_cli_mesh_global); the standalone supermat_mesh
+   and supermat_cli_mesh() callers parse them here */
+static const cli_optdef mesh_opts_files[] = {
+    {MESH_O_FORCE, "--force", NULL, "replace existing output files (default: refuse them)", NULL, NULL},
+    {MESH_O_SKIP_EXISTING, "--skip-existing", NULL, "keep an existing OUT and exit 0", NULL, NULL},
+    {MESH_O_ALLOW_OUTSIDE, "--allow-outside-refs", NULL, "trusted assets only: read referenced files outside IN's folder (by '..' or\n"
+                                                         "a symbolic link); absolute paths, schemes and non-regular files stay\n"
+                                                         "refused", NULL, NULL},
+    CLI_END};
+static const cli_optdef mesh_opts[] = {
+    CLI_TEXT("usage: supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf\n"
+             "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]\n"
+             "       [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]\n"
+             "\n"
+             "Bakes albedo and metallicRoughness UV textures for the glTF asset IN (.gltf or .glb) into OUT.\n"
+             "No model flags: the view model in the default model's folder (as `supermat image` finds it):\n"
+             MESH_DEFAULT_MV " (else the default model, view by view), without refinement\n"
+             "(measured better than with the refine networks trained here: docs/mesh.md).\n"
+             "\n"
+             "options:\n"),
+    CLI_OPTS(supermat_cli_mesh_bake_options),
+    {MESH_O_DEBUG_DIR, "--debug-dir", "DIR", "write view_K.png, pred_albedo_K.png, pred_rm_K.png, partial_albedo.png,\n"
+                                             "partial_rm.png, mask.png, position.png there (suffix _M for the M-th\n"
+                                             "material after the first)", NULL, NULL},
+    CLI_OPTS(mesh_opts_files),
+    CLI_END};
+
+/* one option (id, v) of mesh_opts into o: 1, or -1 after a usage message */
+static int mesh_opt_value(supermat_cli_mesh_opts &o, int id, const char *v) {
+    std::string w = v ? v : "";
+    char *end = nullptr;
+    switch (id) {
+    case MESH_O_MV: o.mv_path = v; break;
+    case MESH_O_ALBEDO_REFINE: o.bc_path = v; break;
+    case MESH_O_RM_REFINE: o.rm_path = v; break;
+    case MESH_O_DEBUG_DIR: o.dbg = v; break;
+    case MESH_O_TEXTURE_SIZE: o.size = std::atoi(v); break;
+    case MESH_O_VIEWS_SIZE: o.views = std::atoi(v); break;
+    case MESH_O_THREADS: o.threads = std::atoi(v); break;
+    case MESH_O_GUTTER: o.gutter = std::atoi(v); break;
+    case MESH_O_EDGE_REJECT: o.edge_reject = std::atoi(v); break;
+    case MESH_O_SUPERSAMPLE: o.supersample = std::atoi(v); break;
+    case MESH_O_WORK_SIZE:
+        o.work_opt = w == "native" ? 0 : std::atoi(v);
+        if (w != "native" && (o.work_opt < 8 || o.work_opt % 8 || o.work_opt > 16384)) {
+            std::fprintf(stderr, "supermat mesh: --work-size: 'native' or a multiple of 8 from 8 to 16384, not '%s'\n", v);
+            return -1;
         }
-        else if (a == "--detail" && more) {
-            std::string w = argv[++i];
-            char *end = nullptr;
-            o.detail = w == "off" ? 0.0f : std::strtof(w.c_str(), &end);
-            if (w != "off" && (!end || *end || !(o.detail >= 0.0f && o.detail <= 1.0f))) {
-                std::fprintf(stderr, "supermat mesh: --detail: 'off' or a fraction of the texture size from 0 to 1, not '%s'\n", argv[i]);
-                return 2;
-            }
+        break;
+    case MESH_O_DETAIL:
+        o.detail = w == "off" ? 0.0f : std::strtof(v, &end);
+        if (w != "off" && (!end || *end || !(o.detail >= 0.0f && o.detail <= 1.0f))) {
+            std::fprintf(stderr, "supermat mesh: --detail: 'off' or a fraction of the texture size from 0 to 1, not '%s'\n", v);
+            return -1;
         }
-        else if (a == "--max-memory" && more) {
-            if (!parse_size(argv[++i], &o.max_memory)) {
-                std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", argv[i]);
-                return 2;
-            }
+        break;
+    case MESH_O_MAX_MEMORY:
+        if (!parse_size(w, &o.max_memory)) {
+            std::fprintf(stderr, "supermat mesh: --max-memory: '%s' is not a size (bytes, or a number with K, M, G or T: 512M, 2.5G)\n", v);
+            return -1;
         }
-        else if ((a == "--view-weight" || a == "--weight") && more) {
-            std::string w = argv[++i];
-            if (w == "cos") o.weight = SUPERMAT_UV_WEIGHT_COS_POWER;
-            else if (w != "average") return usage();
-        } else if (a == "--passthrough") o.passthrough = 1;
-        else if (a == "--no-refine") no_refine = 1;
-        else if (a == "--refine") o.refine = 1;
-        else if (a == "--keep-observed") o.keep_observed = 1;
-        else if (a == "--allow-outside-refs") o.allow_outside = true;
-        else if (a == "--force" || a == "--skip-existing") {
-            int want = a == "--force" ? 1 : 2;
-            if (o.policy && o.policy != want) { std::fprintf(stderr, "supermat mesh: --force and --skip-existing exclude each other\n"); return 2; }
-            o.policy = want;
-        }
-        else if (a == "-h" || a == "--help") return usage();
-        else if (a.size() > 1 && a[0] == '-' && a != "-") { std::fprintf(stderr, "supermat mesh: unknown option %s\n", a.c_str()); return usage(); }
-        else if (!in) in = argv[i];
-        else if (!out) out = argv[i];
-        else return usage();
+        break;
+    case MESH_O_VIEW_WEIGHT:
+        if (w == "cos") o.weight = SUPERMAT_UV_WEIGHT_COS_POWER;
+        else if (w == "average") o.weight = SUPERMAT_UV_WEIGHT_AVERAGE;
+        else return cli_usage_error("mesh", "--view-weight: average or cos, not '%s'", v), -1;
+        break;
+    case MESH_O_PASSTHROUGH: o.passthrough = 1; break;
+    case MESH_O_NO_REFINE: o.no_refine = 1; break;
+    case MESH_O_REFINE: o.refine = 1; break;
+    case MESH_O_KEEP_OBSERVED: o.keep_observed = 1; break;
+    case MESH_O_ALLOW_OUTSIDE: o.allow_outside = true; break;
+    case MESH_O_FORCE:
+    case MESH_O_SKIP_EXISTING: {
+        int want = id == MESH_O_FORCE ? 1 : 2;
+        if (o.policy && o.policy != want) return cli_usage_error("mesh", "--force and --skip-existing exclude each other"), -1;
+        o.policy = want;
+        break;
     }
-    if (in_p && (!in || !out)) return usage();
-    if (!in_p && in) { std::fprintf(stderr, "supermat batch mesh: unexpected argument '%s' (the assets are the batch's inputs)\n", in); return 2; }
+    default: return cli_usage_error("mesh", "option %d is not one of mesh's", id), -1;
+    }
+    return 1;
+}
+
+/* the checks across options, once all are in: 0, or 2 after a usage message */
+static int mesh_opts_check(const supermat_cli_mesh_opts &o) {
+    int no_refine = o.no_refine;
     if (no_refine && (o.passthrough || o.bc_path || o.rm_path || o.refine)) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --refine, --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
@@ -963,6 +997,29 @@ static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, con
         std::fprintf(stderr, "supermat mesh: --albedo-refine and --rm-refine need --mv-model\n");
         return 2;
     }
+    return 0;
+}
+
+/* argv[1..] against mesh_opts: the options, then IN and OUT where in_p is not NULL (none where it is); -1
+   when they are valid (o filled), else the exit status (0 after --help, 2 after a usage message) */
+static int parse_mesh_opts(int argc, char **argv, supermat_cli_mesh_opts &o, const char **in_p, const char **out_p) {
+    const char *in = nullptr, *out = nullptr, *v;
+    cli_argp P;
+    int m;
+    cli_argp_init(&P, "mesh", mesh_opts, argc, argv, 1);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        if (m == CLI_ARG_HELP) { cli_help_print(stdout, mesh_opts); return 0; }
+        if (m == CLI_ARG_ERROR) return 2;
+        if (m == CLI_ARG_OPERAND) {
+            if (!in) in = v;
+            else if (!out) out = v;
+            else return cli_usage_error("mesh", "one IN and one OUT: '%s' is a third", v);
+        } else if (mesh_opt_value(o, m, v) < 0)
+            return 2;
+    }
+    if (in_p && (!in || !out)) return cli_usage_error("mesh", "give IN.gltf and OUT.gltf");
+    if (!in_p && in) { std::fprintf(stderr, "supermat batch mesh: unexpected argument '%s' (the assets are the batch's inputs)\n", in); return 2; }
+    if (mesh_opts_check(o)) return 2;
     if (in_p) { *in_p = in; *out_p = out; }
     return -1;
 }
@@ -1594,19 +1651,39 @@ static int run_mesh(const supermat_cli_mesh_opts &opt, const char *in, const cha
     return 0;
 }
 
-extern "C" int supermat_cli_mesh(int argc, char **argv) {
+/* `supermat mesh` as the supermat CLI runs it: policy (0 refuse existing outputs, 1 --force, 2
+   --skip-existing) and allow_outside are its global options, which main() parsed; argv[0] "mesh" */
+extern "C" int supermat_cli_mesh_global(int argc, char **argv, int policy, int allow_outside) {
     supermat_cli_mesh_opts o;
     const char *in = nullptr, *out = nullptr;
+    o.policy = policy;
+    o.allow_outside = allow_outside != 0;
     int rc = parse_mesh_opts(argc, argv, o, &in, &out);
     return rc >= 0 ? rc : run_mesh(o, in, out);
 }
+/* the standalone supermat_mesh (and the fuzzer): --force, --skip-existing, --allow-outside-refs in argv */
+extern "C" int supermat_cli_mesh(int argc, char **argv) { return supermat_cli_mesh_global(argc, argv, 0, 0); }
 
-/* `batch mesh`: the options once (argv[0] "mesh", no IN OUT), then one run per asset, each writing over what
-   the batch's journal says is not done (force) */
-extern "C" int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts) {
+/* `batch mesh`: the options once, before any asset (supermat_cli_mesh_opts_new, then one
+   supermat_cli_mesh_opt_set per option of supermat_cli_mesh_bake_options, then supermat_cli_mesh_opts_check),
+   then one run per asset, each writing over what the batch's journal says is not done (force) */
+extern "C" supermat_cli_mesh_opts *supermat_cli_mesh_opts_new(void) {
     supermat_cli_mesh_opts *o = new (std::nothrow) supermat_cli_mesh_opts();
+    if (!o) std::fprintf(stderr, "supermat: out of memory\n");
+    return o;
+}
+/* 1: id is a bake option and its value is in o; -1: a usage message was printed; 0: id is not a bake option */
+extern "C" int supermat_cli_mesh_opt_set(supermat_cli_mesh_opts *o, int id, const char *value) {
+    if (id < MESH_O_MV || id > MESH_O_MAX_MEMORY) return 0;
+    return mesh_opt_value(*o, id, value);
+}
+/* 0: the options go together; 2 after a usage message */
+extern "C" int supermat_cli_mesh_opts_check(const supermat_cli_mesh_opts *o) { return mesh_opts_check(*o); }
+/* the same from an argv (argv[0] "mesh", no IN OUT): 0 and *opts, else the exit status (2) after the message */
+extern "C" int supermat_cli_mesh_opts_parse(int argc, char **argv, supermat_cli_mesh_opts **opts) {
+    supermat_cli_mesh_opts *o = supermat_cli_mesh_opts_new();
     *opts = nullptr;
-    if (!o) { std::fprintf(stderr, "supermat batch mesh: out of memory\n"); return 1; }
+    if (!o) return 1;
     int rc = parse_mesh_opts(argc, argv, *o, nullptr, nullptr);
     if (rc >= 0) { delete o; return rc == 0 ? 2 : rc; }
     *opts = o;

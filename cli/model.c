@@ -160,40 +160,6 @@ int supermat_cli_default_model(char *path, size_t cap, const char **from) {
    size the model file records (pipeline.work_size: 512 from `supermat convert`, 256 for the default
    model, 0 = none), the official one for a file that records none.
    --native runs each picture at its own size, --work-size N at N x N. */
-static int cli_work_opt(const char *cmd, int argc, char **argv, int *i, int *opt) {
-    const char *v;
-    int m;
-    if (!strcmp(argv[*i], "--native")) { *opt = 0; return 1; }
-    if ((m = cli_opt(cmd, argc, argv, i, "--work-size", &v)) != 0) {
-        if (m < 0 || cli_parse_int(cmd, "--work-size", v, 8, 16384, opt)) return -1;
-        if (*opt % 8) { cli_usage_error(cmd, "--work-size %d: a multiple of 8", *opt); return -1; }
-        return 1;
-    }
-    return 0;
-}
-
-/* The options of the commands that run a model (image, views, refine; info takes the last three):
-   --float and --native / --work-size where the pointer is not NULL, --threads, --kernel, --weights, --compute, --conv, --max-memory.
-   1 when argv[*i] was one of them, -1 on a usage error (said), 0 when it is none of them. */
-static int cli_run_opt(const char *cmd, int argc, char **argv, int *i, int *want_float, int *work_opt, int *threads,
-                       supermat_kernel *kernel, cli_levers *lv) {
-    const char *v;
-    int m;
-    if (want_float && !strcmp(argv[*i], "--float")) { *want_float = 1; return 1; }
-    if (work_opt && (m = cli_work_opt(cmd, argc, argv, i, work_opt)) != 0) return m;
-    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--detail", &v)) != 0)
-        return m < 0 || cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &lv->detail) ? -1 : 1;
-    if (work_opt && (m = cli_opt(cmd, argc, argv, i, "--chroma", &v)) != 0)
-        return m < 0 || cli_parse_unit(cmd, "--chroma", v, "a weight", &lv->chroma) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--threads", &v)) != 0)
-        return m < 0 || cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--kernel", &v)) != 0) return m < 0 || cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--weights", &v)) != 0) return m < 0 || cli_parse_weights(cmd, v, lv) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--compute", &v)) != 0) return m < 0 || cli_parse_compute(cmd, v, lv) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--conv", &v)) != 0) return m < 0 || cli_parse_conv(cmd, v, lv) ? -1 : 1;
-    if ((m = cli_opt(cmd, argc, argv, i, "--max-memory", &v)) != 0) return m < 0 || cli_parse_bytes(cmd, "--max-memory", v, &lv->max_memory) ? -1 : 1;
-    return 0;
-}
 
 /* The options the commands that run a model share: their ids (a command's own options count from 1),
    their tables (spliced into each command's with CLI_OPTS) and cli_run_value, which reads their values. */
