@@ -1,4 +1,4 @@
-/* cli/bench.c - `supermat bench`: FMA peak, the pipeline per stage, GEMM kernels; `bench --image`: the speed / memory levers against the f32 maps and the truth.
+/* cli/bench.c - `supermat bench`: its options (one table: parsing and --help), (b) the pipeline per stage, (c) the conv GEMM per micro-kernel (supermat.h testing hook supermat_bench_conv_*); (a) the peaks are bench/peak.c, `bench --image` is bench/harness.c (both included here).
  * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
 
 /* >>bench */
@@ -121,6 +121,116 @@ static size_t cli_peak_rss(void) {
 }
 #include "../bench/harness.c" /* `bench --image` */
 
+/* `supermat bench`: its options and --help */
+enum {
+    CLI_BENCH_MODEL = 1, CLI_BENCH_SIZE, CLI_BENCH_VIEWS, CLI_BENCH_THREADS, CLI_BENCH_REPEATS, CLI_BENCH_PIPELINE_ONLY,
+    CLI_BENCH_OUTPUTS, CLI_BENCH_JSON, CLI_BENCH_IMAGE, CLI_BENCH_MASK, CLI_BENCH_POSITION, CLI_BENCH_CAMERAS, CLI_BENCH_MODES,
+    CLI_BENCH_TRUTH /* + 0, 1, 2: albedo, roughness, metallic */
+};
+static const cli_optdef cli_opts_bench[] = {
+    CLI_TEXT("usage: supermat bench [--model FILE] [options]\n"
+             "       supermat bench [--model FILE] --image IMAGE [--modes all|LIST] [--json FILE] [options]\n"
+             "\n"
+             "Without --image, measures in one run: (a) this machine's FMA peak on every thread (AVX2, or\n"
+             "AVX-512 where the AVX-512 kernel runs) and, with --compute bf16 / int8, the peak of the instruction\n"
+             "those GEMMs multiply with (vdpbf16ps, vpdpbusd: the % dot column; CPUs differ more here); (b) the\n"
+             "full pipeline on synthetic input, seconds / GFLOP / GFLOP/s / % of the peak per stage (VAE encode,\n"
+             "UNet trunk, each branch tail, each VAE decode), model creation time and peak memory; (c) one 3x3\n"
+             "convolution GEMM (M=4096, K=9*320, N=320, the first UNet level at 512x512) with the AVX2 and\n"
+             "the scalar micro-kernel, and their ratio.\n"
+             "\n"
+             "Every model kind: supermat (one RGBA image), supermat-mv (--views RGBA views with cameras on a\n"
+             "circle around the object) and uv-refine (a UV map, its mask and position map).\n"
+             "\n"
+             "options:\n"),
+    {CLI_BENCH_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL at the end)", NULL, NULL},
+    {CLI_BENCH_SIZE, "--size", "S", "image size: S (square) or WxH, multiples of 8 (default 512)", NULL, NULL},
+    {CLI_BENCH_VIEWS, "--views", "N", "supermat-mv: views processed together, 1 to 64 (default 6)", NULL, NULL},
+    {CLI_BENCH_THREADS, "--threads", "N", "threads (default 0 = all cores)", NULL, NULL},
+    {CLI_BENCH_REPEATS, "--repeats", "R", "pipeline runs; the fastest is reported (default 1)", NULL, NULL},
+    {CLI_BENCH_PIPELINE_ONLY, "--pipeline-only", NULL, "skip (a) and (c): no FMA peak (no % of peak), no GEMM comparison", NULL, NULL},
+    {CLI_BENCH_OUTPUTS, "--outputs", "LIST", "comma list of albedo,roughness,metallic (default: all three; uv-refine\nmakes its one refined map)", NULL, NULL},
+    {CLI_O_KERNEL, "--kernel", "K", CLI_KERNEL_VALUES ": the pipeline's kernels (default auto)", NULL, NULL},
+    CLI_OPTS(cli_opts_levers),
+    {CLI_BENCH_JSON, "--json", "FILE", "also write the numbers as JSON", NULL, NULL},
+    CLI_TEXT("\n"
+             "SPEED / ACCURACY TABLE (--image)\n"
+             "With --image, runs each selected mode (a speed or memory lever) on that real input and prints one\n"
+             "row per mode: seconds (supermat_run only, best of --repeats; model and session creation are not\n"
+             "timed), speed-up over the f32 mode, peak MiB (the model's memory + the session's planned arena),\n"
+             "the FLOPs the run performed and GFLOP/s, and per map (albedo, roughness, metallic; uv-refine: the\n"
+             "refined map) against the f32 mode's float outputs: psnr = 10 log10(1 / MSE) in dB over all\n"
+             "pixels and channels (200 = identical, the cap), psnr_fg the same over the foreground pixels only\n"
+             "(input alpha > 0; uv-refine: mask > 0.5), and max_abs, the largest absolute difference (maps in\n"
+             "[0, 1]). A map a mode does not compute is shown as - (null in JSON).\n"
+             "  supermat      --image IMAGE (RGBA, straight alpha)\n"
+             "  supermat-mv   --image VIEW once per view with --cameras meta.json (as `supermat views` matches\n"
+             "                them), or one --image and no cameras: that image as every one of --views N views\n"
+             "                (default 6) with cameras on a circle\n"
+             "  uv-refine     --image MAP --mask MASK --position POS\n"
+             "Images are not resized: width and height must be multiples of 8.\n"
+             "\n"),
+    CLI_TEXT("modes (--modes all: every mode that applies to the model; or a comma list; f32, the reference,\n"
+             "always runs first):\n"
+             "  f32                 f32 weights, direct convolutions, the official computation (the reference)\n"
+             "  f16, bf16, int8     the GEMM weights stored as f16 / bf16 / int8 (a model of its own)\n"
+             "  winograd_f2, winograd_f4\n"
+             "                      3x3 convolutions by Winograd F(2x2,3x3) / F(4x4,3x3) (a model of its own)\n"
+             "  tiled_vae           the VAE in 2x2 tiles: vae_tile ((S/8 + 4) / 2) * 8, overlap 32, where\n"
+             "                      S = max(width, height) (272 at 512)\n"
+             "  foreground          vae_tile S/4 + 16 rounded up to a multiple of 8 (144 at 512), overlap 16,\n"
+             "                      background tiles not decoded (skip_background)\n"
+             "  branch_albedo       supermat, supermat-mv: the albedo map only\n"
+             "  branch_rm           supermat, supermat-mv: the roughness and metallic maps only\n"
+             "  res256, res384      supermat, supermat-mv: the network at 256 / 384 pixels on the longer side\n"
+             "                      (work_width x work_height, proportional, multiples of 8), maps resampled\n"
+             "                      back; skipped when the image is not larger\n"
+             "  res512, res768      uv-refine: the same at 512 / 768\n"
+             "  mv_window_own       supermat-mv: highest-resolution attention within each view only\n"
+             "  mv_window_stride4   supermat-mv: own view + every 4th key of the other views\n"
+             "  bf16_compute        bf16 x bf16 products in the GEMMs with vdpbf16ps (AVX512_BF16; skipped\n"
+             "                      without it)\n"
+             "  kernel_avx2         the AVX2 micro-kernel where f32 runs the AVX-512 one (same bits; skipped\n"
+             "                      without AVX-512)\n"
+             "  bf16_amx            bf16 compute on AMX tiles (skipped without AMX-BF16)\n"
+             "  bf16_amx_wf4        bf16_amx with Winograd F4 (f32) for the 3x3 convolutions\n"
+             "  int8_compute        int8 x int8 products in the GEMMs with vpdpbusd, activations quantized per\n"
+             "                      row per 64 of K (AVX512_VNNI on the AVX-512 kernel, else AVX-VNNI on the AVX2\n"
+             "                      kernel; skipped with neither)\n"
+             "  int8_compute_wf4    int8_compute with Winograd F4 (f32) for the 3x3 convolutions\n"
+             "  int8_compute_avx2   int8_compute on the AVX2 kernel with AVX-VNNI (256-bit vpdpbusd, the same bits;\n"
+             "                      only beside AVX512_VNNI: skipped where int8_compute already runs it or without)\n"
+             "\n"
+             "options with --image (besides --model, --threads, --repeats, --kernel, --views above):\n"),
+    {CLI_BENCH_IMAGE, "--image", "FILE", "the input (see above; repeated for the views of a supermat-mv model)", NULL, NULL},
+    {CLI_BENCH_MASK, "--mask", "FILE", "uv-refine: the mask (8-bit gray; colour is converted)", NULL, NULL},
+    {CLI_BENCH_POSITION, "--position", "FILE", "uv-refine: the position map", NULL, NULL},
+    {CLI_BENCH_CAMERAS, "--cameras", "FILE", "supermat-mv: the meta.json with the views' cameras", NULL, NULL},
+    {CLI_BENCH_MODES, "--modes", "LIST", "all, or a comma list of the modes above (default all)", NULL, NULL},
+    /* the same --json as above (parsing finds that one): what it writes with --image */
+    {CLI_BENCH_JSON, "--json", "FILE", "also write the table as a JSON list, one object per mode:\n"
+                                       "{\"mode\", \"seconds\", \"speedup\", \"peak_bytes\", \"flops\", \"fma_peak_gflops\",\n"
+                                       "\"fraction_of_peak\" (FLOPs performed / s / the FMA peak measured first), \"psnr\": {\"albedo\",\n"
+                                       "\"roughness\", \"metallic\"}, \"psnr_fg\": {...}, \"max_abs\": {...}, \"gt_psnr\": {...}}\n"
+                                       "(uv-refine: the key \"refined\"); skipped and failed modes are left out", NULL, NULL},
+    CLI_TEXT("--size, --outputs, --weights and --pipeline-only do not apply with --image. A mode that fails is\n"
+             "reported and the others still run; the exit status is then 1.\n"
+             "\n"
+             "AGAINST GROUND TRUTH (a supermat model, one --image)\n"),
+    {CLI_BENCH_TRUTH + 0, "--truth-albedo", "FILE", "the true albedo: an 8-bit sRGB RGB PNG (an alpha channel is ignored)", NULL, NULL},
+    {CLI_BENCH_TRUTH + 1, "--truth-roughness", "FILE", "the true roughness: an 8-bit gray PNG (an alpha channel is ignored)", NULL, NULL},
+    {CLI_BENCH_TRUTH + 2, "--truth-metallic", "FILE", "the true metallic: an 8-bit gray PNG (an alpha channel is ignored)", NULL, NULL},
+    CLI_TEXT("Any subset; each the size of the image. Every mode (f32 included) adds a gt_psnr column per map:\n"
+             "its maps quantised to 8 bits exactly as `supermat image` writes its PNGs, against the truth over\n"
+             "the object's pixels (input alpha >= 128): MSE over those pixels and the map's channels of the\n"
+             "8-bit values / 255, gt_psnr = 10 log10(1 / MSE) dB, capped at 200 (identical). The res* modes\n"
+             "are measured on their maps resampled back to the image size. JSON: \"gt_psnr\": {\"albedo\",\n"
+             "\"roughness\", \"metallic\"}, null where no truth was given or the mode does not compute the map.\n"
+             "A truth file that cannot be read, is not of the image's size, is 16-bit or has the wrong colour\n"
+             "type (albedo: colour; roughness, metallic: gray), or an image without object pixels, is an error\n"
+             "(exit status 1) before anything runs.\n"),
+    CLI_END};
+
 /* `supermat bench`: the options, then (a), (b), (c) above, or with --image cli_bench_image() */
 static int cli_bench(int argc, char **argv) {
     const char *cmd = "bench", *v, *model_arg = NULL, *model_path = NULL, *json_path = NULL;
@@ -153,6 +263,7 @@ static int cli_bench(int argc, char **argv) {
     int size_given = 0, outputs_given = 0, weights_given = 0, modes_given = 0;
     cli_model_ref mref;
     cli_levers lv;
+    cli_argp P;
 
     cli_levers_init(&lv);
     memset(&fma, 0, sizeof fma);
@@ -160,65 +271,45 @@ static int cli_bench(int argc, char **argv) {
     memset(&bo, 0, sizeof bo);
     bo.modes_all = 1;
 
-    for (i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(cli_usage_bench, stdout); fputs(cli_usage_bench_image, stdout); fputs(cli_usage_bench_modes, stdout); fputs(cli_usage_bench_truth, stdout); cli_print_default_model_help(); return CLI_OK; }
-        if ((m = cli_opt(cmd, argc, argv, &i, "--model", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            model_arg = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--size", &v)) != 0) {
-            if (m < 0 || cli_parse_size(cmd, v, &w, &h)) return CLI_USAGE;
+    cli_argp_init(&P, cmd, cli_opts_bench, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        switch (m) {
+        case CLI_ARG_HELP: cli_help_print(stdout, cli_opts_bench); cli_print_default_model_help(); return CLI_OK;
+        case CLI_ARG_ERROR: return CLI_USAGE;
+        case CLI_ARG_OPERAND: return cli_usage_error(cmd, "unexpected argument '%s'", v);
+        case CLI_BENCH_MODEL: model_arg = v; break;
+        case CLI_BENCH_SIZE:
+            if (cli_parse_size(cmd, v, &w, &h)) return CLI_USAGE;
             size_given = 1;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--threads", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--threads", v, 0, 64, &threads)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--repeats", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--repeats", v, 1, 1000, &repeats)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--views", &v)) != 0) {
-            if (m < 0 || cli_parse_int(cmd, "--views", v, 1, CLI_MAX_VIEWS, &views)) return CLI_USAGE;
-        } else if (!strcmp(a, "--pipeline-only")) {
-            pipeline_only = 1;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--outputs", &v)) != 0) {
-            if (m < 0 || cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
+            break;
+        case CLI_BENCH_THREADS: if (cli_parse_int(cmd, "--threads", v, 0, 64, &threads)) return CLI_USAGE; break;
+        case CLI_BENCH_REPEATS: if (cli_parse_int(cmd, "--repeats", v, 1, 1000, &repeats)) return CLI_USAGE; break;
+        case CLI_BENCH_VIEWS: if (cli_parse_int(cmd, "--views", v, 1, CLI_MAX_VIEWS, &views)) return CLI_USAGE; break;
+        case CLI_BENCH_PIPELINE_ONLY: pipeline_only = 1; break;
+        case CLI_BENCH_OUTPUTS:
+            if (cli_parse_outputs(cmd, v, &outputs)) return CLI_USAGE;
             outputs_given = 1;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--kernel", &v)) != 0) {
-            if (m < 0 || cli_parse_kernel(cmd, v, &kernel)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--weights", &v)) != 0) {
-            if (m < 0 || cli_parse_weights(cmd, v, &lv)) return CLI_USAGE;
-            weights_given = 1;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--compute", &v)) != 0) {
-            if (m < 0 || cli_parse_compute(cmd, v, &lv)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--conv", &v)) != 0) {
-            if (m < 0 || cli_parse_conv(cmd, v, &lv)) return CLI_USAGE;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--json", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            json_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--image", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
+            break;
+        case CLI_BENCH_JSON: json_path = v; break;
+        case CLI_BENCH_IMAGE:
             if (bo.nimg == CLI_MAX_VIEWS) return cli_usage_error(cmd, "more than %d --image views: at most %d are processed together", CLI_MAX_VIEWS, CLI_MAX_VIEWS);
             bo.images[bo.nimg++] = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--mask", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            bo.mask_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--position", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            bo.pos_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--cameras", &v)) != 0) {
-            if (m < 0) return CLI_USAGE;
-            bo.cam_path = v;
-        } else if ((m = cli_opt(cmd, argc, argv, &i, "--modes", &v)) != 0) {
-            if (m < 0 || cli_parse_modes(cmd, v, bo.modes, &bo.nmodes, &bo.modes_all)) return CLI_USAGE;
+            break;
+        case CLI_BENCH_MASK: bo.mask_path = v; break;
+        case CLI_BENCH_POSITION: bo.pos_path = v; break;
+        case CLI_BENCH_CAMERAS: bo.cam_path = v; break;
+        case CLI_BENCH_MODES:
+            if (cli_parse_modes(cmd, v, bo.modes, &bo.nmodes, &bo.modes_all)) return CLI_USAGE;
             modes_given = 1;
-        } else if (!strncmp(a, "--truth-", 8)) {
-            static const char *const truth_opts[3] = {"--truth-albedo", "--truth-roughness", "--truth-metallic"};
-            for (k = 0; k < 3; k++) if ((m = cli_opt(cmd, argc, argv, &i, truth_opts[k], &v)) != 0) break;
-            if (k == 3) return cli_usage_error(cmd, "unknown option '%s' (--truth-albedo, --truth-roughness, --truth-metallic)", a);
-            if (m < 0) return CLI_USAGE;
-            if (!v[0]) return cli_usage_error(cmd, "%s: an empty file name", truth_opts[k]);
-            bo.truth_paths[k] = v;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error(cmd, "unknown option '%s'", a);
-        } else {
-            return cli_usage_error(cmd, "unexpected argument '%s'", a);
+            break;
+        case CLI_BENCH_TRUTH + 0: case CLI_BENCH_TRUTH + 1: case CLI_BENCH_TRUTH + 2:
+            if (!v[0]) return cli_usage_error(cmd, "%s: an empty file name", P.name);
+            bo.truth_paths[m - CLI_BENCH_TRUTH] = v;
+            break;
+        default: /* --kernel and the levers */
+            if (m == CLI_O_WEIGHTS) weights_given = 1;
+            if (cli_run_value(cmd, m, v, NULL, NULL, NULL, &kernel, &lv) < 0) return CLI_USAGE;
+            break;
         }
     }
     if (bo.nimg) {
