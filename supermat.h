@@ -5304,19 +5304,38 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
 typedef struct supermat__box { float *g, *tmp; int w, h, r, dir; } supermat__box;
 static void supermat__detail_box_task(void *user, int task, int thread) {
     const supermat__box *B = (const supermat__box *)user;
-    int w = B->w, h = B->h, r = B->r, dir = B->dir, len = dir ? h : w, lines = dir ? w : h, l, k;
-    int l1 = (task + 1) * SUPERMAT__BOX_LINES < lines ? (task + 1) * SUPERMAT__BOX_LINES : lines;
-    size_t step = dir ? (size_t)w * 2 : 2, lstep = dir ? 2 : (size_t)w * 2;
-    float *g = B->g, *tmp = B->tmp + (size_t)thread * (size_t)(w > h ? w : h) * 2;
-    for (l = task * SUPERMAT__BOX_LINES; l < l1; l++) {
-        float *d = g + l * lstep;
-        double a0 = 0.0, a1 = 0.0;
-        for (k = 0; k < len; k++) { tmp[2 * k] = d[k * step]; tmp[2 * k + 1] = d[k * step + 1]; }
-        for (k = 0; k < r && k < len; k++) { a0 += tmp[2 * k]; a1 += tmp[2 * k + 1]; }
+    int w = B->w, h = B->h, r = B->r, dir = B->dir, len = dir ? h : w, lines = dir ? w : h, l, k, j;
+    int l0 = task * SUPERMAT__BOX_LINES, l1 = (task + 1) * SUPERMAT__BOX_LINES < lines ? (task + 1) * SUPERMAT__BOX_LINES : lines;
+    float *g = B->g, *tmp = B->tmp + (size_t)thread * (size_t)(w > h ? w : h) * 2 * SUPERMAT__BOX_LINES;
+    if (!dir) {
+        for (l = l0; l < l1; l++) {
+            float *d = g + (size_t)l * w * 2;
+            double a0 = 0.0, a1 = 0.0;
+            memcpy(tmp, d, sizeof(float) * 2 * (size_t)len);
+            for (k = 0; k < r && k < len; k++) { a0 += tmp[2 * k]; a1 += tmp[2 * k + 1]; }
+            for (k = 0; k < len; k++) {
+                if (k + r < len) { a0 += tmp[2 * (k + r)]; a1 += tmp[2 * (k + r) + 1]; }
+                if (k - r - 1 >= 0) { a0 -= tmp[2 * (k - r - 1)]; a1 -= tmp[2 * (k - r - 1) + 1]; }
+                d[2 * k] = (float)a0; d[2 * k + 1] = (float)a1;
+            }
+        }
+    } else {
+        /* columns l0..l1 together: rows of the block are read and written whole (a column at a time would
+           touch one cache line per pixel); each column's sums run in the same order as a lone column's */
+        int n = l1 - l0;
+        size_t rn = (size_t)n * 2;
+        double a[2 * SUPERMAT__BOX_LINES];
+        for (k = 0; k < len; k++) memcpy(tmp + (size_t)k * rn, g + ((size_t)k * w + l0) * 2, sizeof(float) * rn);
+        for (j = 0; j < 2 * n; j++) a[j] = 0.0;
+        for (k = 0; k < r && k < len; k++)
+            for (j = 0; j < 2 * n; j++) a[j] += tmp[(size_t)k * rn + j];
         for (k = 0; k < len; k++) {
-            if (k + r < len) { a0 += tmp[2 * (k + r)]; a1 += tmp[2 * (k + r) + 1]; }
-            if (k - r - 1 >= 0) { a0 -= tmp[2 * (k - r - 1)]; a1 -= tmp[2 * (k - r - 1) + 1]; }
-            d[k * step] = (float)a0; d[k * step + 1] = (float)a1;
+            float *d = g + ((size_t)k * w + l0) * 2;
+            if (k + r < len)
+                for (j = 0; j < 2 * n; j++) a[j] += tmp[(size_t)(k + r) * rn + j];
+            if (k - r - 1 >= 0)
+                for (j = 0; j < 2 * n; j++) a[j] -= tmp[(size_t)(k - r - 1) * rn + j];
+            for (j = 0; j < 2 * n; j++) d[j] = (float)a[j];
         }
     }
 }
@@ -5549,7 +5568,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
         if (S->detail > 0.0f) { /* detail_sigma: the albedo keeps its picture's detail */
             int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1; /* the plan sets it too */
-            float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2 * T);
+            float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2 * SUPERMAT__BOX_LINES * T);
             double *rs = (double *)supermat__get(X, (size_t)S->h * 4); /* h x 2 doubles */
             if (supermat__live(X))
                 for (i = 0; i < V; i++)
