@@ -1,4 +1,4 @@
-/* pfm_npy_diff.c - compares PFM images with a float32 NCHW .npy reference (used by tests/test_cli.sh)
+/* pfm_npy_diff.c - compares PFM images with a float32 NCHW .npy reference (used by tests/cli/test_views.sh and test_refine.sh)
  *
  *     pfm_npy_diff [--channel C] TOL REF.npy IMAGE0.pfm [IMAGE1.pfm ...]
  *

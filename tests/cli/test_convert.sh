@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# tests/cli/test_convert.sh - `supermat convert`: the tiny official-format checkpoints into model files.
+#
+#   bash tests/cli/test_convert.sh BUILD/supermat tests/data
+#
+# Converts the tiny checkpoint (kind given and detected; f32, --dtype f16, --precision int8 and --weights int8,
+# which write the same file) and its refusals: a missing output folder (exit 1 before reading the base folder,
+# nothing created), a bad --weights (exit 2), a missing checkpoint (exit 1, nothing written). --work-size
+# recorded (128; 100 exits 2). `convert --from`: another work size written into a converted file (the header
+# kept at its length or grown by 64 bytes, the tensor bytes the original's, the maps those of --work-size on
+# the original), the default model's work size in image/bench --help, and its refusals (no --work-size,
+# checkpoint options, onto itself, over a file, a cut file, a checkpoint). --weights: what `info` reports and
+# `image` runs for the f16 and int8 files and --weights int8 / bf16 / q4 (exit 2).
+# (convert --packed is in test_pack.sh, the multi-view and UV-refine kinds in test_views.sh / test_refine.sh.)
+set -eu
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+
+# ---- convert ----------------------------------------------------------------------------------
+# the models most checks use record no work size (--work-size native): the pictures run at their own
+# size, as the goldens were made; the preprocessing checks (test_image.sh) use one with the official 512
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$MODEL" --work-size native
+check "convert exits 0" [ $RC -eq 0 ]
+[ $RC -eq 0 ] || cat "$T/err"
+check "convert writes the model" [ -s "$MODEL" ]
+absent "$MODEL.tmp"
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_f16.safetensors" --dtype f16
+check "convert --dtype f16 (kind detected) exits 0" [ $RC -eq 0 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8.safetensors" --precision int8
+check "convert --precision int8 exits 0" [ $RC -eq 0 ]
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/no_such_dir/x.safetensors"
+check "convert into a missing folder exits 1" [ $RC -eq 1 ]
+check "convert into a missing folder names it" grep -q "no_such_dir" "$T/err"
+check "convert into a missing folder fails before reading the base folder" bash -c "! grep -q 'text_encoder' '$T/err'"
+absent "$T/no_such_dir"
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_i8w.safetensors" --weights int8
+check "convert --weights int8 exits 0" [ $RC -eq 0 ]
+check "convert --weights int8 writes what --precision int8 (its old spelling) writes" cmp -s "$T/tiny_i8.safetensors" "$T/tiny_i8w.safetensors"
+run convert --unet x.pth --base x --out y --weights f8
+check "convert bad --weights exits 2" [ $RC -eq 2 ]
+check "convert bad --weights: its message names --weights" grep -q -- "--weights: 'f8'" "$T/err"
+run convert --unet "$T/missing.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors"
+check "convert of a missing checkpoint exits 1" [ $RC -eq 1 ]
+check "convert error names the file" grep -q 'missing.pth' "$T/err"
+absent "$T/never.safetensors"
+
+# ---- --work-size recorded; convert --from: another work size in a converted file -------------
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_ws128.safetensors" --work-size 128
+check "convert --work-size 128 exits 0" [ $RC -eq 0 ]
+run info "$T/tiny_ws128.safetensors"
+check "info: --work-size 128 recorded" grep -Eq '^work size +128x128' "$T/out"
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --work-size 100
+check "convert --work-size 100 exits 2" [ $RC -eq 2 ]
+# convert --from: an already converted file with another work size, the tensors byte for byte
+run convert --from "$T/tiny_ws128.safetensors" --work-size 64 --out "$T/tiny_ws64.safetensors"
+check "convert --from --work-size 64 exits 0" [ $RC -eq 0 ]
+absent "$T/tiny_ws64.safetensors.tmp"
+# --help states the work size of the default model actually found (one source of truth: the file)
+run_env SUPERMAT_MODEL="$T/tiny_ws64.safetensors" -- image --help
+check "image --help names the default model used and its work size, 64x64" grep -q "used: $T/tiny_ws64.safetensors, work size 64x64" "$T/out"
+run_env SUPERMAT_MODEL="$T/tiny_ws128.safetensors" -- bench --help
+check "bench --help: the work size of the model used, 128x128" grep -q "used: $T/tiny_ws128.safetensors, work size 128x128" "$T/out"
+run info "$T/tiny_ws64.safetensors"
+check "convert --from: --work-size 64 recorded" grep -Eq '^work size +64x64' "$T/out"
+check "convert --from: the same size (the header padded back to its length)" [ "$(stat -c %s "$T/tiny_ws64.safetensors")" = "$(stat -c %s "$T/tiny_ws128.safetensors")" ]
+HL=$(od -An -tu8 -N8 "$T/tiny_ws128.safetensors" | tr -d ' ')
+check "convert --from: the tensor bytes after the header are the original's" \
+    cmp -s <(tail -c +$((HL + 9)) "$T/tiny_ws128.safetensors") <(tail -c +$((HL + 9)) "$T/tiny_ws64.safetensors")
+check "convert --from: the header differs (the value)" bash -c "! cmp -s '$T/tiny_ws128.safetensors' '$T/tiny_ws64.safetensors'"
+run image --model "$T/tiny_ws64.safetensors" --out "$T/from64" --float "$SPHERE"
+run image --model "$T/tiny_ws128.safetensors" --out "$T/from64b" --float --work-size 64 "$SPHERE"
+check "convert --from: its default work size gives the maps of --work-size 64 on the original" \
+    cmp -s "$T/from64/sphere_64_albedo.pfm" "$T/from64b/sphere_64_albedo.pfm"
+run convert --from "$T/tiny_ws64.safetensors" --work-size 16384 --out "$T/tiny_ws16k.safetensors"
+check "convert --from: a longer value exits 0" [ $RC -eq 0 ]
+D16K=$(( $(stat -c %s "$T/tiny_ws16k.safetensors") - $(stat -c %s "$T/tiny_ws64.safetensors") ))
+check "convert --from: a longer value keeps the header's length (in its padding) or grows it by 64 bytes, not $D16K" \
+    [ "$D16K" -eq 0 -o "$D16K" -eq 64 ]
+run info "$T/tiny_ws16k.safetensors"
+check "convert --from: --work-size 16384 recorded" grep -Eq '^work size +16384x16384' "$T/out"
+run convert --from "$T/tiny_ws16k.safetensors" --work-size native --out "$T/tiny_wsnone.safetensors"
+run info "$T/tiny_wsnone.safetensors"
+check "convert --from --work-size native records none" grep -Eq '^work size +none' "$T/out"
+run convert --from "$T/tiny_ws64.safetensors" --out "$T/never.safetensors"
+check "convert --from without --work-size exits 2" [ $RC -eq 2 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 64 --dtype f16 --out "$T/never.safetensors"
+check "convert --from with --dtype exits 2" [ $RC -eq 2 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 64 --out "$T/tiny_ws64.safetensors"
+check "convert --from onto itself exits 1" [ $RC -eq 1 ]
+run convert --from "$T/tiny_ws64.safetensors" --work-size 32 --out "$T/tiny_ws128.safetensors"
+check "convert --from over an existing file exits 1" [ $RC -eq 1 ]
+run info "$T/tiny_ws128.safetensors"
+check "convert --from over an existing file: kept as it was" grep -Eq '^work size +128x128' "$T/out"
+head -c 4096 "$T/tiny_ws64.safetensors" > "$T/cut.safetensors"
+run convert --from "$T/cut.safetensors" --work-size 64 --out "$T/never.safetensors"
+check "convert --from a cut file exits 1" [ $RC -eq 1 ]
+check "convert --from a cut file: the message names it" grep -q "cut.safetensors" "$T/err"
+run convert --from "$DATA/tiny/supermat.pth" --work-size 64 --out "$T/never.safetensors"
+check "convert --from a checkpoint (not a model file) exits 1" [ $RC -eq 1 ]
+absent "$T/never.safetensors"
+absent "$T/never.safetensors.tmp"
+
+# ---- --weights (GEMM weight storage) ----------------------------------------------------------
+run info --weights int8 "$MODEL"
+check "info --weights int8 exits 0" [ $RC -eq 0 ]
+check "info --weights int8 reports int8" grep -Eq '^weights +int8' "$T/out"
+run info "$T/tiny_f16.safetensors"
+check "an f16 file is held as f16 by default" grep -Eq '^weights +f16' "$T/out"
+run info "$T/tiny_i8.safetensors"
+check "an int8 file is held as int8 by default" grep -Eq '^weights +int8' "$T/out"
+check "info int8: I8 tensors" grep -Eq 'I8: [0-9]+ tensors' "$T/out"
+run image --model "$T/tiny_i8.safetensors" --out "$T/w_i8" "$DATA/img/sphere_64.png"
+check "image with the int8 file exits 0" [ $RC -eq 0 ]
+check_png "$T/w_i8/sphere_64_albedo.png" 64 64 2
+run image --weights bf16 --model "$MODEL" --out "$T/w_bf16" "$DATA/img/sphere_64.png"
+check "image --weights bf16 exits 0" [ $RC -eq 0 ]
+check_png "$T/w_bf16/sphere_64_albedo.png" 64 64 2
+run image --weights q4 --model "$MODEL" --out "$T/w_bad" "$DATA/img/sphere_64.png"
+check "--weights q4 exits 2" [ $RC -eq 2 ]
+
+summary
