@@ -406,6 +406,32 @@ static void cli_journal_status(void *user, const cli_jrec *r, const char *line) 
 }
 
 /* the names of an item's outputs relative to DIR */
+/* Pictures of one folder that share a stem (a.png, a.jpg) keep their extension in it (a_png, a_jpg: see
+   cli_stem_with_ext), so each gets its own maps; the same file listed twice stays one key (dropped later). */
+static int cli_blist_disambiguate(cli_blist *L) {
+    size_t k, r;
+    qsort(L->v, L->n, sizeof *L->v, cli_bitem_cmp);
+    for (k = 0; k < L->n; k = r) {
+        int differ = 0;
+        for (r = k + 1; r < L->n && !strcmp(L->v[r].key, L->v[k].key); r++)
+            if (strcmp(L->v[r].input, L->v[k].input)) differ = 1;
+        if (differ) {
+            size_t i;
+            for (i = k; i < r; i++) {
+                cli_bitem *it = &L->v[i];
+                char *stem = cli_stem_with_ext(it->input), *key;
+                size_t n;
+                if (!stem) { cli_error("out of memory"); return CLI_FAIL; }
+                n = strlen(it->sub) + strlen(stem) + 2;
+                if (!(key = (char *)malloc(n))) { free(stem); cli_error("out of memory"); return CLI_FAIL; }
+                snprintf(key, n, "%s%s%s", it->sub, it->sub[0] ? "/" : "", stem);
+                free(it->stem); free(it->key);
+                it->stem = stem; it->key = key;
+            }
+        }
+    }
+    return CLI_OK;
+}
 static const char *cli_ext_of(const char *path) {
     const char *d = strrchr(path, '.'), *sl = strrchr(path, '/');
     return d && (!sl || d > sl) ? d : "";
@@ -468,7 +494,7 @@ static int cli_journal_append(const cli_batch_ctx *B, int fd, const char *jpath,
    `supermat image` it passes on (cli_opts_batch_image), `batch mesh` those of `supermat mesh`
    (supermat_cli_mesh_bake_options, mesh.cpp's own table: each goes to supermat_cli_mesh_opt_set). */
 enum { CLI_BATCH_OUT = 1, CLI_BATCH_SHARD, CLI_BATCH_JOBS, CLI_BATCH_RETRY, CLI_BATCH_FAIL_FAST, CLI_BATCH_JSON, CLI_BATCH_MERGE,
-       CLI_BATCH_MODEL, CLI_BATCH_OUTPUTS };
+       CLI_BATCH_MODEL, CLI_BATCH_OUTPUTS, CLI_BATCH_ALPHA };
 static const cli_optdef cli_opts_batch_run[] = {
     {CLI_BATCH_OUT, "--out", "DIR", "the output folder (required)", NULL, NULL},
     {CLI_BATCH_SHARD, "--shard", "I/N", "only the items I, I+N, I+2N, ... (0-based) of the list sorted by output name:\n"
@@ -484,6 +510,7 @@ static const cli_optdef cli_opts_batch_run[] = {
 static const cli_optdef cli_opts_batch_image[] = {
     {CLI_BATCH_MODEL, "--model", "FILE", "as `supermat image` (default: the default model), loaded once for the batch", NULL, NULL},
     {CLI_BATCH_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS "; a manifest line's \"outputs\" wins", NULL, NULL},
+    {CLI_BATCH_ALPHA, "--alpha", "A", "keep | drop, as `supermat image`", NULL, NULL},
     {CLI_O_FLOAT, "--float", NULL, "also the PFM maps, as `supermat image --float`; a manifest line's \"float\" wins", NULL, NULL},
     CLI_OPTS(cli_opts_work),
     {CLI_O_DETAIL, "--detail", "F|off", "as `supermat image`", NULL, NULL},
@@ -501,7 +528,8 @@ static const cli_optdef cli_opts_batch[] = {
              "file with one path per line, or JSON Lines objects {\"input\": PATH, \"outputs\": \"albedo,...\",\n"
              "\"float\": true} (paths relative to the current folder; blank lines and # comments skipped).\n"
              "Each item's maps go where `supermat image` would put them, below DIR in the same sub-folder as the\n"
-             "picture below the folder it was found in: DIR/<sub>/<stem>_albedo.png, ...\n"
+             "picture below the folder it was found in: DIR/<sub>/<stem>_albedo.png, ...; pictures of one folder\n"
+             "that share a stem keep their extension in it: a.png, a.jpg -> a_png_albedo.png, a_jpg_albedo.png.\n"
              "\n"
              "The journal DIR/journal.jsonl (with --shard: DIR/journal.I-of-N.jsonl) gets one JSON line per\n"
              "finished item, written after its outputs: item, input, status (done / failed), seconds, outputs,\n"
@@ -755,6 +783,9 @@ static int cli_batch(int argc, char **argv) {
         else if (m == CLI_BATCH_OUTPUTS) {
             if (cli_parse_outputs(cmd, v, &outputs)) { rc = CLI_USAGE; break; }
         }
+        else if (m == CLI_BATCH_ALPHA) {
+            if (cli_parse_alpha(cmd, v, &X.alpha_drop)) { rc = CLI_USAGE; break; }
+        }
 #ifdef SUPERMAT_CLI_MESH
         else if (B.mesh_mode) { /* one of `supermat mesh`'s (its table is args' second half) */
             if (supermat_cli_mesh_opt_set(mopts, m, v) <= 0) { rc = CLI_USAGE; break; }
@@ -784,6 +815,7 @@ static int cli_batch(int argc, char **argv) {
             if (strcmp(e, ".gltf") && strcmp(e, ".glb")) { rc = cli_usage_error(cmd, "'%s' is not a .gltf or .glb asset", L.v[k].input); break; }
         }
     }
+    if (rc == CLI_OK && L.n > 1 && !B.mesh_mode) rc = cli_blist_disambiguate(&L);
     if (rc == CLI_OK && L.n > 1) {
         qsort(L.v, L.n, sizeof *L.v, cli_bitem_cmp);
         for (k = 1; k < L.n && rc == CLI_OK; k++)

@@ -27,19 +27,37 @@ static int cli_progress_cb(void *user, float fraction, const char *what) {
 static const char *const cli_map_suffixes[3] = {"_albedo", "_roughness", "_metallic"};
 static const int cli_map_channels[3] = {3, 1, 1};
 
-/* the output stems of n inputs; two inputs with one stem would overwrite each other's maps (a usage
-   error). *stems is allocated (free with cli_free_stems) even on error. */
+/* the output stems of n inputs: each input's file name without its extension, or with it ("a_png", see
+   cli_stem_with_ext) for inputs that share a stem (a.png, a.jpg); two inputs that would still write the
+   same files (one picture named twice, a.png next to a_png.jpg) are a usage error. *stems is allocated
+   (free with cli_free_stems) even on error. */
 static int cli_make_stems(const char *cmd, const char *const *inputs, int n, char ***stems) {
     int i, j;
+    char *shared;
     *stems = (char **)calloc((size_t)(n > 0 ? n : 1), sizeof(char *));
-    if (!*stems) { cli_error("out of memory"); return CLI_FAIL; }
+    shared = (char *)calloc((size_t)(n > 0 ? n : 1), 1);
+    if (!*stems || !shared) { free(shared); cli_error("out of memory"); return CLI_FAIL; }
     for (i = 0; i < n; i++) {
         char *s = (*stems)[i] = cli_stem(inputs[i]);
-        if (!s) { cli_error("out of memory"); return CLI_FAIL; }
-        if (!s[0]) return cli_usage_error(cmd, "'%s' has no file name", inputs[i]);
+        if (!s) { free(shared); cli_error("out of memory"); return CLI_FAIL; }
+        if (!s[0]) { free(shared); return cli_usage_error(cmd, "'%s' has no file name", inputs[i]); }
         for (j = 0; j < i; j++)
-            if (!strcmp(s, (*stems)[j])) return cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", inputs[j], inputs[i], s);
+            if (!strcmp(s, (*stems)[j])) {
+                if (!strcmp(inputs[i], inputs[j])) { free(shared); return cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", inputs[j], inputs[i], s); }
+                shared[i] = shared[j] = 1;
+            }
     }
+    for (i = 0; i < n; i++)
+        if (shared[i]) {
+            char *e = cli_stem_with_ext(inputs[i]);
+            if (!e) { free(shared); cli_error("out of memory"); return CLI_FAIL; }
+            free((*stems)[i]);
+            (*stems)[i] = e;
+        }
+    free(shared);
+    for (i = 0; i < n; i++)
+        for (j = 0; j < i; j++)
+            if (!strcmp((*stems)[i], (*stems)[j])) return cli_usage_error(cmd, "'%s' and '%s' would write the same files (%s_*)", inputs[j], inputs[i], (*stems)[i]);
     return CLI_OK;
 }
 static void cli_free_stems(char **stems, int n) {
@@ -58,8 +76,34 @@ typedef struct cli_image_ctx {
     int sw, sh;
     unsigned souts;       /* the outputs the session was made for */
     const char *prefix;   /* "[i/N] " before the progress line (batch), or "" */
+    int alpha_drop;       /* --alpha drop: maps without the picture's alpha (0, the default: keep it) */
     cli_levers lv;        /* the model and session options of the command line */
 } cli_image_ctx;
+
+/* --alpha keep | drop */
+static int cli_parse_alpha(const char *cmd, const char *v, int *drop) {
+    if (!strcmp(v, "keep")) *drop = 0;
+    else if (!strcmp(v, "drop")) *drop = 1;
+    else { cli_usage_error(cmd, "--alpha: '%s' is not keep or drop", v); return -1; }
+    return 0;
+}
+/* a picture's alpha at pixel i as the 8-bit PNGs store it (px: 8-bit RGBA, else fin: float RGBA) */
+static unsigned char cli_alpha_at(const unsigned char *px, const float *fin, size_t i) {
+    if (px) return px[i * 4 + 3];
+    {
+        float a = fin[i * 4 + 3];
+        a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
+        return (unsigned char)rintf(a * 255.0f);
+    }
+}
+/* does the picture (its file has `channels` channels) have a pixel that is not opaque? */
+static int cli_has_alpha(const unsigned char *px, const float *fin, size_t np, int channels) {
+    size_t i;
+    if (channels != 2 && channels != 4) return 0;
+    for (i = 0; i < np; i++)
+        if (cli_alpha_at(px, fin, i) != 255) return 1;
+    return 0;
+}
 
 static void cli_image_ctx_release(cli_image_ctx *X) {
     supermat_session_destroy(X->sess);
@@ -70,10 +114,10 @@ static void cli_image_ctx_release(cli_image_ctx *X) {
 /* one picture -> its maps in out_dir as <stem>_*.png (+ .pfm): CLI_OK, CLI_SKIPPED (--skip-existing kept
    them) or CLI_FAIL with the message printed (cli_last_error holds it) */
 static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_dir, const char *stem) {
-    int w = 0, h = 0, c = 0, rc = CLI_OK, tty = X->tty;
+    int w = 0, h = 0, c = 0, rc = CLI_OK, tty = X->tty, alpha, k;
     unsigned outputs = X->outputs;
-    unsigned char *px = NULL;
-    float *fa = NULL, *fr = NULL, *fm = NULL, *fin = NULL;
+    unsigned char *px = NULL, *u8[3] = {NULL, NULL, NULL};
+    float *fin = NULL, *maps[3] = {NULL, NULL, NULL};
     unsigned char *tmp = NULL;
     supermat_run_desc rd;
     supermat_error err;
@@ -123,22 +167,32 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         X->sw = w; X->sh = h; X->souts = outputs;
     }
     np = (size_t)w * (size_t)h;
-    if (outputs & SUPERMAT_OUTPUT_ALBEDO) fa = (float *)malloc(np * 3 * sizeof(float));
-    if (outputs & SUPERMAT_OUTPUT_ROUGHNESS) fr = (float *)malloc(np * sizeof(float));
-    if (outputs & SUPERMAT_OUTPUT_METALLIC) fm = (float *)malloc(np * sizeof(float));
-    tmp = (unsigned char *)malloc(np * 3);
-    if (!tmp || ((outputs & SUPERMAT_OUTPUT_ALBEDO) && !fa) || ((outputs & SUPERMAT_OUTPUT_ROUGHNESS) && !fr) ||
-        ((outputs & SUPERMAT_OUTPUT_METALLIC) && !fm)) {
-        cli_error("out of memory for the maps of '%s'", input);
-        rc = CLI_FAIL;
+    alpha = !X->alpha_drop && cli_has_alpha(px, fin, np, c);
+    /* the maps: 8-bit straight from the library (the same rounding as cli_quantize), or with --float as
+       floats, quantised here for the PNGs; with alpha the PNGs are RGBA and gray + alpha (tmp: 4 bytes/pixel) */
+    for (k = 0; k < 3; k++) {
+        int ch = k ? 1 : 3;
+        if (!(outputs & (k == 0 ? SUPERMAT_OUTPUT_ALBEDO : k == 1 ? SUPERMAT_OUTPUT_ROUGHNESS : SUPERMAT_OUTPUT_METALLIC))) continue;
+        if (X->want_float) maps[k] = (float *)malloc(np * (size_t)ch * sizeof(float));
+        else u8[k] = (unsigned char *)malloc(np * (size_t)(k == 0 && alpha ? 4 : ch));
+        if (!maps[k] && !u8[k]) rc = CLI_FAIL;
     }
+    if (X->want_float || alpha) {
+        tmp = (unsigned char *)malloc(np * 4);
+        if (!tmp) rc = CLI_FAIL;
+    }
+    if (rc != CLI_OK) cli_error("out of memory for the maps of '%s'", input);
     if (rc == CLI_OK) {
+        supermat_image *o[3];
         memset(&rd, 0, sizeof rd);
         rd.input.pixels = fin ? (void *)fin : (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
         rd.input.format = fin ? SUPERMAT_FORMAT_F32 : SUPERMAT_FORMAT_U8;
-        rd.albedo.pixels = fa; rd.albedo.channels = 3; rd.albedo.format = SUPERMAT_FORMAT_F32;
-        rd.roughness.pixels = fr; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32;
-        rd.metallic.pixels = fm; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
+        o[0] = &rd.albedo; o[1] = &rd.roughness; o[2] = &rd.metallic;
+        for (k = 0; k < 3; k++) {
+            o[k]->channels = k ? 1 : 3;
+            if (maps[k]) { o[k]->pixels = maps[k]; o[k]->format = SUPERMAT_FORMAT_F32; }
+            else if (u8[k]) { o[k]->pixels = u8[k]; o[k]->format = SUPERMAT_FORMAT_U8; if (!k && alpha) o[k]->channels = 4; }
+        }
         memset(&prog, 0, sizeof prog);
         snprintf(name, sizeof name, "%s%s", X->prefix ? X->prefix : "", input);
         prog.name = name;
@@ -155,18 +209,42 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
             rc = CLI_FAIL;
         }
     }
-    if (rc == CLI_OK) {
-        float *maps[3];
-        maps[0] = fa; maps[1] = fr; maps[2] = fm;
-        rc = cli_write_maps(out_dir, stem, 3, cli_map_suffixes, maps, cli_map_channels, w, h, X->want_float, tmp);
+    for (k = 0; k < 3 && rc == CLI_OK; k++) {
+        int ch = k ? 1 : 3, pch = ch + alpha;
+        const unsigned char *png = u8[k];
+        char suffix[64], *path;
+        size_t i;
+        int c2;
+        if (!maps[k] && !u8[k]) continue;
+        if (maps[k] || (alpha && k)) { /* compose the PNG's bytes: quantised floats and / or the alpha */
+            for (i = 0; i < np; i++) {
+                for (c2 = 0; c2 < ch; c2++) tmp[i * pch + c2] = maps[k] ? cli_quantize(maps[k][i * ch + c2]) : u8[k][i * ch + c2];
+                if (alpha) tmp[i * pch + ch] = cli_alpha_at(px, fin, i);
+            }
+            png = tmp;
+        }
+        snprintf(suffix, sizeof suffix, "%s.png", cli_map_suffixes[k]);
+        path = cli_join(out_dir, stem, suffix);
+        if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+        rc = cli_write_png_u8(path, png, w, h, pch);
+        free(path);
+        if (rc == CLI_OK && maps[k]) {
+            snprintf(suffix, sizeof suffix, "%s.pfm", cli_map_suffixes[k]);
+            path = cli_join(out_dir, stem, suffix);
+            if (!path) { cli_error("out of memory"); rc = CLI_FAIL; break; }
+            rc = cli_write_pfm(path, maps[k], w, h, ch);
+            free(path);
+        }
     }
-    free(fa); free(fr); free(fm); free(tmp);
+    for (k = 0; k < 3; k++) { free(maps[k]); free(u8[k]); }
+    free(tmp);
     stbi_image_free(px); free(fin);
     return rc;
 }
 
 /* `supermat image`: its options and --help */
-enum { CLI_IMAGE_MODEL = 1, CLI_IMAGE_OUT, CLI_IMAGE_OUTPUTS };
+enum { CLI_IMAGE_MODEL = 1, CLI_IMAGE_OUT, CLI_IMAGE_OUTPUTS, CLI_IMAGE_ALPHA };
+#define CLI_HELP_ALPHA "keep | drop: a picture with transparent pixels gives maps with its alpha: the albedo\nRGBA, roughness and metallic gray + alpha (default keep; drop: RGB and gray,\nthe background as computed over gray 0.5)"
 #define CLI_HELP_OUTPUTS "comma list of albedo,roughness,metallic (default: all three);\nonly what is asked for is computed"
 static const cli_optdef cli_opts_image[] = {
     CLI_TEXT("usage: supermat image [--model FILE] --out DIR [options] IMAGE...\n"
@@ -176,7 +254,9 @@ static const cli_optdef cli_opts_image[] = {
              "  DIR/<stem>_albedo.png       RGB, 8-bit\n"
              "  DIR/<stem>_roughness.png    gray, 8-bit\n"
              "  DIR/<stem>_metallic.png     gray, 8-bit\n"
-             "where <stem> is the image's file name without its folder and extension.\n"
+             "where <stem> is the image's file name without its folder and extension (with the extension for\n"
+             "images that share one: a.png, a.jpg -> a_png, a_jpg). A picture with transparent pixels keeps its\n"
+             "alpha in the maps (RGBA and gray + alpha PNGs; --alpha).\n"
              "\n"
              "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha\n"
              "(16-bit PNGs at full precision; JPEGs turned upright by their EXIF orientation; WebP through\n"
@@ -201,6 +281,7 @@ static const cli_optdef cli_opts_image[] = {
     {CLI_IMAGE_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL below)", NULL, NULL},
     {CLI_IMAGE_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
     {CLI_IMAGE_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS, NULL, NULL},
+    {CLI_IMAGE_ALPHA, "--alpha", "A", CLI_HELP_ALPHA, NULL, NULL},
     {CLI_O_FLOAT, "--float", NULL, CLI_HELP_FLOAT3, NULL, NULL},
     CLI_OPTS(cli_opts_machine),
     CLI_TEXT("\n"
@@ -234,6 +315,7 @@ static int cli_image(int argc, char **argv) {
         else if (m == CLI_IMAGE_MODEL) model_arg = v;
         else if (m == CLI_IMAGE_OUT) out_dir = v;
         else if (m == CLI_IMAGE_OUTPUTS) { if (cli_parse_outputs(cmd, v, &outputs)) { free(imgs); return CLI_USAGE; } }
+        else if (m == CLI_IMAGE_ALPHA) { if (cli_parse_alpha(cmd, v, &X.alpha_drop)) { free(imgs); return CLI_USAGE; } }
         else if (cli_run_value(cmd, m, v, &want_float, &work_opt, &threads, &kernel, &X.lv) < 0) { free(imgs); return CLI_USAGE; }
     }
     if (!out_dir) { free(imgs); return cli_usage_error(cmd, "--out DIR is required"); }

@@ -120,6 +120,21 @@ static char *cli_stem(const char *path) {
     return s;
 }
 
+/* the stem of a picture that shares its stem with another input (a.png and a.jpg): the extension kept,
+   "a_png" ("a" when there is none); `image` and `batch` name such pictures' maps this way */
+static char *cli_stem_with_ext(const char *path) {
+    const char *b = strrchr(path, '/'), *dot;
+    char *s, *p;
+    b = b ? b + 1 : path;
+    dot = strrchr(b, '.');
+    s = cli_stem(path);
+    if (!s || !dot || dot == b || !dot[1]) return s;
+    p = (char *)malloc(strlen(s) + strlen(dot) + 1);
+    if (p) sprintf(p, "%s_%s", s, dot + 1);
+    free(s);
+    return p;
+}
+
 /* The overwrite policy of every output file (main() takes --force / --skip-existing before any command
    sees its options): by default a path that exists -- a file, a symbolic link (live or dangling), anything
    -- and that this run did not write is refused before anything is written, and the final step links

@@ -279,6 +279,31 @@ else
     echo "SKIP: a real Slurm cluster (needs root and Debian's slurmctld, slurmd, slurm-client, munge; scripts/test.sh installs them)"
 fi
 
+# ---- pictures of one folder that share a stem (a.png, a.jpg): each keeps its extension in its stem ----
+mkdir -p stems/sub
+cp "$DATA/img/sphere_64.png" stems/a.png
+cp "$DATA/img/ring_exif6.jpg" stems/a.jpg
+cp "$DATA/img/box_40.png" stems/b.png
+cp "$DATA/img/box_40.png" stems/sub/a.png  # another folder: no clash, its plain stem
+"$BIN" image "${RUN[@]}" --out stems_ref_png stems/a.png > /dev/null 2>&1 &&
+    "$BIN" image "${RUN[@]}" --out stems_ref_jpg stems/a.jpg > /dev/null 2>&1 || bad "reference image runs of stems/a.png and stems/a.jpg"
+"$BIN" batch image "${RUN[@]}" --out stems_out stems > /dev/null 2> log; rc=$?
+check "shared stems: exit 0, every picture done (got $rc)" [ $rc -eq 0 ]
+check "shared stems: a.png's maps as a_png_*, those of \`image a.png\`" cmp -s stems_ref_png/a_albedo.png stems_out/a_png_albedo.png
+check "shared stems: a.jpg's maps as a_jpg_*, those of \`image a.jpg\`" cmp -s stems_ref_jpg/a_albedo.png stems_out/a_jpg_albedo.png
+check "shared stems: b (no clash) keeps its plain stem" [ -f stems_out/b_metallic.png ] && [ ! -e stems_out/b_png_metallic.png ]
+check "shared stems: sub/a.png (alone in its folder) keeps its plain stem" [ -f stems_out/sub/a_roughness.png ]
+check "shared stems: the journal's items a_jpg, a_png, b, sub/a, each done" \
+    [ "$(grep '"status":"done"' stems_out/journal.jsonl | sed 's/^{"item":"\([^"]*\)".*/\1/' | sort | tr '\n' ' ')" = "a_jpg a_png b sub/a " ]
+"$BIN" image "${RUN[@]}" --out stems_img stems/a.jpg stems/a.png > /dev/null 2>&1; rc=$?
+check "shared stems, image: exit 0 (got $rc), the same names and maps as the batch" \
+    [ $rc -eq 0 ] && cmp -s stems_img/a_png_albedo.png stems_out/a_png_albedo.png && cmp -s stems_img/a_jpg_metallic.png stems_out/a_jpg_metallic.png
+"$BIN" image "${RUN[@]}" --out stems_twice stems/a.png stems/a.png stems/b.png > /dev/null 2> log; rc=$?
+check "image: one picture named twice is still a usage error (exit $rc), nothing written" [ $rc -eq 2 ] && [ ! -e stems_twice ] && grep -q "would write the same files" log
+cp stems/b.png stems/a_png.jpg  # a.png -> a_png would meet a_png.jpg's own stem
+"$BIN" image "${RUN[@]}" --out stems_meet stems/a.png stems/a.jpg stems/a_png.jpg > /dev/null 2> log; rc=$?
+check "image: a.png, a.jpg and a_png.jpg still meet: usage error (exit $rc), nothing written" [ $rc -eq 2 ] && [ ! -e stems_meet ]
+
 # ---- batch mesh ----
 if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     cdir=$(dirname "$CUBE")

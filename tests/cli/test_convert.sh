@@ -111,10 +111,10 @@ check "an int8 file is held as int8 by default" grep -Eq '^weights +int8' "$T/ou
 check "info int8: I8 tensors" grep -Eq 'I8: [0-9]+ tensors' "$T/out"
 run image --model "$T/tiny_i8.safetensors" --out "$T/w_i8" "$DATA/img/sphere_64.png"
 check "image with the int8 file exits 0" [ $RC -eq 0 ]
-check_png "$T/w_i8/sphere_64_albedo.png" 64 64 2
+check_png "$T/w_i8/sphere_64_albedo.png" 64 64 6
 run image --weights bf16 --model "$MODEL" --out "$T/w_bf16" "$DATA/img/sphere_64.png"
 check "image --weights bf16 exits 0" [ $RC -eq 0 ]
-check_png "$T/w_bf16/sphere_64_albedo.png" 64 64 2
+check_png "$T/w_bf16/sphere_64_albedo.png" 64 64 6
 run image --weights q4 --model "$MODEL" --out "$T/w_bad" "$DATA/img/sphere_64.png"
 check "--weights q4 exits 2" [ $RC -eq 2 ]
 

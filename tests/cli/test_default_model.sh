@@ -23,9 +23,9 @@ OD=$T/default_env
 run_env SUPERMAT_MODEL="$MODEL" -- image --out "$OD" "$SPHERE"
 check "image without --model, SUPERMAT_MODEL set, exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
-check_png "$OD/sphere_64_albedo.png" 64 64 2
-check_png "$OD/sphere_64_roughness.png" 64 64 0
-check_png "$OD/sphere_64_metallic.png" 64 64 0
+check_png "$OD/sphere_64_albedo.png" 64 64 6
+check_png "$OD/sphere_64_roughness.png" 64 64 4
+check_png "$OD/sphere_64_metallic.png" 64 64 4
 check "SUPERMAT_MODEL: the same maps as --model" cmp -s "$O1/sphere_64_albedo.png" "$OD/sphere_64_albedo.png"
 run_env SUPERMAT_MODEL="$T/no_such_model.safetensors" -- image --out "$T/default_bad" "$SPHERE"
 check "SUPERMAT_MODEL naming a missing file exits 1" [ $RC -eq 1 ]

@@ -10,7 +10,8 @@
 # change the bits, --kernel scalar, --compute int8 (maps with AVX512_VNNI, else exit 1 naming it; int4 exits 2),
 # the f16 model; a PNG write that fails (a file size limit) exits 1 and leaves no file; --max-memory refused
 # before allocating with the sizes in the message; --detail and --chroma (the defaults change the albedo only,
-# explicit values, bad values exit 2, refine refuses both).
+# explicit values, bad values exit 2, refine refuses both); the picture's alpha kept in the maps (RGBA and gray +
+# alpha PNGs, the channels otherwise those of --alpha drop, the same PNGs with --float) or dropped.
 # (Input formats and bad pictures are in test_inputs.sh, the overwrite policy in test_usage.sh.)
 set -eu
 # shellcheck source=tests/cli/lib.sh
@@ -26,7 +27,7 @@ run info "$MODEL"
 check "info: --work-size native records none" grep -Eq '^work size +none' "$T/out"
 run image --model "$F16" --out "$T/pre_default" --float "$SPHERE"
 check "image at the model's work size exits 0" [ $RC -eq 0 ]
-check_png "$T/pre_default/sphere_64_albedo.png" 64 64 2
+check_png "$T/pre_default/sphere_64_albedo.png" 64 64 6
 run image --model "$F16" --out "$T/pre_512" --float --work-size 512 "$SPHERE"
 check "image: the default is the 512 work size" cmp -s "$T/pre_default/sphere_64_albedo.pfm" "$T/pre_512/sphere_64_albedo.pfm"
 run image --model "$F16" --out "$T/pre_native" --float --native "$SPHERE"
@@ -45,12 +46,12 @@ O1=$T/out1/nested
 run image --model "$MODEL" --out "$O1" "$SPHERE" "$RING"
 check "image exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
-check_png "$O1/sphere_64_albedo.png" 64 64 2
-check_png "$O1/sphere_64_roughness.png" 64 64 0
-check_png "$O1/sphere_64_metallic.png" 64 64 0
-check_png "$O1/ring_48x72_albedo.png" 72 48 2
-check_png "$O1/ring_48x72_roughness.png" 72 48 0
-check_png "$O1/ring_48x72_metallic.png" 72 48 0
+check_png "$O1/sphere_64_albedo.png" 64 64 6
+check_png "$O1/sphere_64_roughness.png" 64 64 4
+check_png "$O1/sphere_64_metallic.png" 64 64 4
+check_png "$O1/ring_48x72_albedo.png" 72 48 6
+check_png "$O1/ring_48x72_roughness.png" 72 48 4
+check_png "$O1/ring_48x72_metallic.png" 72 48 4
 absent "$O1/sphere_64_albedo.pfm"
 check "image writes nothing on stdout" [ ! -s "$T/out" ]
 
@@ -58,8 +59,8 @@ O2=$T/out2
 run image --model "$MODEL" --out "$O2" --float --threads 1 "$SPHERE" "$RING"
 check "image --float exits 0" [ $RC -eq 0 ]
 [ $RC -eq 0 ] || cat "$T/err"
-check_png "$O2/sphere_64_albedo.png" 64 64 2
-check_png "$O2/ring_48x72_metallic.png" 72 48 0
+check_png "$O2/sphere_64_albedo.png" 64 64 6
+check_png "$O2/ring_48x72_metallic.png" 72 48 4
 check_pfm "$O2/sphere_64_albedo.pfm" 64 64 3
 check_pfm "$O2/sphere_64_roughness.pfm" 64 64 1
 check_pfm "$O2/sphere_64_metallic.pfm" 64 64 1
@@ -73,7 +74,7 @@ done
 O3=$T/out3
 run image --model "$MODEL" --out "$O3" --outputs albedo --float "$SPHERE"
 check "image --outputs albedo exits 0" [ $RC -eq 0 ]
-check_png "$O3/sphere_64_albedo.png" 64 64 2
+check_png "$O3/sphere_64_albedo.png" 64 64 6
 check_pfm "$O3/sphere_64_albedo.pfm" 64 64 3
 absent "$O3/sphere_64_roughness.png"
 absent "$O3/sphere_64_metallic.png"
@@ -83,7 +84,7 @@ check "--outputs albedo gives the same albedo" cmp -s "$O1/sphere_64_albedo.png"
 O4=$T/out4
 run image --model "$MODEL" --out "$O4" --outputs metallic --kernel scalar "$RING"
 check "image --outputs metallic --kernel scalar exits 0" [ $RC -eq 0 ]
-check_png "$O4/ring_48x72_metallic.png" 72 48 0
+check_png "$O4/ring_48x72_metallic.png" 72 48 4
 absent "$O4/ring_48x72_albedo.png"
 absent "$O4/ring_48x72_roughness.png"
 
@@ -92,7 +93,7 @@ O6=$T/out_i8c
 run image --model "$MODEL" --out "$O6" --compute int8 "$SPHERE"
 if grep -qw avx512_vnni /proc/cpuinfo 2>/dev/null && grep -qw avx512bw /proc/cpuinfo 2>/dev/null; then
     check "image --compute int8 exits 0 (AVX512_VNNI here)" [ $RC -eq 0 ]
-    check_png "$O6/sphere_64_albedo.png" 64 64 2
+    check_png "$O6/sphere_64_albedo.png" 64 64 6
 else
     check "image --compute int8 without AVX512_VNNI exits 1" [ $RC -eq 1 ]
     check "image --compute int8 without AVX512_VNNI says so" grep -q "AVX512_VNNI" "$T/err"
@@ -104,7 +105,7 @@ check "image --compute int4: the message lists the values" grep -q "f32, bf16 or
 O5=$T/out5
 run image --model "$T/tiny_f16.safetensors" --out "$O5" "$SPHERE"
 check "image with the f16 model exits 0" [ $RC -eq 0 ]
-check_png "$O5/sphere_64_albedo.png" 64 64 2
+check_png "$O5/sphere_64_albedo.png" 64 64 6
 
 # a write that fails (a 4 KiB file size limit with SIGXFSZ ignored: write() fails with EFBIG): exit 1,
 # a message, and no file left, neither the PNG nor its .tmp (the albedo is ~12 KB)
@@ -113,6 +114,36 @@ check "image whose write fails exits 1" [ $RC -eq 1 ]
 check "image whose write fails: the message names the file" grep -q "cannot write '.*sphere_64_albedo.png'" "$T/err"
 absent "$T/limited/sphere_64_albedo.png"
 absent "$T/limited/sphere_64_albedo.png.tmp"
+
+# ---- the picture's alpha: kept in the maps (RGBA albedo, gray + alpha roughness / metallic) unless --alpha drop ----
+# (the channels are compared through `supermat sheet FILE:c`, one 64-pixel cell: equal sheets, equal channels)
+chan_sheet() { "$BIN" sheet --cell 64 --out "$1" "$2" >/dev/null 2>&1; }
+OA=$T/alpha_keep; OD=$T/alpha_drop; OF=$T/alpha_float
+run image --model "$MODEL" --out "$OA" "$SPHERE" "$DATA/img/ring_exif6_upright.png"
+check "image, alpha: exit 0" [ $RC -eq 0 ]
+run image --model "$MODEL" --out "$OD" --alpha drop "$SPHERE"
+check "image --alpha drop: exit 0" [ $RC -eq 0 ]
+check_png "$OD/sphere_64_albedo.png" 64 64 2
+check_png "$OD/sphere_64_roughness.png" 64 64 0
+check_png "$OD/sphere_64_metallic.png" 64 64 0
+check_png "$OA/ring_exif6_upright_albedo.png" 72 48 2     # an RGB picture: no alpha to keep
+check_png "$OA/ring_exif6_upright_metallic.png" 72 48 0
+for m in albedo roughness metallic; do
+    chan_sheet "$T/a_in.png" "$SPHERE:a" && chan_sheet "$T/a_out.png" "$OA/sphere_64_$m.png:a"
+    check "image, alpha: the $m map's alpha is the picture's" cmp -s "$T/a_in.png" "$T/a_out.png"
+    for c in r g b; do
+        [ $m != albedo ] && [ $c != r ] && continue
+        chan_sheet "$T/c_keep.png" "$OA/sphere_64_$m.png:$c" && chan_sheet "$T/c_drop.png" "$OD/sphere_64_$m.png:$c"
+        check "image, alpha: the $m map's $c channel as with --alpha drop" cmp -s "$T/c_keep.png" "$T/c_drop.png"
+    done
+done
+run image --model "$MODEL" --out "$OF" --float "$SPHERE"
+for m in albedo roughness metallic; do
+    check "image --float: the same $m PNG (quantised here) as without (quantised by the library)" cmp -s "$OA/sphere_64_$m.png" "$OF/sphere_64_$m.png"
+done
+check_pfm "$OF/sphere_64_albedo.pfm" 64 64 3
+run image --model "$MODEL" --out "$T/alpha_bad" --alpha none "$SPHERE"
+check "image --alpha none: exit 2, a message" [ $RC -eq 2 ] && grep -q "is not keep or drop" "$T/err"
 
 # ---- --max-memory: refused before allocating, with the sizes in the message --------------------------
 run image --model "$MODEL" --max-memory 1M --out "$T/mm1" "$SPHERE"
@@ -127,7 +158,7 @@ check "--max-memory: the message says how it was shared" grep -q "the model hold
 absent "$T/mm2/sphere_64_albedo.png"
 run image --model "$MODEL" --max-memory 4G --out "$T/mm3" "$SPHERE"
 check "--max-memory 4G: exit 0" [ $RC -eq 0 ]
-check_png "$T/mm3/sphere_64_albedo.png" 64 64 2
+check_png "$T/mm3/sphere_64_albedo.png" 64 64 6
 run image --model "$MODEL" --max-memory lots --out "$T/mm4" "$SPHERE"
 check "--max-memory with a bad size: exit 2" [ $RC -eq 2 ]
 
