@@ -434,7 +434,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
     /* the images' sizes before the (slow) model load */
     for (i = 0; i < o->nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(o->images[i], "image", &iw, &ih, &c, 0)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(o->images[i], "image", &iw, &ih, &c, 0, NULL)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("image '%s' is %dx%d but image '%s' is %dx%d: all views must have the same size (supermat does not resize)",
@@ -450,7 +450,7 @@ static int cli_bench_image(const cli_bench_opts *o) {
         const char *p = i ? o->pos_path : o->mask_path, *what = i ? "the position map" : "the mask";
         int iw, ih, c;
         if (!p) continue;
-        if (!cli_pic_info(p, what, &iw, &ih, &c, 0)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(p, what, &iw, &ih, &c, 0, NULL)) { rc = CLI_FAIL; break; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
                       "size (supermat does not resize)", what, p, iw, ih, path0, w, h);
@@ -463,18 +463,16 @@ static int cli_bench_image(const cli_bench_opts *o) {
         if (!p) continue;
         in.any_truth = 1;
         char what[64];
-        int ok, keep16 = cli_accept16;
+        int ok, is16 = 0;
         snprintf(what, sizeof what, "the %s truth", cli_bi_map_names[k]);
-        cli_accept16 = 1; /* a 16-bit truth is refused below, with its reason */
-        ok = cli_pic_info(p, what, &iw, &ih, &c, 0);
-        cli_accept16 = keep16;
+        ok = cli_pic_info(p, what, &iw, &ih, &c, 0, &is16); /* a 16-bit truth is refused below, with its reason */
         if (!ok) {
             rc = CLI_FAIL;
         } else if (iw != w || ih != h) {
             cli_error("the %s truth '%s' is %dx%d but the image '%s' is %dx%d: a truth map must have the image's size "
                       "(supermat does not resize)", cli_bi_map_names[k], p, iw, ih, path0, w, h);
             rc = CLI_FAIL;
-        } else if (cli_pic_is16) {
+        } else if (is16) {
             cli_error("the %s truth '%s' has 16 bits per channel: give an 8-bit PNG (the maps are compared as "
                       "`supermat image` writes them, 8-bit)", cli_bi_map_names[k], p);
             rc = CLI_FAIL;

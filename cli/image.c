@@ -114,7 +114,7 @@ static void cli_image_ctx_release(cli_image_ctx *X) {
 /* one picture -> its maps in out_dir as <stem>_*.png (+ .pfm): CLI_OK, CLI_SKIPPED (--skip-existing kept
    them) or CLI_FAIL with the message printed (cli_last_error holds it) */
 static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_dir, const char *stem) {
-    int w = 0, h = 0, c = 0, rc = CLI_OK, tty = X->tty, alpha, k;
+    int w = 0, h = 0, c = 0, rc = CLI_OK, tty = X->tty, alpha, k, is16 = 0;
     unsigned outputs = X->outputs;
     unsigned char *px = NULL, *u8[3] = {NULL, NULL, NULL};
     float *fin = NULL, *maps[3] = {NULL, NULL, NULL};
@@ -135,8 +135,8 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         if (a == CLI_FAIL) return CLI_FAIL;
         if (a == CLI_SKIPPED) { fprintf(stderr, "kept the maps of '%s' (they exist; --skip-existing)\n", input); return CLI_SKIPPED; }
     }
-    if (!cli_pic_info(input, "image", &w, &h, &c, X->lv.max_memory)) return CLI_FAIL;
-    if (cli_pic_is16) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
+    if (!cli_pic_info(input, "image", &w, &h, &c, X->lv.max_memory, &is16)) return CLI_FAIL;
+    if (is16) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
     else px = cli_load(input, &w, &h, &c, 4);
     if (!px && !fin) { cli_error("cannot read image '%s': %s", input, cli_stbi_reason()); return CLI_FAIL; }
     if (w % 8 || h % 8) {
@@ -330,7 +330,8 @@ static int cli_image(int argc, char **argv) {
     /* check every image before the (slow) model load */
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int w, h, c;
-        if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory)) { rc = CLI_FAIL; break; }
+        int is16;
+        if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory, &is16)) { rc = CLI_FAIL; break; }
         if (w % 8 || h % 8) {
             cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
                       "resize it first, e.g. to 512x512)", imgs[i], w, h);

@@ -610,12 +610,10 @@ static int cli_write_maps(const char *dir, const char *stem, int n, const char *
    - a folder, a missing file: named as such (stb_image says "can't fopen" / "unknown image type");
    - WebP (the official example pictures): decoded by libwebp when the build has it (SUPERMAT_CLI_WEBP:
      CMake finds libwebp-dev), else recognised and refused with what to do;
-   - 16-bit PNG: `image` reads it at full precision (cli_accept16: float input, v / 65535, the same sRGB
-     encoding); the other commands refuse it instead of cutting it to 8 bits silently;
+   - 16-bit PNG: `image` reads it at full precision (cli_pic_info's is16: float input, v / 65535, the same
+     sRGB encoding); the other commands refuse it instead of cutting it to 8 bits silently;
    - JPEG EXIF orientation (tag 0x0112, 2..8): applied, so the picture is processed upright as viewers
      show it, and sizes are reported after it (5..8 swap width and height). */
-static int cli_accept16;
-static int cli_pic_is16; /* the last picture cli_pic_info read has 16 bits per channel */
 
 /* the EXIF orientation of a JPEG file's bytes (1..8), 1 when absent / not a JPEG / unreadable */
 static int cli_exif_orientation(const unsigned char *b, size_t n) {
@@ -747,13 +745,14 @@ static int cli_header_size(const unsigned char *d, size_t n, long *w, long *h) {
 }
 
 /* stbi_info with the cases above; 0 (and the message, with `what`) when it cannot be read; max_memory:
-   --max-memory (0 = none), checked against the decoded size from the header */
-static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c, size_t max_memory) {
+   --max-memory (0 = none), checked against the decoded size from the header. is16: NULL refuses a picture
+   of 16 bits per channel (the command reads 8), else says whether it is one (read it with cli_load16f). */
+static int cli_pic_info(const char *path, const char *what, int *w, int *h, int *c, size_t max_memory, int *is16) {
     struct stat st;
     unsigned char *data = NULL;
     size_t size = 0;
-    int is16;
-    cli_pic_is16 = 0;
+    int deep;
+    if (is16) *is16 = 0;
     if (stat(path, &st) != 0) { cli_error("cannot read %s '%s': %s", what, path, strerror(errno)); return 0; }
     if (S_ISDIR(st.st_mode)) { cli_error("%s '%s' is a folder: give the picture files (e.g. '%s/*.png')", what, path, path); return 0; }
     if (cli_read_file(path, &data, &size)) return 0;
@@ -785,10 +784,11 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         cli_free_file(data);
         return 0;
     }
-    is16 = cli_pic_is16 = stbi_is_16_bit_from_memory(data, (int)size);
+    deep = stbi_is_16_bit_from_memory(data, (int)size);
+    if (is16) *is16 = deep;
     if (cli_exif_orientation(data, size) >= 5) { int t = *w; *w = *h; *h = t; }
     cli_free_file(data);
-    if (is16 && !cli_accept16) {
+    if (deep && !is16) {
         cli_error("%s '%s' has 16 bits per channel, which this command does not read (it would lose 8 of them): "
                   "give an 8-bit PNG (`supermat image` reads 16-bit pictures)", what, path);
         return 0;

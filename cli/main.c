@@ -99,7 +99,6 @@ int main(int argc, char **argv) {
         );
         return CLI_OK;
     }
-    cli_accept16 = !strcmp(c, "image") || !strcmp(c, "sheet"); /* image: float input; sheet: shown at 8 bits */
     if (supermat_build_optimized() == 0 && strcmp(c, "sheet")) /* nobody measures a debug build by accident */
         fprintf(stderr, "supermat: warning: this supermat was built without optimisation (-O0): about 10x slower; "
                         "build it with -DCMAKE_BUILD_TYPE=Release\n");

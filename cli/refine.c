@@ -86,7 +86,7 @@ static int cli_refine(int argc, char **argv) {
     /* the three sizes before the (slow) model load */
     for (i = 0; i < 3 && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c, lv.max_memory)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(paths[i], what[i], &iw, &ih, &c, lv.max_memory, NULL)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "

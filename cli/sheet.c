@@ -271,11 +271,11 @@ static int cli_sheet(int argc, char **argv) {
     /* every image readable before any work */
     for (r = 0; r < nrows; r++)
         for (c = 0; c < row_len[r]; c++) {
-            int w, h, ch, pick, ok;
+            int w, h, ch, pick, ok, deep;
             char *sel;
             if (!strcmp(cells[r][c], "-")) continue;
             sel = cli_sheet_channel(cells[r][c], &pick);
-            ok = cli_pic_info(cells[r][c], "image", &w, &h, &ch, 0);
+            ok = cli_pic_info(cells[r][c], "image", &w, &h, &ch, 0, &deep); /* 16 bits: shown at 8 */
             if (sel) *sel = ':';
             if (!ok) {
                 rc = CLI_FAIL;

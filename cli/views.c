@@ -289,7 +289,7 @@ static int cli_views(int argc, char **argv) {
     }
     for (i = 0; i < nimg && rc == CLI_OK; i++) {
         int iw, ih, c;
-        if (!cli_pic_info(imgs[i], "view", &iw, &ih, &c, lv.max_memory)) { rc = CLI_FAIL; break; }
+        if (!cli_pic_info(imgs[i], "view", &iw, &ih, &c, lv.max_memory, NULL)) { rc = CLI_FAIL; break; }
         if (i == 0) { w = iw; h = ih; }
         if (iw != w || ih != h) {
             cli_error("view '%s' is %dx%d but view '%s' is %dx%d: all views must have the same size (supermat does not resize)",

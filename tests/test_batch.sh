@@ -304,6 +304,12 @@ cp stems/b.png stems/a_png.jpg  # a.png -> a_png would meet a_png.jpg's own stem
 "$BIN" image "${RUN[@]}" --out stems_meet stems/a.png stems/a.jpg stems/a_png.jpg > /dev/null 2> log; rc=$?
 check "image: a.png, a.jpg and a_png.jpg still meet: usage error (exit $rc), nothing written" [ $rc -eq 2 ] && [ ! -e stems_meet ]
 
+# ---- a 16-bit picture: read at full precision, as `image` reads it (it was refused per item) ----
+mkdir -p deep && cp "$DATA/img/sphere_64_16bit.png" deep/
+"$BIN" image "${RUN[@]}" --out deep_ref deep/sphere_64_16bit.png > /dev/null 2>&1 || bad "reference image run of a 16-bit picture"
+"$BIN" batch image "${RUN[@]}" --out deep_out deep > /dev/null 2>&1; rc=$?
+check "batch image, a 16-bit picture: exit 0 (got $rc), the maps of \`image\`" [ $rc -eq 0 ] && cmp -s deep_ref/sphere_64_16bit_albedo.png deep_out/sphere_64_16bit_albedo.png
+
 # ---- batch mesh ----
 if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     cdir=$(dirname "$CUBE")
