@@ -1,4 +1,4 @@
-/* cli/args.c - option parsing, the usage texts of every command.
+/* cli/args.c - `supermat --help`, and the value parsers the commands share (--weights, --kernel, --outputs, sizes).
  * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone. */
 
 /* >>args */

@@ -11,15 +11,17 @@
  *     supermat sheet --out sheet.png --labels input,albedo photo.png,maps/photo_albedo.png
  *
  * One translation unit made of one file per command over one shared I/O module (the .c files of cli, included
- * below in order): it defines SUPERMAT_IMPLEMENTATION (and so may use the header's private `supermat__*`
- * GEMM for the benchmark) and links with convert/sm_convert.c (and cli/mesh.cpp with tinygltf). Images are read and written
+ * below in order): it defines SUPERMAT_IMPLEMENTATION and uses the header's public API only (what `bench`
+ * times is a documented testing hook), and links with convert/sm_convert.c (and cli/mesh.cpp with tinygltf). Images are read and written
  * with stb_image / stb_image_write (Debian: libstb-dev).
  *
- * Build:  gcc -std=c99 -O2 -I. -Itools cli/main.c convert/sm_convert.c -o supermat -lm -lpthread -lstb
+ * Build:  gcc -std=c99 -O2 -I. -Iconvert cli/main.c convert/sm_convert.c -o supermat -lm -lpthread
+ *         (CMake adds libwebp, zlib and cli/mesh.cpp with tinygltf when it finds them)
  *
  * Files (cli/; each opens with what it holds, sections inside are marked with >>name):
  *   platform.c   >>platform    includes, stb, timing, small helpers
- *   args.c       >>args        option parsing, the usage texts
+ *   args.c       >>args        the tool's own --help, the value parsers (--weights, --kernel, sizes ...);
+ *                              opt_table.h: the option tables each command parses and prints its help from
  *   io.c         >>files       the shared I/O module every command writes through: reading a whole file,
  *                              creating folders, the overwrite policy (--force / --skip-existing), atomic
  *                              outputs (FILE.tmp, every write checked, linked / renamed into place), PNG,
