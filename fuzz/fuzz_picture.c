@@ -17,13 +17,12 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     const char *path = fuzz_cli_file(data, size, "picture");
-    int w = 0, h = 0, c = 0, lw = 0, lh = 0, lc = 0;
+    int w = 0, h = 0, c = 0, lw = 0, lh = 0, lc = 0, is16 = 0;
     if (!path) return 0;
-    cli_accept16 = 1; /* as `supermat image`: 16-bit pictures are read too */
-    if (!cli_pic_info(path, "image", &w, &h, &c, 0)) return 0;
+    if (!cli_pic_info(path, "image", &w, &h, &c, 0, &is16)) return 0; /* as `supermat image`: 16-bit read too */
     if (w <= 0 || h <= 0 || w > 16384 || h > 16384) __builtin_trap(); /* cli_pic_info's promise */
     if ((size_t)w * (size_t)h > ((size_t)1 << 22)) return 0;
-    if (stbi_is_16_bit(path)) {
+    if (is16) {
         float *p = cli_load16f(path, &lw, &lh);
         if (p) {
             volatile float s = 0.0f;
