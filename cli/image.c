@@ -87,14 +87,10 @@ static int cli_parse_alpha(const char *cmd, const char *v, int *drop) {
     else { cli_usage_error(cmd, "--alpha: '%s' is not keep or drop", v); return -1; }
     return 0;
 }
-/* a picture's alpha at pixel i as the 8-bit PNGs store it (px: 8-bit RGBA, else fin: float RGBA) */
+/* a picture's alpha at pixel i as the 8-bit PNGs store it (px: 8-bit RGBA, else fin: a 16-bit picture's
+   float RGBA, v / 65535, quantised as the maps are) */
 static unsigned char cli_alpha_at(const unsigned char *px, const float *fin, size_t i) {
-    if (px) return px[i * 4 + 3];
-    {
-        float a = fin[i * 4 + 3];
-        a = a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
-        return (unsigned char)rintf(a * 255.0f);
-    }
+    return px ? px[i * 4 + 3] : cli_quantize(fin[i * 4 + 3]);
 }
 /* does the picture (its file has `channels` channels) have a pixel that is not opaque? */
 static int cli_has_alpha(const unsigned char *px, const float *fin, size_t np, int channels) {
