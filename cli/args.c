@@ -69,12 +69,26 @@ static void cli_levers_init(cli_levers *lv) {
     lv->detail = -1.0f;
     lv->chroma = -1.0f;
 }
-/* 'off' (0) or a number from 0 to 1 (--detail, --chroma); what: what the number is, for the message */
+/* 'off' (0), or a number or a fraction A/B ("1/64") from 0 to 1 (--detail, --chroma); what: what the number
+   is, for the message */
 static int cli_parse_unit(const char *cmd, const char *opt, const char *s, const char *what, float *out) {
     char *end = NULL;
-    *out = strcmp(s, "off") ? strtof(s, &end) : 0.0f;
-    if (strcmp(s, "off") && (!end || end == s || *end || !(*out >= 0.0f && *out <= 1.0f))) {
-        cli_usage_error(cmd, "%s: 'off' or %s from 0 to 1, not '%s'", opt, what, s);
+    int ok = 1;
+    *out = 0.0f;
+    if (strcmp(s, "off")) {
+        double v = strtod(s, &end);
+        *out = strtof(s, NULL); /* a number: as strtof reads it */
+        ok = end != s;
+        if (ok && *end == '/') { /* a fraction: its denominator, > 0 */
+            const char *q = end + 1;
+            double den = strtod(q, &end);
+            ok = end != q && den > 0.0;
+            if (ok) *out = (float)(v /= den);
+        }
+        ok = ok && !*end && v >= 0.0 && v <= 1.0;
+    }
+    if (!ok) {
+        cli_usage_error(cmd, "%s: 'off' or %s from 0 to 1 (0.5, 1/64), not '%s'", opt, what, s);
         return -1;
     }
     return 0;

@@ -12,7 +12,7 @@
  *   >>clip       the CLIP text encoder, once, for the empty prompt
  *   >>writer     the safetensors writer and the model metadata
  *   >>convert    sm_convert
- *   >>worksize   sm_work_size_header: a converted file's work size rewritten
+ *   >>pipeline   sm_pipeline_header: a converted file's pipeline.* metadata rewritten
  *   >>main       the stand-alone tool (SM_CONVERT_MAIN)
  */
 
@@ -1973,6 +1973,16 @@ static void sm__meta_add(sm__metas *ms, const char *key, const char *fmt, ...) {
     ms->n++;
 }
 
+/* pipeline.detail_sigma / pipeline.chroma_weight: 0 (off) to 1, and off for a uv-refine model (it has no
+   input picture to keep detail or take colour from: supermat.h refuses the steps for it) */
+static int sm__pipeline_step_check(const char *key, float v, int uv, char *err, size_t cap) {
+    if (!(v >= 0.0f && v <= 1.0f)) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.%s %g: from 0 (off) to 1", key, (double)v);
+    if (v > 0.0f && uv)
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.%s: a uv-refine model has no input picture for the %s step",
+                       key, key[0] == 'd' ? "detail" : "colour");
+    return 0;
+}
+
 typedef struct sm__otensor {
     char name[SM__NAME_CAP];
     int src; /* 0 checkpoint, 1 VAE, 2 context */
@@ -2428,6 +2438,12 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
         goto done;
     }
     sm__meta_add(ms, "pipeline.work_size", "%d", d->work_size < 0 ? 0 : d->work_size ? d->work_size : kind == SM__KIND_UV ? 1024 : 512);
+    if ((r = sm__pipeline_step_check("detail_sigma", d->detail_sigma, kind == SM__KIND_UV, err, cap)) != 0 ||
+        (r = sm__pipeline_step_check("chroma_weight", d->chroma_weight, kind == SM__KIND_UV, err, cap)) != 0)
+        goto done;
+    /* recorded only when on: a conversion without them writes the file it always wrote */
+    if (d->detail_sigma > 0.0f) sm__meta_add(ms, "pipeline.detail_sigma", "%.9g", (double)d->detail_sigma);
+    if (d->chroma_weight > 0.0f) sm__meta_add(ms, "pipeline.chroma_weight", "%.9g", (double)d->chroma_weight);
 
     /* UNet config, checked against the checkpoint */
     r = sm__json_load(&uc, d->base_dir, "unet/config.json", 0, err, cap);
@@ -2639,22 +2655,48 @@ done:
     return r;
 }
 
-/* >>worksize : a converted model file's pipeline.work_size, rewritten without the checkpoint */
-int sm_work_size_header(const void *file, size_t size, int work_size, unsigned char **header, size_t *header_size,
-                        size_t *data_offset, char *err, size_t cap) {
+/* >>pipeline : a converted model file's pipeline.* metadata (work size, detail and colour steps), rewritten
+   without the checkpoint */
+static int sm__tok_is(const char *js, const supermat_json_tok *t, const char *s) {
+    size_t n = strlen(s);
+    return t->type == SUPERMAT_JSON_STRING && (size_t)(t->end - t->start) == n && memcmp(js + t->start, s, n) == 0;
+}
+/* the end (exclusive) of the text of an object member's value, from its key's token */
+static int sm__member_end(const supermat_json_tok *tok, int key) {
+    return tok[key + 1].end + (tok[key + 1].type == SUPERMAT_JSON_STRING);
+}
+int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *edit, unsigned char **header,
+                       size_t *header_size, size_t *data_offset, char *err, size_t cap) {
+    static const char *const keys[3] = {"pipeline.work_size", "pipeline.detail_sigma", "pipeline.chroma_weight"};
     const unsigned char *f = (const unsigned char *)file;
     const char *js;
     supermat_json_tok *tok = NULL;
+    int *mk = NULL; /* the metadata's members: the token of each key */
     sm__sbuf b;
     uint64_t hlen, nlen;
-    int nt, meta, v, r = 0;
-    char val[32];
+    int nt, meta, n, i, k, p, r = 0, last = -1, any = 0;
+    int op[3];      /* 0: kept, 1: set to val[k], -1: removed */
+    int at[3];      /* the member holding key k, or -1 */
+    int pos[3];     /* an added key goes before member pos[k] (n: after the last) */
+    char val[3][40];
     memset(&b, 0, sizeof b);
     if (header) *header = NULL;
-    if (!f || !header || !header_size || !data_offset)
-        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_work_size_header: NULL argument");
-    if (work_size < -1 || work_size == 0 || work_size > 16384 || (work_size > 0 && work_size % 8))
-        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384, or -1 (none)", work_size);
+    if (!f || !edit || !header || !header_size || !data_offset)
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: NULL argument");
+    /* what changes */
+    op[0] = edit->work_size != 0;
+    if (edit->work_size < -1 || edit->work_size > 16384 || (edit->work_size > 0 && edit->work_size % 8))
+        return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384, or -1 (none)", edit->work_size);
+    snprintf(val[0], sizeof val[0], "%d", edit->work_size < 0 ? 0 : edit->work_size);
+    for (k = 1; k < 3; k++) {
+        float v = k == 1 ? edit->detail_sigma : edit->chroma_weight;
+        if (v < 0.0f) { op[k] = 0; continue; }
+        if (!(v <= 1.0f)) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s %g: from 0 (off) to 1, or negative (kept)", keys[k], (double)v);
+        op[k] = v > 0.0f ? 1 : -1;
+        snprintf(val[k], sizeof val[k], "%.9g", (double)v);
+    }
+    if (!op[0] && !op[1] && !op[2]) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: no key to rewrite");
+    /* the header */
     if (size < 8) return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%zu bytes: too short for a safetensors file", size);
     hlen = sm__u64(f);
     if (hlen < 2 || hlen > size - 8 || hlen > (uint64_t)INT32_MAX / 2)
@@ -2674,23 +2716,73 @@ int sm_work_size_header(const void *file, size_t size, int work_size, unsigned c
         r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "not a supermat model file (no supermat.format_version in its metadata)");
         goto done;
     }
-    snprintf(val, sizeof val, "\"%d\"", work_size < 0 ? 0 : work_size);
-    v = supermat_json_find(js, tok, meta, "pipeline.work_size");
-    if (v >= 0) { /* the value's text, quotes included, replaced */
-        if (tok[v].type != SUPERMAT_JSON_STRING) {
-            r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "pipeline.work_size is not a string");
+    if (op[1] > 0 || op[2] > 0) { /* supermat.h refuses the detail and colour steps for a uv-refine model */
+        char kind[32];
+        i = supermat_json_find(js, tok, meta, "supermat.kind");
+        if (i >= 0 && supermat_json_string(js, &tok[i], kind, sizeof kind) >= 0 && !strcmp(kind, "uv-refine")) {
+            r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model has no input picture for the %s step",
+                        keys[op[1] > 0 ? 1 : 2], op[1] > 0 ? "detail" : "colour");
             goto done;
         }
-        sm__sb_put(&b, js, (size_t)tok[v].start - 1);
-        sm__sb_str(&b, val);
-        sm__sb_put(&b, js + tok[v].end + 1, (size_t)hlen - (size_t)tok[v].end - 1);
-    } else { /* the key added first in the metadata object (it has at least format_version, so a comma follows) */
-        sm__sb_put(&b, js, (size_t)tok[meta].start + 1);
-        sm__sb_str(&b, "\"pipeline.work_size\":");
-        sm__sb_str(&b, val);
-        sm__sb_str(&b, ",");
-        sm__sb_put(&b, js + tok[meta].start + 1, (size_t)hlen - (size_t)tok[meta].start - 1);
     }
+    n = tok[meta].size; /* >= 1: format_version */
+    mk = (int *)malloc(sizeof *mk * (size_t)n);
+    if (!mk) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (%d metadata keys)", n); goto done; }
+    at[0] = at[1] = at[2] = -1;
+    for (i = 0, p = meta + 1; i < n; i++, p = tok[p].next) {
+        mk[i] = p;
+        for (k = 0; k < 3; k++) {
+            if (!sm__tok_is(js, &tok[p], keys[k])) continue;
+            if (at[k] >= 0) { r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%s appears twice in the metadata", keys[k]); goto done; }
+            if (op[k] && tok[p + 1].type != SUPERMAT_JSON_STRING) { r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%s is not a string", keys[k]); goto done; }
+            at[k] = i;
+        }
+    }
+    /* where an added key goes: after the pipeline key before it that stays, else before the one after it that
+       stays, else first (keys added at one place in the converter's order) */
+    for (k = 0; k < 3; k++) {
+        int j;
+        pos[k] = -1;
+        if (op[k] <= 0 || at[k] >= 0) continue;
+        for (j = k - 1; j >= 0 && pos[k] < 0; j--) if (at[j] >= 0 && op[j] >= 0) pos[k] = at[j] + 1;
+        for (j = k + 1; j < 3 && pos[k] < 0; j++) if (at[j] >= 0 && op[j] >= 0) pos[k] = at[j];
+        if (pos[k] < 0) pos[k] = 0;
+    }
+    /* the new text: the members in their order (their bytes, and the bytes between them, as they are) with the
+       changed values, the added keys, without the removed ones */
+    sm__sb_put(&b, js, (size_t)tok[meta].start + 1);                                              /* ... "__metadata__":{ */
+    sm__sb_put(&b, js + tok[meta].start + 1, (size_t)(tok[mk[0]].start - 1 - tok[meta].start - 1)); /* the space before the first key */
+    for (p = 0; p <= n; p++) {
+        for (k = 0; k < 3; k++) {
+            if (pos[k] != p) continue;
+            if (any) sm__sb_str(&b, ",");
+            sm__sb_str(&b, "\"");
+            sm__sb_str(&b, keys[k]);
+            sm__sb_str(&b, "\":\"");
+            sm__sb_str(&b, val[k]);
+            sm__sb_str(&b, "\"");
+            any = 1;
+            last = -1;
+        }
+        if (p == n) break;
+        for (k = 0; k < 3 && at[k] != p; k++) {}
+        if (k < 3 && op[k] < 0) continue; /* removed */
+        if (any) { /* the bytes after the member emitted last and before its next one (its comma), else a comma */
+            if (last >= 0 && last + 1 < n) sm__sb_put(&b, js + sm__member_end(tok, mk[last]), (size_t)(tok[mk[last + 1]].start - 1 - sm__member_end(tok, mk[last])));
+            else sm__sb_str(&b, ",");
+        }
+        if (k < 3 && op[k] > 0) { /* the value's text, quotes included, replaced */
+            sm__sb_put(&b, js + tok[mk[p]].start - 1, (size_t)(tok[mk[p] + 1].start - 1 - (tok[mk[p]].start - 1)));
+            sm__sb_str(&b, "\"");
+            sm__sb_str(&b, val[k]);
+            sm__sb_str(&b, "\"");
+        } else
+            sm__sb_put(&b, js + tok[mk[p]].start - 1, (size_t)(sm__member_end(tok, mk[p]) - (tok[mk[p]].start - 1)));
+        any = 1;
+        last = p;
+    }
+    i = sm__member_end(tok, mk[n - 1]);                                                      /* the space after the last member, */
+    sm__sb_put(&b, js + i, (size_t)hlen - (size_t)i);                                        /* the closing brace and the rest */
     /* the tensors' offsets count from the end of the header: the data is copied as it is, and the header
        keeps its length or grows by 64 bytes at a time, so every tensor keeps its alignment in the file
        (a pre-packed file's 64-byte panels too); padded with spaces */
@@ -2701,11 +2793,12 @@ int sm_work_size_header(const void *file, size_t size, int work_size, unsigned c
     if (b.oom) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (header of %llu bytes)", (unsigned long long)nlen); goto done; }
     *header = (unsigned char *)malloc((size_t)nlen + 8);
     if (!*header) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (header of %llu bytes)", (unsigned long long)nlen); goto done; }
-    for (v = 0; v < 8; v++) (*header)[v] = (unsigned char)(nlen >> (8 * v));
+    for (i = 0; i < 8; i++) (*header)[i] = (unsigned char)(nlen >> (8 * i));
     memcpy(*header + 8, b.p, (size_t)nlen);
     *header_size = (size_t)nlen + 8;
     *data_offset = (size_t)hlen + 8;
 done:
+    free(mk);
     free(tok);
     free(b.p);
     return r;

@@ -57,6 +57,12 @@ typedef struct sm_convert_desc {
                                for the kind (supermat, supermat-mv 512; uv-refine 1024), -1 = none:
                                0 is recorded, the CLI runs each picture at its own size, else N (a
                                multiple of 8, e.g. 128 for a model trained at 128x128) */
+    float detail_sigma;     /* metadata pipeline.detail_sigma, the detail step's sigma as a fraction of the
+                               picture's larger side (supermat_session_desc.detail_sigma): 0 = not recorded
+                               (off), else (0, 1], recorded as printf "%.9g"; not for uv-refine */
+    float chroma_weight;    /* metadata pipeline.chroma_weight, the colour step's weight
+                               (supermat_session_desc.chroma_weight): 0 = not recorded (off), else (0, 1];
+                               not for uv-refine */
 } sm_convert_desc;
 
 /* Converts. 0 on success, else a negative supermat_result and a message in err. Output tensors: the
@@ -66,15 +72,25 @@ typedef struct sm_convert_desc {
    act_fn, transformer_layers_per_block, vae.act_fn, supermat.source). */
 int sm_convert(const sm_convert_desc *desc, char *err, size_t err_cap);
 
-/* The work size of an already converted model file (the metadata pipeline.work_size, see desc->work_size:
-   N a multiple of 8 up to 16384, or -1 = none, recorded as 0), without its checkpoint: `file` is the whole
-   model file in memory (a supermat model file: its metadata has supermat.format_version). Returns 0 and a
-   malloc'ed new header (*header, *header_size bytes: the 8-byte length and the JSON, every other byte of
-   the header unchanged); the new file is that header followed by file[*data_offset .. size), the tensor
-   bytes as they are. The header keeps its length or grows by a multiple of 64 bytes, so every tensor, and
-   a pre-packed file's panels, keeps its alignment. */
-int sm_work_size_header(const void *file, size_t size, int work_size, unsigned char **header, size_t *header_size,
-                        size_t *data_offset, char *err, size_t err_cap);
+/* The pipeline.* metadata of an already converted model file, rewritten without its checkpoint. */
+typedef struct sm_pipeline_edit {
+    int work_size;       /* pipeline.work_size (see sm_convert_desc): 0 = kept as it is, N = N (a multiple of 8
+                            up to 16384), -1 = none (recorded as "0") */
+    float detail_sigma;  /* pipeline.detail_sigma: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
+    float chroma_weight; /* pipeline.chroma_weight: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
+} sm_pipeline_edit;
+/* `file` is the whole model file in memory (a supermat model file: its metadata has supermat.format_version);
+   at least one key of `edit` must change something. A key that is set replaces its value in place; a key
+   added goes after the pipeline.* key before it (work_size, detail_sigma, chroma_weight: the converter's
+   order), else before the one after it, else first in the metadata; a key removed takes one comma with it.
+   Every other byte of the header is kept (the other metadata, its order, the tensors' entries). A detail or
+   colour step is refused for a uv-refine file (no input picture). Returns 0 and a malloc'ed new header
+   (*header, *header_size bytes: the 8-byte length and the JSON); the new file is that header followed by
+   file[*data_offset .. size), the tensor bytes as they are. The header keeps its length (padded with
+   spaces) or grows by a multiple of 64 bytes, so every tensor, and a pre-packed file's panels, keeps its
+   alignment. */
+int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *edit, unsigned char **header,
+                       size_t *header_size, size_t *data_offset, char *err, size_t err_cap);
 
 /* ---- the PyTorch checkpoint reader (zip + pickle, no Python) ---------------------------------- */
 typedef struct sm_pth sm_pth;

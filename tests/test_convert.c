@@ -839,6 +839,11 @@ static void tc_check_output(const char *out, const char *ckpt, const char *twin,
     tc_expect_meta(&o, "sched.timestep_spacing", "trailing");
     tc_expect_meta(&o, "context.tokens", "77");
     tc_expect_meta(&o, "context.dim", "32");
+    { /* an official conversion (no --detail, --chroma) records neither step */
+        char v[64];
+        TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.detail_sigma", v, sizeof v) < 0 &&
+                 supermat_safetensors_metadata(o.b, o.n, "pipeline.chroma_weight", v, sizeof v) < 0, "%s: a pipeline step recorded", kind);
+    }
     {
         char src[300];
         snprintf(src, sizeof src, "%s", ckpt);
@@ -1281,7 +1286,7 @@ static void test_errors(const char *dir, const char *base) {
     TU_CHECK(r != 0 && strstr(err, "no/such/dir"), "unwritable output: %s", err);
 }
 
-/* sm_work_size_header on hand-made files: the value replaced, added where absent, the header kept at its length
+/* sm_pipeline_header's work size on hand-made files (tc_ws_header): the value replaced, added where absent, the header kept at its length
    or grown by 64 bytes, the data offset, and every malformed header refused with a message */
 static int tc_has(const unsigned char *p, size_t n, const char *s) { /* s in p[0..n), p not NUL-terminated */
     size_t k = strlen(s), i;
@@ -1296,6 +1301,13 @@ static void tc_ws_file(tc_buf *b, const char *json, size_t pad_to, const char *d
     while (n++ < pad_to) tc_u8(b, ' ');
     tc_str(b, data);
 }
+/* sm_pipeline_header with the work size alone (the other keys kept) */
+static int tc_ws_header(const void *f, size_t n, int ws, unsigned char **h, size_t *hs, size_t *off, char *err, size_t cap) {
+    sm_pipeline_edit e;
+    e.work_size = ws;
+    e.detail_sigma = e.chroma_weight = -1.0f;
+    return sm_pipeline_header(f, n, &e, h, hs, off, err, cap);
+}
 static void test_work_size_header(void) {
     static const char *const meta = "{\"__metadata__\":{\"supermat.format_version\":\"1\",\"pipeline.work_size\":\"128\"},"
                                     "\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}";
@@ -1309,7 +1321,7 @@ static void test_work_size_header(void) {
     memset(&b, 0, sizeof b);
     tc_ws_file(&b, meta, 128, "DATA");
     len = b.n;
-    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    r = tc_ws_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
     TU_CHECK(r == 0 && hs == 136 && off == 136, "same-length value: r %d, header %zu bytes, data at %zu: %s", r, hs, off, err);
     if (!r) {
         tc_buf o;
@@ -1322,22 +1334,22 @@ static void test_work_size_header(void) {
         free(o.p);
     }
     free(h); h = NULL;
-    r = sm_work_size_header(b.p, b.n, 8, &h, &hs, &off, err, sizeof err); /* shorter: padded back to the same length */
+    r = tc_ws_header(b.p, b.n, 8, &h, &hs, &off, err, sizeof err); /* shorter: padded back to the same length */
     TU_CHECK(r == 0 && hs == 136 && h && h[8 + 127] == ' ', "shorter value: r %d, header %zu bytes", r, hs);
     free(h); h = NULL;
-    r = sm_work_size_header(b.p, b.n, -1, &h, &hs, &off, err, sizeof err); /* none: recorded as 0 */
+    r = tc_ws_header(b.p, b.n, -1, &h, &hs, &off, err, sizeof err); /* none: recorded as 0 */
     TU_CHECK(r == 0 && h && tc_has(h + 8, hs - 8, "\"pipeline.work_size\":\"0\""), "native records 0: %s", err);
     free(h); h = NULL;
     tc_ws_file(&b, meta, strlen(meta), "DATA"); /* no padding: a longer value grows the header by 64 bytes */
-    r = sm_work_size_header(b.p, b.n, 16384, &h, &hs, &off, err, sizeof err);
+    r = tc_ws_header(b.p, b.n, 16384, &h, &hs, &off, err, sizeof err);
     TU_CHECK(r == 0 && hs == strlen(meta) + 64 + 8 && off == strlen(meta) + 8, "longer value: r %d, header %zu bytes (want %zu)", r, hs, strlen(meta) + 72);
     free(h); h = NULL;
     tc_ws_file(&b, nokey, 0, "DATA"); /* the key absent and no padding: added, the header grown by 64 bytes */
-    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    r = tc_ws_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
     TU_CHECK(r == 0 && hs == 8 + strlen(nokey) + 64 && off == 8 + strlen(nokey), "key added, grown: r %d, header %zu bytes: %s", r, hs, err);
     free(h); h = NULL;
     tc_ws_file(&b, nokey, 128, "DATA"); /* with 27 bytes of padding: the 27 bytes of the key take its place */
-    r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+    r = tc_ws_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
     TU_CHECK(r == 0 && hs == 8 + 128 && off == 136, "key added in the padding: r %d, header %zu bytes: %s", r, hs, err);
     if (!r) {
         tc_buf o;
@@ -1361,28 +1373,183 @@ static void test_work_size_header(void) {
         for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++) {
             tc_ws_file(&b, bad[i], 0, "DATA");
             err[0] = 0;
-            r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+            r = tc_ws_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
             TU_CHECK(r < 0 && err[0] && !h, "bad header %d refused: r %d, '%s'", i, r, err);
             free(h); h = NULL;
         }
         tc_ws_file(&b, meta, 128, "DATA");
         for (i = 0; i < 3; i++) {  /* bad work sizes */
             static const int ws[3] = {0, 12, 16392};
-            r = sm_work_size_header(b.p, b.n, ws[i], &h, &hs, &off, err, sizeof err);
+            r = tc_ws_header(b.p, b.n, ws[i], &h, &hs, &off, err, sizeof err);
             TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && !h, "work size %d refused: r %d", ws[i], r);
             free(h); h = NULL;
         }
         for (len = 0; len < 8 + 128; len += 7) { /* every cut inside the length or the header */
-            r = sm_work_size_header(b.p, len, 256, &h, &hs, &off, err, sizeof err);
+            r = tc_ws_header(b.p, len, 256, &h, &hs, &off, err, sizeof err);
             TU_CHECK(r < 0 && !h, "a file cut at %zu bytes refused: r %d", len, r);
             free(h); h = NULL;
         }
         b.p[7] = 0x7f; /* a length beyond the file */
-        r = sm_work_size_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
+        r = tc_ws_header(b.p, b.n, 256, &h, &hs, &off, err, sizeof err);
         TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && !h, "a length beyond the file refused: r %d", r);
         free(h); h = NULL;
     }
     free(b.p);
+}
+
+/* sm_pipeline_header's detail and colour keys on hand-made files: set, replaced, added in the converter's order,
+   removed (with one comma), every other byte of the header kept (spaces between members too), and the
+   refusals. tc_pe: `in` (the metadata members) padded to `pad` bytes, rewritten; `want` the members
+   expected, NULL = refused */
+#define TC_PE_HEAD "{\"__metadata__\":{"
+#define TC_PE_TAIL "},\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}"
+static void tc_pe(const char *what, const char *in, size_t pad, int ws, float det, float chr, const char *want) {
+    tc_buf b;
+    sm_pipeline_edit e;
+    unsigned char *h = NULL;
+    size_t hs = 0, off = 0, jl, inl;
+    char js[1024], wj[1024], err[512];
+    int r;
+    memset(&b, 0, sizeof b);
+    snprintf(js, sizeof js, TC_PE_HEAD "%s" TC_PE_TAIL, in);
+    inl = strlen(js);
+    tc_ws_file(&b, js, pad, "DATA");
+    e.work_size = ws;
+    e.detail_sigma = det;
+    e.chroma_weight = chr;
+    err[0] = 0;
+    r = sm_pipeline_header(b.p, b.n, &e, &h, &hs, &off, err, sizeof err);
+    if (!want) {
+        TU_CHECK(r < 0 && err[0] && !h, "%s: refused with a message: r %d, '%s'", what, r, err);
+    } else if (r != 0 || !h) {
+        TU_CHECK(0, "%s: r %d, '%s'", what, r, err);
+    } else {
+        snprintf(wj, sizeof wj, TC_PE_HEAD "%s" TC_PE_TAIL, want);
+        jl = hs - 8;
+        while (jl > 0 && h[8 + jl - 1] == ' ') jl--;
+        TU_CHECK(jl == strlen(wj) && !memcmp(h + 8, wj, jl), "%s: header\n  %.*s\nexpected\n  %s", what, (int)jl, (const char *)h + 8, wj);
+        TU_CHECK(off == 8 + (inl > pad ? inl : pad), "%s: the data at %zu", what, off);
+        TU_CHECK(hs >= off && (hs - off) % 64 == 0 && (hs - off <= 64 || hs - off < strlen(wj) - inl + 64), "%s: the header kept at its length or grown by 64 bytes (%zu -> %zu)", what, off, hs);
+        if (!memcmp(h + 8, wj, jl < strlen(wj) ? jl : strlen(wj))) { /* the file written reads back */
+            tc_buf o;
+            char v[64];
+            memset(&o, 0, sizeof o);
+            tc_put(&o, h, hs);
+            tc_put(&o, b.p + off, b.n - off);
+            TU_CHECK(supermat_safetensors_metadata(o.p, o.n, "supermat.format_version", v, sizeof v) == 0 && !strcmp(v, "1") &&
+                     memcmp(o.p + o.n - 4, "DATA", 4) == 0, "%s: the file written reads back", what);
+            free(o.p);
+        }
+    }
+    free(h);
+    free(b.p);
+}
+static void test_pipeline_header(void) {
+#define FV "\"supermat.format_version\":\"1\""
+#define KD "\"supermat.kind\":\"supermat\""
+#define WS "\"pipeline.work_size\":\"256\""
+#define DS "\"pipeline.detail_sigma\":\"0.015625\""
+#define CW "\"pipeline.chroma_weight\":\"1\""
+#define UX "\"unet.x\":\"1\""
+    static const char *const base = FV "," KD "," WS "," UX, *both = FV "," KD "," WS "," DS "," CW "," UX;
+    const float kept = -1.0f;
+    tc_pe("detail added after the work size", base, 256, 0, 1.0f / 64, kept, FV "," KD "," WS "," DS "," UX);
+    tc_pe("both added in the converter's order", base, 256, 0, 1.0f / 64, 1.0f, both);
+    tc_pe("both added, no padding: grown by 64 bytes", base, 0, 0, 1.0f / 64, 1.0f, both);
+    tc_pe("colour added after the work size", base, 256, 0, kept, 1.0f, FV "," KD "," WS "," CW "," UX);
+    tc_pe("both removed: the original bytes", both, 256, 0, 0.0f, 0.0f, base);
+    tc_pe("detail removed", both, 256, 0, 0.0f, kept, FV "," KD "," WS "," CW "," UX);
+    tc_pe("colour removed", both, 256, 0, kept, 0.0f, FV "," KD "," WS "," DS "," UX);
+    tc_pe("the work size alone: the steps kept", both, 256, 512, kept, kept, FV "," KD ",\"pipeline.work_size\":\"512\"," DS "," CW "," UX);
+    tc_pe("detail replaced in place", both, 256, 0, 0.5f, kept, FV "," KD "," WS ",\"pipeline.detail_sigma\":\"0.5\"," CW "," UX);
+    tc_pe("all three at once", both, 256, -1, 0.25f, 0.0f, FV "," KD ",\"pipeline.work_size\":\"0\",\"pipeline.detail_sigma\":\"0.25\"," UX);
+    tc_pe("a value as printf %.9g of the float", base, 256, 0, 1.0f / 3, kept, FV "," KD "," WS ",\"pipeline.detail_sigma\":\"0.333333343\"," UX);
+    tc_pe("removing an absent key changes nothing", base, 256, 0, 0.0f, 0.0f, base);
+    tc_pe("no pipeline key: added first", FV ",\"x\":\"2\"", 256, 0, kept, 1.0f, CW "," FV ",\"x\":\"2\"");
+    tc_pe("added before the colour key", FV "," CW ",\"x\":\"2\"", 256, 64, 0.25f, kept,
+          FV ",\"pipeline.work_size\":\"64\",\"pipeline.detail_sigma\":\"0.25\"," CW ",\"x\":\"2\"");
+    tc_pe("the spaces between the members kept", " " FV " ,  \"pipeline.detail_sigma\" : \"0.5\" , \"x\" : \"2\" ", 256, 0, 0.0f, kept,
+          " " FV " ,  \"x\" : \"2\" ");
+    tc_pe("the spaces around a replaced value kept", FV ", \"pipeline.detail_sigma\" :  \"0.5\"", 256, 0, 1.0f, kept,
+          FV ", \"pipeline.detail_sigma\" :  \"1\"");
+    tc_pe("the first member removed", CW ", " FV, 256, 0, kept, 0.0f, FV);
+    tc_pe("the last member removed", FV "," CW, 256, 0, kept, 0.0f, FV);
+    tc_pe("an object value kept", FV ",\"o\":{\"a\":[1,2]}," DS, 256, 0, 0.0f, kept, FV ",\"o\":{\"a\":[1,2]}");
+    tc_pe("a uv-refine file: no detail step", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, 0.5f, kept, NULL);
+    tc_pe("a uv-refine file: no colour step", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, kept, 1.0f, NULL);
+    tc_pe("a uv-refine file: a step removed", FV ",\"supermat.kind\":\"uv-refine\"," CW, 256, 0, kept, 0.0f, FV ",\"supermat.kind\":\"uv-refine\"");
+    tc_pe("detail 2 refused", base, 256, 0, 2.0f, kept, NULL);
+    tc_pe("colour 1.5 refused", base, 256, 0, kept, 1.5f, NULL);
+    tc_pe("a NaN refused", base, 256, 0, (float)(0.0 * HUGE_VAL), kept, NULL);
+    tc_pe("nothing to rewrite refused", base, 256, 0, kept, kept, NULL);
+    tc_pe("a key twice refused", FV "," DS "," DS, 256, 0, 0.5f, kept, NULL);
+    tc_pe("a number, not a string, refused", FV ",\"pipeline.detail_sigma\":0.5", 256, 0, 0.25f, kept, NULL);
+    tc_pe("a number in a key not rewritten kept", FV ",\"pipeline.detail_sigma\":0.5", 256, 64, kept, kept, FV ",\"pipeline.work_size\":\"64\",\"pipeline.detail_sigma\":0.5");
+    tc_pe("not a supermat file", "\"x\":\"1\"", 256, 0, 0.5f, kept, NULL);
+#undef FV
+#undef KD
+#undef WS
+#undef DS
+#undef CW
+#undef UX
+}
+
+/* the converter records pipeline.detail_sigma and pipeline.chroma_weight only when they are on: without them the
+   file has neither key, and its header is the one written with them less the two keys (every other byte,
+   the tensors' too, the same); out of range, and a step for a uv-refine model, refused with nothing written */
+static void test_convert_pipeline(const char *dir, const char *base) {
+    sm_convert_desc d;
+    tc_st w, o;
+    char ck[600], err[512], v[64];
+    const char *with = TMP "/pipe_with.safetensors", *without = TMP "/pipe_without.safetensors", *never = TMP "/pipe_never.safetensors";
+    int r;
+    snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
+    memset(&d, 0, sizeof d);
+    d.kind = "supermat"; d.checkpoint = ck; d.base_dir = base; d.threads = 2;
+    d.output = with; d.detail_sigma = 1.0f / 64; d.chroma_weight = 1.0f;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == 0, "convert with the detail and colour steps: %s", err);
+    tc_track(with);
+    d.output = without; d.detail_sigma = 0.0f; d.chroma_weight = 0.0f;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == 0, "convert without them: %s", err);
+    tc_track(without);
+    if (tc_st_load(&w, with) == 0 && tc_st_load(&o, without) == 0) {
+        static const char *const keys[2] = {",\"pipeline.detail_sigma\":\"0.015625\"", ",\"pipeline.chroma_weight\":\"1\""};
+        char *t = (char *)malloc((size_t)w.hl + 1), *p;
+        size_t n, k, on = (size_t)o.hl;
+        tc_expect_meta(&w, "pipeline.detail_sigma", "0.015625");
+        tc_expect_meta(&w, "pipeline.chroma_weight", "1");
+        tc_expect_meta(&w, "pipeline.work_size", "512");
+        TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.detail_sigma", v, sizeof v) < 0, "without the options: no pipeline.detail_sigma");
+        TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.chroma_weight", v, sizeof v) < 0, "without the options: no pipeline.chroma_weight");
+        memcpy(t, w.b + 8, (size_t)w.hl);
+        t[w.hl] = 0;
+        for (k = 0; k < 2; k++) /* the two keys taken out of the text */
+            if ((p = strstr(t, keys[k])) != NULL) memmove(p, p + strlen(keys[k]), strlen(p + strlen(keys[k])) + 1);
+            else TU_CHECK(0, "the header with the steps lacks %s", keys[k]);
+        n = strlen(t);
+        while (n > 0 && t[n - 1] == ' ') n--;
+        while (on > 0 && o.b[8 + on - 1] == ' ') on--;
+        TU_CHECK(n == on && !memcmp(t, o.b + 8, n), "the header without the steps is the one with them less the two keys");
+        TU_CHECK(w.n - 8 - w.hl == o.n - 8 - o.hl && !memcmp(w.b + 8 + w.hl, o.b + 8 + o.hl, (size_t)(o.n - 8 - o.hl)), "the tensor bytes the same with and without the steps");
+        free(t);
+    } else TU_CHECK(0, "cannot read %s and %s", with, without);
+    tc_st_free(&w);
+    tc_st_free(&o);
+    /* refusals */
+    d.output = never; d.detail_sigma = 2.0f; d.chroma_weight = 0.0f;
+    err[0] = 0;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "detail_sigma") && !tc_exists(never), "detail 2 refused: r %d, '%s'", r, err);
+    d.detail_sigma = 0.0f; d.chroma_weight = -1.0f;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "chroma_weight") && !tc_exists(never), "colour -1 refused: r %d, '%s'", r, err);
+    snprintf(ck, sizeof ck, "%s/uv_refine_bc.pth", dir);
+    d.kind = NULL; d.checkpoint = ck; d.detail_sigma = 1.0f / 64; d.chroma_weight = 0.0f;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "uv-refine") && !tc_exists(never), "a detail step for uv-refine refused: r %d, '%s'", r, err);
+    tc_track(never);
 }
 
 int main(int argc, char **argv) {
@@ -1405,8 +1572,10 @@ int main(int argc, char **argv) {
 
     printf("reader on hand-made checkpoints\n");
     test_reader_small();
-    printf("work size rewritten (sm_work_size_header)\n");
+    printf("work size rewritten (sm_pipeline_header)\n");
     test_work_size_header();
+    printf("detail and colour keys rewritten (sm_pipeline_header)\n");
+    test_pipeline_header();
     printf("values against torch\n");
     test_known_values(dir);
     printf("truncation and corruption sweeps\n");
@@ -1459,6 +1628,8 @@ int main(int argc, char **argv) {
     }
     snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
     test_f16_zip64(ck, base);
+    printf("pipeline keys recorded (detail, colour)\n");
+    test_convert_pipeline(dir, base);
     printf("error paths\n");
     test_errors(dir, base);
     tc_cleanup();

@@ -9,7 +9,10 @@
 # recorded (128; 100 exits 2). `convert --from`: another work size written into a converted file (the header
 # kept at its length or grown by 64 bytes, the tensor bytes the original's, the maps those of --work-size on
 # the original), the default model's work size in image/bench --help, and its refusals (no --work-size,
-# checkpoint options, onto itself, over a file, a cut file, a checkpoint). --weights: what `info` reports and
+# checkpoint options, onto itself, over a file, a cut file, a checkpoint). --detail / --chroma: recorded only when on
+# (off: the official file byte for byte), 1/64 and 0.5 read, out of range a usage error, refused for uv-refine;
+# `convert --from` with each subset of --work-size, --detail, --chroma changes just those keys (off removes one),
+# the tensor bytes kept. --weights: what `info` reports and
 # `image` runs for the f16 and int8 files and --weights int8 / bf16 / q4 (exit 2).
 # (convert --packed is in test_pack.sh, the multi-view and UV-refine kinds in test_views.sh / test_refine.sh.)
 set -eu
@@ -99,6 +102,79 @@ run convert --from "$DATA/tiny/supermat.pth" --work-size 64 --out "$T/never.safe
 check "convert --from a checkpoint (not a model file) exits 1" [ $RC -eq 1 ]
 absent "$T/never.safetensors"
 absent "$T/never.safetensors.tmp"
+
+# ---- --detail / --chroma recorded; convert --from with any of --work-size, --detail, --chroma ------
+# hdr FILE: the header's JSON less its padding; meta FILE KEY: a metadata value, empty when absent
+hdr() { tail -c +9 "$1" | head -c "$(od -An -tu8 -N8 "$1" | tr -d ' ')" | sed 's/ *$//'; }
+meta() { hdr "$1" | grep -o "\"$2\":\"[^\"]*\"" | head -n 1 | sed 's/^.*:"\(.*\)"$/\1/'; }
+tensors() { tail -c +$(($(od -An -tu8 -N8 "$1" | tr -d ' ') + 9)) "$1"; }
+DS='"pipeline.detail_sigma"'
+CW='"pipeline.chroma_weight"'
+check "an official conversion records no detail step" bash -c "! grep -q 'pipeline.detail_sigma' <(tail -c +9 '$MODEL' | head -c 100000)"
+check "an official conversion records no colour step" bash -c "! grep -q 'pipeline.chroma_weight' <(tail -c +9 '$MODEL' | head -c 100000)"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_off.safetensors" --work-size native --detail off --chroma off
+check "convert --detail off --chroma off exits 0" [ $RC -eq 0 ]
+check "convert --detail off --chroma off writes the file written without them, byte for byte" cmp -s "$MODEL" "$T/tiny_off.safetensors"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_dc.safetensors" --work-size native --detail 1/64 --chroma 1
+check "convert --detail 1/64 --chroma 1 exits 0" [ $RC -eq 0 ]
+check "convert --detail 1/64 records pipeline.detail_sigma 0.015625" [ "$(meta "$T/tiny_dc.safetensors" pipeline.detail_sigma)" = 0.015625 ]
+check "convert --chroma 1 records pipeline.chroma_weight 1" [ "$(meta "$T/tiny_dc.safetensors" pipeline.chroma_weight)" = 1 ]
+check "convert --detail --chroma: the header is the official one with the two keys after the work size" \
+    [ "$(hdr "$T/tiny_dc.safetensors")" = "$(hdr "$MODEL" | sed "s/\"pipeline.work_size\":\"0\"/&,$DS:\"0.015625\",$CW:\"1\"/")" ]
+check "convert --detail --chroma: the tensor bytes the official conversion's" cmp -s <(tensors "$MODEL") <(tensors "$T/tiny_dc.safetensors")
+run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_d05.safetensors" --detail 0.5
+check "convert --detail 0.5 (no --chroma): 0.5 recorded, no colour step" \
+    [ "$(meta "$T/tiny_d05.safetensors" pipeline.detail_sigma),$(meta "$T/tiny_d05.safetensors" pipeline.chroma_weight)" = "0.5," ]
+for opt in --detail --chroma; do
+    for bad in 2 -1 abc 1/0 ''; do
+        run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" $opt "$bad"
+        check "convert $opt '$bad' exits 2" [ $RC -eq 2 ]
+        check "convert $opt '$bad': the message names the option and the value" grep -q -- "$opt: 'off' or .* from 0 to 1 (0.5, 1/64), not '$bad'" "$T/err"
+        run convert --from "$T/tiny_dc.safetensors" --out "$T/never.safetensors" $opt "$bad"
+        check "convert --from $opt '$bad' exits 2" [ $RC -eq 2 ]
+    done
+done
+run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --chroma 1
+check "convert --kind uv-refine --chroma 1 exits 2 (no input picture)" [ $RC -eq 2 ]
+check "convert --kind uv-refine --chroma 1: the message says why" grep -q "uv-refine model has no input picture" "$T/err"
+run convert --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --detail 1/64
+check "convert of a uv-refine checkpoint (kind detected) with --detail exits 1" [ $RC -eq 1 ]
+check "convert of a uv-refine checkpoint with --detail: the message says why" grep -q "uv-refine model has no input picture" "$T/err"
+absent "$T/never.safetensors"
+# --from: each subset changes just its keys, the tensors byte for byte
+run convert --from "$MODEL" --detail 1/64 --chroma 1 --out "$T/from_dc.safetensors"
+check "convert --from --detail 1/64 --chroma 1 exits 0" [ $RC -eq 0 ]
+check "convert --from --detail --chroma: says what it set" grep -q "with detail 0.015625, colour 1$" "$T/out"
+check "convert --from --detail --chroma: the header a conversion with them writes" [ "$(hdr "$T/from_dc.safetensors")" = "$(hdr "$T/tiny_dc.safetensors")" ]
+check "convert --from --detail --chroma: the tensor bytes the original's" cmp -s <(tensors "$MODEL") <(tensors "$T/from_dc.safetensors")
+run convert --from "$T/tiny_dc.safetensors" --detail off --chroma off --out "$T/from_off.safetensors"
+check "convert --from --detail off --chroma off exits 0" [ $RC -eq 0 ]
+check "convert --from --detail off --chroma off: the official header (both keys removed)" [ "$(hdr "$T/from_off.safetensors")" = "$(hdr "$MODEL")" ]
+check "convert --from --detail off --chroma off: the size kept (the header padded)" [ "$(stat -c %s "$T/from_off.safetensors")" = "$(stat -c %s "$T/tiny_dc.safetensors")" ]
+run convert --from "$T/tiny_dc.safetensors" --detail off --out "$T/from_d0.safetensors"
+check "convert --from --detail off: only the detail key removed" \
+    [ "$(hdr "$T/from_d0.safetensors")" = "$(hdr "$T/tiny_dc.safetensors" | sed "s/,$DS:\"0.015625\"//")" ]
+check "convert --from --detail off: says so" grep -q "with detail off$" "$T/out"
+run convert --from "$T/tiny_dc.safetensors" --chroma 0.5 --out "$T/from_c05.safetensors"
+check "convert --from --chroma 0.5: only the colour value changed" \
+    [ "$(hdr "$T/from_c05.safetensors")" = "$(hdr "$T/tiny_dc.safetensors" | sed "s/$CW:\"1\"/$CW:\"0.5\"/")" ]
+run convert --from "$T/tiny_dc.safetensors" --work-size 64 --out "$T/from_w64.safetensors"
+check "convert --from --work-size 64: only the work size changed (the steps kept)" \
+    [ "$(hdr "$T/from_w64.safetensors")" = "$(hdr "$T/tiny_dc.safetensors" | sed 's/"pipeline.work_size":"0"/"pipeline.work_size":"64"/')" ]
+run convert --from "$T/tiny_dc.safetensors" --work-size 64 --detail 0.25 --chroma off --out "$T/from_all.safetensors"
+check "convert --from with all three exits 0" [ $RC -eq 0 ]
+check "convert --from with all three: each changed" \
+    [ "$(hdr "$T/from_all.safetensors")" = "$(hdr "$T/tiny_dc.safetensors" | sed "s/\"pipeline.work_size\":\"0\"/\"pipeline.work_size\":\"64\"/; s/$DS:\"0.015625\"/$DS:\"0.25\"/; s/,$CW:\"1\"//")" ]
+check "convert --from with all three: says what it set" grep -q "with work size 64x64, detail 0.25, colour off$" "$T/out"
+check "convert --from with all three: the tensor bytes the original's" cmp -s <(tensors "$T/tiny_dc.safetensors") <(tensors "$T/from_all.safetensors")
+run convert --from "$T/tiny_dc.safetensors" --out "$T/never.safetensors"
+check "convert --from with none of --work-size, --detail, --chroma exits 2" [ $RC -eq 2 ]
+check "convert --from with none of --work-size, --detail, --chroma: the message names them" grep -q -- "--from needs --work-size N|native, --detail F|off or --chroma W|off" "$T/err"
+run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/tiny_uv.safetensors" --work-size native
+run convert --from "$T/tiny_uv.safetensors" --detail 1/64 --out "$T/never.safetensors"
+check "convert --from a uv-refine file --detail 1/64 exits 1" [ $RC -eq 1 ]
+check "convert --from a uv-refine file --detail: the message says why" grep -q "uv-refine model has no input picture" "$T/err"
+absent "$T/never.safetensors"
 
 # ---- --weights (GEMM weight storage) ----------------------------------------------------------
 run info --weights int8 "$MODEL"

@@ -175,6 +175,8 @@ check "image: the default --detail changes the albedo" bash -c "! cmp -s '$DT/sp
 check "image: the default --detail leaves roughness and metallic" bash -c "cmp -s '$DT/sphere_64_roughness.png' '$GT/sphere_64_roughness.png' && cmp -s '$DT/sphere_64_metallic.png' '$GT/sphere_64_metallic.png'"
 run image --model "$MODEL" --detail 0.015625 --chroma off --out "$T/detail_explicit" "$SPHERE"
 check "image --detail 0.015625 = the default" cmp -s "$T/detail_explicit/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
+run image --model "$MODEL" --detail 1/64 --chroma off --out "$T/detail_fraction" "$SPHERE"
+check "image --detail 1/64 (a fraction) = --detail 0.015625" cmp -s "$T/detail_fraction/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
 run image --model "$MODEL" --detail 1.5 --out "$T/detail_bad" "$SPHERE"
 check "image --detail 1.5 exits 2" [ $RC -eq 2 ]
 check "image --detail 1.5 explains" grep -q -- "--detail" "$T/err"
