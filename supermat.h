@@ -17,11 +17,11 @@
  *     supermat_model *model; supermat_error err;
  *     if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { puts(err.message); return 1; }
  *     supermat_session_desc sd; memset(&sd, 0, sizeof sd);
- *     sd.model = model; sd.width = 512; sd.height = 512;   // any multiple of 8
- *     supermat_session *s;
+ *     sd.model = model; sd.width = w; sd.height = h;       // the picture's size, any
+ *     supermat_session *s;                                 // (the model's pipeline: work size, detail, colour)
  *     if (supermat_session_create(&sd, &s, &err) != SUPERMAT_SUCCESS) { ... }
  *     supermat_run_desc rd; memset(&rd, 0, sizeof rd);
- *     rd.input.pixels = rgba; rd.input.width = 512; rd.input.height = 512; rd.input.channels = 4;
+ *     rd.input.pixels = rgba; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
  *     rd.albedo.pixels = albedo_rgb8;    rd.albedo.channels = 3;      // format 0 = 8-bit
  *     rd.roughness.pixels = rough8;      rd.roughness.channels = 1;
  *     rd.metallic.pixels = metal8;       rd.metallic.channels = 1;
@@ -39,8 +39,10 @@
  *     exactly the layers where the official code installs it (every attn1 outside down_blocks.0).
  *   - UV refine: the partial UV map's latent, the mask and the position map (bilinearly resized to the
  *     latent size as PyTorch does) -> one refined map (albedo or roughness/metallic, by checkpoint).
- *   - Any size that is a multiple of 8 pixels, square or not: where the latent is not a multiple of 8,
- *     each upsampler resizes to its skip tensor's size (nearest), exactly as diffusers does.
+ *   - Any picture size: the network runs at the model's work size (its file records it) and the maps come
+ *     back at the picture's size. At a picture's own size (no work size) the sides must be multiples of
+ *     8, square or not: where the latent is not a multiple of 8, each upsampler resizes to its skip
+ *     tensor's size (nearest), exactly as diffusers does.
  *   - Computes only what was asked: a branch nobody wants is neither run nor decoded.
  *
  * SPEED <-> ACCURACY LEVERS (all off by default = the official computation; `supermat bench --image`
@@ -49,7 +51,7 @@
  *   model_desc.conv         Winograd F(2x2,3x3) / F(4x4,3x3) for the 3x3 convolutions (<= 640 channels)
  *   model_desc.compute      bf16 (AVX512_BF16, AMX) or int8 (AVX512_VNNI, AVX-VNNI) products in the GEMMs
  *   session_desc.outputs    only the maps you need (a branch and its decode are skipped)
- *   session_desc.work_*     run the network smaller, resample in and out
+ *   session_desc.work_*     run the network smaller (or larger) than the model's work size
  *   session_desc.vae_tile   VAE in blended tiles (bounded memory); skip_background: decode only the
  *                           tiles with foreground / UV charts (supermat_session_last_flops tells the work)
  *   session_desc.mv_attention  own-view or strided keys at the highest resolution (SuperMatMV)
@@ -59,8 +61,8 @@
  *                           chromaticity at the network's luminance; for small networks
  *
  * WHAT IT DOES NOT DO
- *   - No file I/O, no image decoding: give it pixels at the size you want processed (the official
- *     scripts resize to 512x512 first); `work_width/height` resample internally if you ask.
+ *   - No file I/O, no image decoding: give it pixels; it resamples them to the model's work size (the
+ *     official scripts resize to 512x512) and the maps back.
  *   - No text encoder: the empty-prompt context is a constant stored in the model file by the converter.
  *
  * COLOUR SPACES (as the official pipeline, which feeds the network PIL's 8-bit values / 255)
@@ -142,8 +144,12 @@
  *   sched.num_train_timesteps, sched.beta_start, sched.beta_end, sched.beta_schedule,
  *   sched.prediction_type, sched.steps_offset, sched.set_alpha_to_one, sched.timestep_spacing,
  *   context.tokens, context.dim. `supermat convert` writes them from the official files.
- *   Optional, not read by the library: pipeline.work_size, the square size the official scripts resize
- *   pictures to (512; UV refine 1024; 0 = none), which the CLI uses as its default work_width/height.
+ *   The pipeline, optional (absent = 0), applied by sessions whose fields are left 0 (supermat_model_info
+ *   reports them): pipeline.work_size, the square the network runs at (`supermat convert` records the
+ *   official scripts' 512, UV refine 1024; 0 = the picture's own size); pipeline.detail_sigma and
+ *   pipeline.chroma_weight, the detail and colour steps (session_desc.detail_sigma / chroma_weight;
+ *   the default model records 1/64 and 1, an official conversion neither). So the shortest program
+ *   runs the model as it was measured, and `supermat image` sets nothing more.
  *
  * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
  *   A model file in which the GEMM weights are already the runtime's packed panels (16 columns per
@@ -184,7 +190,7 @@
 #endif
 
 #define SUPERMAT_VERSION_MAJOR 0
-#define SUPERMAT_VERSION_MINOR 1
+#define SUPERMAT_VERSION_MINOR 2
 #define SUPERMAT_VERSION_PATCH 0
 #define SUPERMAT_VERSION ((SUPERMAT_VERSION_MAJOR << 16) | (SUPERMAT_VERSION_MINOR << 8) | SUPERMAT_VERSION_PATCH)
 
@@ -360,17 +366,22 @@ typedef enum supermat_conv {
 } supermat_conv;
 
 typedef struct supermat_model_desc {
+    uint32_t _start_canary; /* leave 0 (memset the struct, or = {0}): a nonzero value is refused, which catches
+                               a descriptor that was never cleared; likewise _end_canary */
     const void *data;   /* the model file in memory (8-byte alignment recommended) */
     size_t size;
     int copy_data;      /* nonzero: nothing is borrowed, `data` may be freed after create */
     supermat_kernel kernel;
     supermat_weights weights; /* storage of the GEMM weights (convolutions, linears); activations,
                                  norms, biases and softmax stay float32 */
-    supermat_conv conv;       /* 3x3 convolution algorithm (DIRECT = the reference) */
+    supermat_conv conv;       /* 3x3 convolution algorithm (DIRECT = the reference; a pre-packed file: 0 = the
+                                 algorithm it was packed for) */
     supermat_allocator allocator;
-    supermat_compute compute; /* F32 (0) or BF16 products in the GEMMs (see supermat_compute) */
+    supermat_compute compute; /* F32 (0) or BF16 products in the GEMMs (see supermat_compute; a pre-packed file:
+                                 0 = what it was packed for) */
     size_t max_memory;        /* 0 = no limit; else creation fails with OUT_OF_MEMORY, before the allocation
                                  that would take the model's memory (model_bytes) past it */
+    uint32_t _end_canary;
 } supermat_model_desc;
 
 typedef struct supermat_model_info {
@@ -392,6 +403,10 @@ typedef struct supermat_model_info {
     int prepacked;                 /* created from a pre-packed file (supermat_model_write_packed) */
     size_t prepacked_bytes;        /* of it: the panels used in place from the caller's buffer (not in
                                       model_bytes; with copy_data they are copied and counted there) */
+    /* The pipeline the file records (MODEL FILE: pipeline.*), what a session's zero fields stand for. */
+    int work_size;                 /* pipeline.work_size: the square the network runs at; 0 = the picture's size */
+    float detail_sigma;            /* pipeline.detail_sigma: 0 = no detail step */
+    float chroma_weight;           /* pipeline.chroma_weight: 0 = no colour step */
 } supermat_model_info;
 
 typedef struct supermat_model supermat_model;
@@ -425,9 +440,18 @@ typedef enum supermat_mv_attention {
     SUPERMAT_MV_ATTENTION_COUNT
 } supermat_mv_attention;
 
+/* session_desc.work_width / work_height: run the network at the picture's own size, whatever the model
+   file records (0 stands for the file's pipeline.work_size) */
+#define SUPERMAT_WORK_NATIVE (-1)
+/* session_desc.detail_sigma / chroma_weight: no such step, whatever the model file records (0 stands for
+   the file's pipeline.detail_sigma / chroma_weight); any negative value means the same */
+#define SUPERMAT_OFF (-1.0f)
+
 typedef struct supermat_session_desc {
+    uint32_t _start_canary;      /* leave 0 (see supermat_model_desc) */
     const supermat_model *model;
-    int width, height;           /* the image size processed: multiples of 8, >= 8 */
+    int width, height;           /* the picture size, 1 to 16384 each; when the network runs at the picture's
+                                    own size (no work size, below): multiples of 8, >= 8 */
     unsigned outputs;            /* SUPERMAT_OUTPUT_* bits; 0 = all */
     int views;                   /* images processed together: SuperMatMV views (0 = 6 for MV models,
                                     1 otherwise); other kinds take 1 */
@@ -436,8 +460,10 @@ typedef struct supermat_session_desc {
     supermat_allocator allocator;
     /* ---- speed / memory levers; all zero = the official computation ---- */
     /* Network size: the images (width x height) are resampled to work_width x work_height (multiples
-       of 8; 0 = width/height), the network runs there and the maps are resampled back (bilinear,
-       antialiased when reducing). Fewer pixels, less detail. */
+       of 8), the network runs there and the maps are resampled back (bilinear, antialiased when
+       reducing). 0 = the model's work size (supermat_model_info.work_size: the size its file records,
+       512 for an official SuperMat, the picture's own size for a file that records none);
+       SUPERMAT_WORK_NATIVE = the picture's own size. */
     int work_width, work_height;
     /* VAE in tiles of vae_tile x vae_tile pixels (a multiple of 8, >= 32; 0 = the whole image at
        once), laid out evenly with at least vae_overlap pixels of overlap (multiple of 8; 0 = 32),
@@ -461,7 +487,9 @@ typedef struct supermat_session_desc {
        detail_sigma x max(width, height), rows then columns, zero outside the image (where G(w I) < 1e-6:
        the image's sum(w A) / sum(w I)); pixels of alpha 0 are left as decoded. The lighting is assumed
        smooth at that scale: the network sets the level and colour, the picture the detail (`supermat
-       image` uses 1/64, chosen on validation assets: docs/quality.md). 0 = off; at most 1. */
+       image` uses 1/64, chosen on validation assets: docs/quality.md). At most 1; 0 = the model's
+       (supermat_model_info.detail_sigma: the default model's file records 1/64, an official one none);
+       SUPERMAT_OFF (negative) = off. */
     float detail_sigma;
     /* supermat / supermat-mv, not in the official computation, after detail_sigma: the albedo takes the
        input picture's chromaticity and keeps the network's luminance. Per pixel of alpha > 0 (every
@@ -471,9 +499,11 @@ typedef struct supermat_session_desc {
        each channel clamped to [0, 1]; at k = 1 and L(I) >> e, A' = L(A) I / L(I): the picture's colour
        at the network's brightness (e hands near-black picture pixels the network's own colour). For
        networks whose colours are washed out (the small default model's are: docs/quality.md); it also brings
-       the lighting's colour cast and coloured reflections into the albedo. `supermat image` uses 1,
-       chosen on validation assets. 0 = off; at most 1. */
+       the lighting's colour cast and coloured reflections into the albedo. Chosen on validation assets:
+       1. At most 1; 0 = the model's (supermat_model_info.chroma_weight: the default model's file
+       records 1, an official one none); SUPERMAT_OFF (negative) = off. */
     float chroma_weight;
+    uint32_t _end_canary;
 } supermat_session_desc;
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -510,10 +540,12 @@ typedef enum supermat_stage {
 } supermat_stage;
 
 typedef struct supermat_run_desc {
+    uint32_t _start_canary;  /* leave 0 (see supermat_model_desc) */
     supermat_image input;
     /* Outputs (pixels NULL = not wanted; width/height 0 = the session size). albedo: 3 or 4 channels
-       (alpha copied from the input, 1 without); roughness and metallic: 1 channel, or 3/4 to fill
-       gray RGB(A). The glTF-style ORM image (R 1, G roughness, B metallic) is `orm`. */
+       (alpha copied from the input, 1 without); roughness and metallic: 1 channel, 2 (gray + the
+       input's alpha) or 3/4 to fill gray RGB(A) (alpha the input's). The glTF-style ORM image (R 1,
+       G roughness, B metallic; a 4th channel 1) is `orm`. */
     supermat_image albedo, roughness, metallic, orm;
     /* SuperMatMV: the session's `views` images in input_views[] (then `input` is ignored), their
        camera-to-world matrices (views x 16 floats, row-major, as meta.json's transform_matrix), and
@@ -537,6 +569,7 @@ typedef struct supermat_run_desc {
        callback may also overwrite the data (e.g. to inject a reference and test one stage alone). */
     void (*inspect)(void *user, supermat_stage stage, int branch, float *data, int n, int h, int w, int c);
     void *inspect_user;
+    uint32_t _end_canary;
 } supermat_run_desc;
 
 SUPERMAT_API supermat_result supermat_run(supermat_session *session, const supermat_run_desc *desc,
@@ -4466,6 +4499,18 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     if (m->info.kind == SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent + 4) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "a UV-refine model takes latent + mask + position = %d input channels, the file says %d", m->latent + 4, m->in_ch); goto done; }
     if (m->info.kind != SUPERMAT_KIND_UV_REFINE && m->in_ch != m->latent) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "the UNet takes %d channels, the VAE latent has %d", m->in_ch, m->latent); goto done; }
     m->temb_dim = 4 * m->boc[0];
+    {   /* the pipeline the file records: what a session's zero fields stand for */
+        double ws = supermat__meta_num(&L, "pipeline.work_size", 0, 16384, 0, 0);
+        m->info.detail_sigma = (float)supermat__meta_num(&L, "pipeline.detail_sigma", 0, 1, 0, 0);
+        m->info.chroma_weight = (float)supermat__meta_num(&L, "pipeline.chroma_weight", 0, 1, 0, 0);
+        if (L.r) goto done;
+        if (ws != floor(ws) || ((int)ws % 8) || (ws > 0 && ws < 8)) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.work_size' = %g: 0 or a multiple of 8 up to 16384", ws); goto done; }
+        m->info.work_size = (int)ws;
+        if (m->info.kind == SUPERMAT_KIND_UV_REFINE && (m->info.detail_sigma > 0.0f || m->info.chroma_weight > 0.0f)) {
+            L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata pipeline.detail_sigma / pipeline.chroma_weight on a uv-refine model, which has no picture to take them from");
+            goto done;
+        }
+    }
     {   /* a pre-packed file: its panels replace the packing (PRE-PACKED MODELS) */
         char pkv[32];
         if (!supermat__meta_str(&L, "supermat.packed", pkv, sizeof pkv, 0)) {
@@ -4534,8 +4579,43 @@ done:
     return SUPERMAT_SUCCESS;
 }
 
+/* the descriptor guard of model_desc, session_desc and run_desc (their _start_canary / _end_canary) */
+static supermat_result supermat__canary(uint32_t a, uint32_t b, const char *what, supermat_error *err) {
+    if (a == 0 && b == 0) return SUPERMAT_SUCCESS;
+    return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s: _start_canary / _end_canary are 0x%x / 0x%x, not 0: clear the struct "
+                          "(memset to 0, or = {0}) before setting its fields", what, (unsigned)a, (unsigned)b);
+}
+
 SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err) {
-    return supermat__model_create(desc, out, err, NULL);
+    supermat_model_desc d;
+    char v[32];
+    supermat_result r;
+    if (out) *out = NULL;
+    if (!desc || !out) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and out must not be NULL");
+    if ((r = supermat__canary(desc->_start_canary, desc->_end_canary, "supermat_model_desc", err))) return r;
+    d = *desc;
+    /* a pre-packed file: conv and compute left 0 are the ones it was packed for (weights DEFAULT already are);
+       a header that does not parse is left to supermat__model_create's messages */
+    if (d.data && (d.conv == SUPERMAT_CONV_DIRECT || d.compute == SUPERMAT_COMPUTE_F32)) {
+        supermat_allocator a = supermat__resolve_allocator(&d.allocator);
+        supermat_json_tok *toks = NULL;
+        uint64_t hlen = 0;
+        int ntok = 0, m, k;
+        const char *js = (const char *)d.data + 8;
+        if (!supermat__st_header(d.data, d.size, d.size, &hlen, NULL) && !supermat__st_tokens(d.data, d.size, 8 + hlen, &a, &toks, &ntok, NULL)) {
+            m = supermat_json_find(js, toks, 0, "__metadata__");
+            if (m >= 0 && (k = supermat_json_find(js, toks, m, "supermat.packed")) >= 0 && supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && !strcmp(v, "1")) {
+                if (d.conv == SUPERMAT_CONV_DIRECT && (k = supermat_json_find(js, toks, m, "supermat.packed.conv")) >= 0 &&
+                    supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && v[0] >= '0' && v[0] < '0' + SUPERMAT_CONV_COUNT && !v[1])
+                    d.conv = (supermat_conv)(v[0] - '0');
+                if (d.compute == SUPERMAT_COMPUTE_F32 && (k = supermat_json_find(js, toks, m, "supermat.packed.compute")) >= 0 &&
+                    supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && v[0] >= '0' && v[0] < '0' + SUPERMAT_COMPUTE_COUNT && !v[1])
+                    d.compute = (supermat_compute)(v[0] - '0');
+            }
+            supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
+        }
+    }
+    return supermat__model_create(&d, out, err, NULL);
 }
 
 /* the growing text of a safetensors header */
@@ -4596,6 +4676,7 @@ SUPERMAT__DEF supermat_result supermat_model_write_packed(const supermat_model_d
     supermat_result r;
     if (bytes) *bytes = 0;
     if (!desc || !write) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "desc and write must not be NULL");
+    if ((r = supermat__canary(desc->_start_canary, desc->_end_canary, "supermat_model_desc", err))) return r;
     memset(&R, 0, sizeof R);
     memset(&T, 0, sizeof T);
     r = supermat__model_create(desc, &m, err, &R);
@@ -5098,14 +5179,25 @@ struct supermat_session {
     float chroma;               /* chroma_weight */
 };
 
+/* the network's size along one axis of `len` pixels: `work` (0 = the model's work size, else the picture's;
+   SUPERMAT_WORK_NATIVE = the picture's) */
+static int supermat__work_len(const supermat_session_desc *d, int work, int len) {
+    if (work == 0) work = d->model->info.work_size;
+    return work > 0 ? work : len;
+}
+/* detail_sigma / chroma_weight: 0 = the model's, negative = off */
+static float supermat__step_value(float v, float model) {
+    return v == 0.0f ? model : v < 0.0f ? 0.0f : v;
+}
+
 static void supermat__session_options(supermat_session *S, const supermat_session_desc *d) {
-    S->ww = d->work_width ? d->work_width : d->width;
-    S->wh = d->work_height ? d->work_height : d->height;
+    S->ww = supermat__work_len(d, d->work_width, d->width);
+    S->wh = supermat__work_len(d, d->work_height, d->height);
     S->tile = d->vae_tile; S->overlap = d->vae_tile ? (d->vae_overlap ? d->vae_overlap : 32) : 0;
     S->skip_bg = d->skip_background != 0;
     S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
-    S->detail = d->detail_sigma;
-    S->chroma = d->chroma_weight;
+    S->detail = supermat__step_value(d->detail_sigma, d->model->info.detail_sigma);
+    S->chroma = supermat__step_value(d->chroma_weight, d->model->info.chroma_weight);
 }
 
 static int supermat__views(const supermat_session_desc *d) {
@@ -5584,9 +5676,14 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
 }
 
 static supermat_result supermat__check_session_desc(const supermat_session_desc *d, supermat_error *err) {
-    if (!d || !d->model) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session desc and its model must not be NULL");
-    if (d->width < 8 || d->height < 8 || d->width % 8 || d->height % 8 || d->width > 16384 || d->height > 16384)
-        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "image size %dx%d: width and height must be multiples of 8 in [8, 16384]", d->width, d->height);
+    supermat_result r;
+    if (!d) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session desc must not be NULL");
+    if ((r = supermat__canary(d->_start_canary, d->_end_canary, "supermat_session_desc", err))) return r;
+    if (!d->model) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session desc's model must not be NULL");
+    if (d->width < 1 || d->height < 1 || d->width > 16384 || d->height > 16384)
+        return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "image size %dx%d: width and height from 1 to 16384", d->width, d->height);
+    if (d->work_width < SUPERMAT_WORK_NATIVE || d->work_height < SUPERMAT_WORK_NATIVE)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "work size %dx%d: multiples of 8, 0 (the model's) or SUPERMAT_WORK_NATIVE", d->work_width, d->work_height);
     if (d->outputs & ~(unsigned)SUPERMAT_OUTPUT_ALL) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown output bits 0x%x", d->outputs);
     if (d->threads < 0) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threads must be >= 0");
     if (d->threading.parallel_for && d->threading.max_threads < 1) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threading.max_threads must be >= 1");
@@ -5594,7 +5691,11 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
     if (d->views > 1 && d->model->info.kind != SUPERMAT_KIND_SUPERMAT_MV)
         return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%d views: only a SuperMatMV model takes several views", d->views);
     {
-        int ww = d->work_width ? d->work_width : d->width, wh = d->work_height ? d->work_height : d->height, tl, ol, k;
+        int ww = supermat__work_len(d, d->work_width, d->width), wh = supermat__work_len(d, d->work_height, d->height), tl, ol, k;
+        if (ww == d->width && wh == d->height && (ww < 8 || wh < 8 || ww % 8 || wh % 8))
+            return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "image size %dx%d: the network runs at the picture's own size here (work_width/height %s), "
+                                  "which needs multiples of 8, at least 8: set a work size, or pad or resize the picture",
+                                  d->width, d->height, d->work_width == SUPERMAT_WORK_NATIVE || d->work_height == SUPERMAT_WORK_NATIVE ? "SUPERMAT_WORK_NATIVE" : "0 and the model records no work size");
         if (ww < 8 || wh < 8 || ww % 8 || wh % 8 || ww > 16384 || wh > 16384)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "work size %dx%d: multiples of 8 in [8, 16384]", ww, wh);
         if (d->vae_tile || d->vae_overlap) {
@@ -5616,12 +5717,12 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_attention: only a SuperMatMV model has multi-view attention");
         if (d->mv_attention == SUPERMAT_MV_ATTENTION_STRIDED && (d->mv_key_stride < 1 || d->mv_key_stride > 4096))
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "mv_key_stride %d: 1 to 4096 with SUPERMAT_MV_ATTENTION_STRIDED", d->mv_key_stride);
-        if (!(d->detail_sigma >= 0.0f && d->detail_sigma <= 1.0f))
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma %g: from 0 (off) to 1", (double)d->detail_sigma);
+        if (!(d->detail_sigma <= 1.0f))
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma %g: at most 1 (0 = the model's, SUPERMAT_OFF = off)", (double)d->detail_sigma);
         if (d->detail_sigma > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail_sigma: a UV-refine model has no input picture to keep detail from");
-        if (!(d->chroma_weight >= 0.0f && d->chroma_weight <= 1.0f))
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight %g: from 0 (off) to 1", (double)d->chroma_weight);
+        if (!(d->chroma_weight <= 1.0f))
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight %g: at most 1 (0 = the model's, SUPERMAT_OFF = off)", (double)d->chroma_weight);
         if (d->chroma_weight > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight: a UV-refine model has no input picture to take colour from");
     }
@@ -5811,7 +5912,7 @@ static void supermat__write(const supermat_image *o, const float *dec, int src_c
             const float *px = dec + ((size_t)y * w + x) * 3;
             for (c = 0; c < o->channels; c++) {
                 float v;
-                if (c == 3) v = alpha_src && alpha_src->channels == 4 ? supermat__px(alpha_src, x, y, 3) : 1.0f;
+                if (c == 3 || (c == 1 && o->channels == 2)) v = alpha_src && alpha_src->channels == 4 ? supermat__px(alpha_src, x, y, 3) : 1.0f;
                 else {
                     v = px[src_channel >= 0 ? src_channel : (o->channels == 1 ? 0 : c)] / 2.0f + 0.5f;
                     v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
@@ -5843,6 +5944,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     char what[64];
     int i, b, v, uv;
     if (!S || !rd) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session and run desc must not be NULL");
+    if ((r = supermat__canary(rd->_start_canary, rd->_end_canary, "supermat_run_desc", err))) return r;
     uv = S->m->info.kind == SUPERMAT_KIND_UV_REFINE;
     if (S->views > 1 && !rd->input_views) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the session has %d views: give them in input_views", S->views);
     for (v = 0; v < S->views; v++) {
@@ -5898,7 +6000,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
                 const supermat_image *o = supermat__out(rd, i, v);
                 static const int branch[5] = {0, 1, 1, 1, 0}, chan[5] = {-1, 1, 2, -1, -1};
                 if (!o) continue;
-                supermat__write(o, dec[branch[i]].d + (size_t)v * per, chan[i], i == 0 ? supermat__view_in(rd, v) : NULL, S->w, S->h);
+                supermat__write(o, dec[branch[i]].d + (size_t)v * per, chan[i], i < 3 ? supermat__view_in(rd, v) : NULL, S->w, S->h);
             }
     }
     for (b = S->m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);

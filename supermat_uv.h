@@ -1312,7 +1312,11 @@ static supermat_result supermat_uv__session(supermat_uv__ctx *C, const supermat_
     supermat_session_desc sd;
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = w; sd.height = h; sd.views = views;
+    /* the bake's own settings (view_work_size / refine_work_size; its detail step is its own), not the pipeline
+       the model file records for single pictures */
     if (work && (work != w || work != h)) sd.work_width = sd.work_height = work;
+    else sd.work_width = sd.work_height = SUPERMAT_WORK_NATIVE;
+    sd.detail_sigma = sd.chroma_weight = SUPERMAT_OFF;
     sd.threads = C->thr.parallel_for ? 0 : 1;
     sd.threading = C->thr;
     sd.allocator = C->al;

@@ -866,7 +866,7 @@ static int cli_batch(int argc, char **argv) {
         if (rc == CLI_OK) model_path = mref.path;
         if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
         if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
-        if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
+        X.work_opt = work_opt;
     }
     if (rc == CLI_OK && left && (fd = open(jpath, O_RDWR | O_APPEND | O_CREAT | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC, 0644)) < 0) {
         cli_error("cannot open the journal '%s': %s", jpath, errno == ELOOP ? "it is a symbolic link (never followed)" : strerror(errno));

@@ -71,7 +71,7 @@ static void cli_free_stems(char **stems, int n) {
 typedef struct cli_image_ctx {
     supermat_model *model;
     unsigned outputs;
-    int want_float, threads, ws, tty;
+    int want_float, threads, work_opt, tty; /* work_opt: -1 none, 0 --native, N --work-size N */
     supermat_session *sess;
     int sw, sh;
     unsigned souts;       /* the outputs the session was made for */
@@ -135,21 +135,13 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
     if (is16) fin = cli_load16f(input, &w, &h);   /* full precision, float input */
     else px = cli_load(input, &w, &h, &c, 4);
     if (!px && !fin) { cli_error("cannot read image '%s': %s", input, cli_stbi_reason()); return CLI_FAIL; }
-    if (w % 8 || h % 8) {
-        cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
-                  "resize it first, e.g. to 512x512)", input, w, h);
-        stbi_image_free(px); free(fin);
-        return CLI_FAIL;
-    }
     if (X->sess && (X->sw != w || X->sh != h || X->souts != outputs)) cli_image_ctx_release(X);
     if (!X->sess) {
         supermat_session_desc sd;
         memset(&sd, 0, sizeof sd);
         sd.model = X->model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.threads = X->threads;
         sd.max_memory = cli_session_budget(X->model, X->lv.max_memory);
-        cli_set_work(&sd, X->ws, w, h);
-        sd.detail_sigma = X->lv.detail >= 0.0f ? X->lv.detail : 1.0f / 64.0f;
-        sd.chroma_weight = X->lv.chroma >= 0.0f ? X->lv.chroma : 1.0f;
+        cli_session_opts(&sd, X->work_opt, &X->lv); /* what was not given: the model file's pipeline */
         r = supermat_session_create(&sd, &X->sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[600];
@@ -164,16 +156,17 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
     }
     np = (size_t)w * (size_t)h;
     alpha = !X->alpha_drop && cli_has_alpha(px, fin, np, c);
-    /* the maps: 8-bit straight from the library (the same rounding as cli_quantize), or with --float as
-       floats, quantised here for the PNGs; with alpha the PNGs are RGBA and gray + alpha (tmp: 4 bytes/pixel) */
+    /* the maps: 8-bit straight from the library, with the picture's alpha when it has one (RGBA albedo, gray +
+       alpha; the same rounding as cli_quantize), or with --float as floats, quantised here for the PNGs
+       (tmp: 4 bytes/pixel) */
     for (k = 0; k < 3; k++) {
         int ch = k ? 1 : 3;
         if (!(outputs & (k == 0 ? SUPERMAT_OUTPUT_ALBEDO : k == 1 ? SUPERMAT_OUTPUT_ROUGHNESS : SUPERMAT_OUTPUT_METALLIC))) continue;
         if (X->want_float) maps[k] = (float *)malloc(np * (size_t)ch * sizeof(float));
-        else u8[k] = (unsigned char *)malloc(np * (size_t)(k == 0 && alpha ? 4 : ch));
+        else u8[k] = (unsigned char *)malloc(np * (size_t)(ch + alpha));
         if (!maps[k] && !u8[k]) rc = CLI_FAIL;
     }
-    if (X->want_float || alpha) {
+    if (X->want_float) {
         tmp = (unsigned char *)malloc(np * 4);
         if (!tmp) rc = CLI_FAIL;
     }
@@ -187,7 +180,7 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         for (k = 0; k < 3; k++) {
             o[k]->channels = k ? 1 : 3;
             if (maps[k]) { o[k]->pixels = maps[k]; o[k]->format = SUPERMAT_FORMAT_F32; }
-            else if (u8[k]) { o[k]->pixels = u8[k]; o[k]->format = SUPERMAT_FORMAT_U8; if (!k && alpha) o[k]->channels = 4; }
+            else if (u8[k]) { o[k]->pixels = u8[k]; o[k]->format = SUPERMAT_FORMAT_U8; o[k]->channels += alpha; }
         }
         memset(&prog, 0, sizeof prog);
         snprintf(name, sizeof name, "%s%s", X->prefix ? X->prefix : "", input);
@@ -212,9 +205,9 @@ static int cli_image_one(cli_image_ctx *X, const char *input, const char *out_di
         size_t i;
         int c2;
         if (!maps[k] && !u8[k]) continue;
-        if (maps[k] || (alpha && k)) { /* compose the PNG's bytes: quantised floats and / or the alpha */
+        if (maps[k]) { /* compose the PNG's bytes: quantised floats and the alpha */
             for (i = 0; i < np; i++) {
-                for (c2 = 0; c2 < ch; c2++) tmp[i * pch + c2] = maps[k] ? cli_quantize(maps[k][i * ch + c2]) : u8[k][i * ch + c2];
+                for (c2 = 0; c2 < ch; c2++) tmp[i * pch + c2] = cli_quantize(maps[k][i * ch + c2]);
                 if (alpha) tmp[i * pch + ch] = cli_alpha_at(px, fin, i);
             }
             png = tmp;
@@ -256,8 +249,8 @@ static const cli_optdef cli_opts_image[] = {
              "\n"
              "Images are read with stb_image (PNG, JPEG, BMP, TGA, ...) as 8-bit RGBA with straight alpha\n"
              "(16-bit PNGs at full precision; JPEGs turned upright by their EXIF orientation; WebP through\n"
-             "libwebp when built with it); transparent pixels are composited over gray 0.5. Width and height\n"
-             "must both be multiples of 8.\n"
+             "libwebp when built with it); transparent pixels are composited over gray 0.5. Any size (with\n"
+             "--native: multiples of 8).\n"
              "\n"
              "PREPROCESSING, as the official scripts: each picture is resized to the model's work size, a square\n"
              "the model file records (512x512 for a converted official checkpoint; the default model's is under\n"
@@ -266,13 +259,15 @@ static const cli_optdef cli_opts_image[] = {
     CLI_OPTS(cli_opts_work),
     {CLI_O_DETAIL, "--detail", "F|off", "the albedo keeps the picture's detail: picture x low-pass(albedo) / low-pass\n"
                                         "(picture) in linear light, the lighting taken as smooth over F x the picture's\n"
-                                        "larger side (default 1/64; off: the network's albedo as it is; supermat.h,\n"
+                                        "larger side (default: the model file's, 0.015625 = 1/64 for the default model,\n"
+                                        "none for an official one; off: the network's albedo as it is; supermat.h,\n"
                                         "session_desc.detail_sigma)", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "W|off", "then the albedo takes the picture's colour (chromaticity) at the network's\n"
-                                        "luminance, with weight W from 0 to 1 (default 1; off: the network's colour;\n"
-                                        "supermat.h, session_desc.chroma_weight). Both steps are on by default: they\n"
-                                        "measured closer to ground truth on validation assets (docs/quality.md); with\n"
-                                        "`--detail off --chroma off` the albedo is the network's alone", NULL, NULL},
+                                        "luminance, with weight W from 0 to 1 (default: the model file's, 1 for the\n"
+                                        "default model, none for an official one; off: the network's colour;\n"
+                                        "supermat.h, session_desc.chroma_weight). The default model has both steps:\n"
+                                        "they measured closer to ground truth on validation assets (docs/quality.md);\n"
+                                        "with `--detail off --chroma off` the albedo is the network's alone", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
     {CLI_IMAGE_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL below)", NULL, NULL},
     {CLI_IMAGE_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
@@ -328,18 +323,17 @@ static int cli_image(int argc, char **argv) {
         int w, h, c;
         int is16;
         if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory, &is16)) { rc = CLI_FAIL; break; }
-        if (w % 8 || h % 8) {
-            cli_error("image '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
-                      "resize it first, e.g. to 512x512)", imgs[i], w, h);
+        if (work_opt == 0 && (w % 8 || h % 8)) {
+            cli_error("image '%s' is %dx%d: --native runs the network at the picture's own size, which needs multiples of 8 "
+                      "(without --native it is resampled to the model's work size)", imgs[i], w, h);
             rc = CLI_FAIL;
             break;
         }
     }
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
-    if (rc == CLI_OK) X.ws = cli_work_size(file, file_size, X.model, work_opt);
     if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
-    X.outputs = outputs; X.want_float = want_float; X.threads = threads; X.tty = tty; X.prefix = "";
+    X.outputs = outputs; X.want_float = want_float; X.threads = threads; X.tty = tty; X.prefix = ""; X.work_opt = work_opt;
     for (i = 0; i < nimg && rc == CLI_OK; i++)
         if (cli_image_one(&X, imgs[i], out_dir, stems[i]) == CLI_FAIL) rc = CLI_FAIL;
 

@@ -103,7 +103,6 @@ static int cli_info(int argc, char **argv) {
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size; md.kernel = kernel; md.weights = lv.weights; md.conv = lv.conv; md.compute = lv.compute;
     md.max_memory = lv.max_memory;
-    cli_packed_options(&md, &lv);
     create_s = cli_now();
     r = supermat_model_create(&md, &model, &err);
     create_s = cli_now() - create_s;
@@ -114,11 +113,15 @@ static int cli_info(int argc, char **argv) {
         cli_free_file(file);
         return CLI_FAIL;
     }
+    if (cli_packed_check(path, model, &lv) != CLI_OK) { supermat_model_destroy(model); cli_free_file(file); return CLI_FAIL; }
     supermat_model_get_info(model, &mi);
-    {
-        int ws = cli_work_size(file, size, model, -1);
-        if (ws) printf("work size     %dx%d: image, views and refine resize pictures to it by default, as the official scripts do (--native: their own size)\n", ws, ws);
-        else printf("work size     none: image, views and refine run each picture at its own size\n");
+    if (mi.work_size) printf("work size     %dx%d: the network runs at it and the maps come back at the picture's size, as the official scripts do (--native: its own size)\n", mi.work_size, mi.work_size);
+    else printf("work size     none: the network runs at each picture's own size\n");
+    if (mi.kind != SUPERMAT_KIND_UV_REFINE) {
+        if (mi.detail_sigma > 0.0f) printf("detail        %g of the picture's larger side: the albedo keeps the picture's detail (--detail off: no)\n", (double)mi.detail_sigma);
+        else printf("detail        none (--detail F: the albedo keeps the picture's detail)\n");
+        if (mi.chroma_weight > 0.0f) printf("colour        %g: the albedo takes the picture's colour at the network's luminance (--chroma off: no)\n", (double)mi.chroma_weight);
+        else printf("colour        none (--chroma W: the albedo takes the picture's colour)\n");
     }
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
     printf("build         %s\n", supermat_build_optimized() == 1 ? "optimised" :

@@ -503,14 +503,17 @@ static int cli_write_png(const char *path, const float *px, int w, int h, int ch
 
 /* A pre-packed file (`supermat pack`) runs with the convolution and compute options it was packed for,
    unless the command line asked for another compute (then the library says why it cannot). */
-static void cli_packed_options(supermat_model_desc *md, const cli_levers *lv) {
-    char v[16];
-    if (!lv->conv_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.conv", v, sizeof v) == 0 && atoi(v) >= 0 &&
-        atoi(v) < SUPERMAT_CONV_COUNT)
-        md->conv = (supermat_conv)atoi(v);
-    if (!lv->compute_given && supermat_safetensors_metadata(md->data, md->size, "supermat.packed.compute", v, sizeof v) == 0 && atoi(v) >= 0 &&
-        atoi(v) < SUPERMAT_COMPUTE_COUNT)
-        md->compute = (supermat_compute)atoi(v);
+/* A pre-packed file: the library takes conv and compute left 0 as the ones it was packed for, so an explicit
+   `--conv direct` / `--compute f32` (the zero values) is checked here: CLI_OK, or a message and CLI_FAIL. */
+static int cli_packed_check(const char *path, const supermat_model *model, const cli_levers *lv) {
+    supermat_model_info mi;
+    memset(&mi, 0, sizeof mi);
+    supermat_model_get_info(model, &mi);
+    if (!mi.prepacked || ((!lv->conv_given || mi.conv == lv->conv) && (!lv->compute_given || mi.compute == lv->compute))) return CLI_OK;
+    cli_error("model '%s': this file was pre-packed for conv %s, compute %s; run it with those (or without --conv / --compute), "
+              "or pack the original file for conv %s, compute %s", path, cli_conv_name(mi.conv), cli_compute_name(mi.compute),
+              cli_conv_name(lv->conv), cli_compute_name(lv->compute));
+    return CLI_FAIL;
 }
 
 /* loads the model file and creates the model; the buffer is borrowed by the model (free it after) */
@@ -526,13 +529,17 @@ static int cli_load_model(const char *path, supermat_kernel kernel, const cli_le
     memset(&md, 0, sizeof md);
     md.data = *buf; md.size = *size; md.kernel = kernel; md.weights = lv->weights; md.conv = lv->conv; md.compute = lv->compute;
     md.max_memory = lv->max_memory;
-    cli_packed_options(&md, lv);
     t0 = cli_now();
     r = supermat_model_create(&md, model, &err);
     if (create_seconds) *create_seconds = cli_now() - t0;
     if (r != SUPERMAT_SUCCESS) {
         snprintf(what, sizeof what, "model '%s'", path);
         cli_lib_error(what, r, &err);
+        cli_free_file(*buf); *buf = NULL;
+        return CLI_FAIL;
+    }
+    if (cli_packed_check(path, *model, lv) != CLI_OK) {
+        supermat_model_destroy(*model); *model = NULL;
         cli_free_file(*buf); *buf = NULL;
         return CLI_FAIL;
     }

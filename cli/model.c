@@ -231,21 +231,15 @@ static void cli_budget_note(const supermat_model *model, supermat_result r, size
     fprintf(stderr, "  (--max-memory %.1f MiB: the model holds %.1f MiB, which leaves the session the rest)\n", cli_mib((double)max_memory), cli_mib((double)mi.model_bytes));
 }
 
-/* the square size pictures are resampled to, 0 = their own; opt: -1 (no option), 0 (--native), N */
-static int cli_work_size(const unsigned char *file, size_t size, const supermat_model *model, int opt) {
-    char v[32];
-    supermat_model_info mi;
-    if (opt >= 0) return opt;
-    if (supermat_safetensors_metadata(file, size, "pipeline.work_size", v, sizeof v) == 0) {
-        int n = atoi(v);
-        return n >= 8 && n % 8 == 0 && n <= 16384 ? n : 0;
-    }
-    memset(&mi, 0, sizeof mi);
-    supermat_model_get_info(model, &mi);
-    return mi.kind == SUPERMAT_KIND_UV_REFINE ? 1024 : 512;
-}
-
-/* sets the session's work size for a w x h picture (nothing when it is the picture's own size) */
-static void cli_set_work(supermat_session_desc *sd, int ws, int w, int h) {
-    if (ws > 0 && (ws != w || ws != h)) { sd->work_width = ws; sd->work_height = ws; }
+/* The options as the library takes them: what the command line did not say stays 0, which the library reads
+   as the model file's pipeline (work size, detail, colour); the CLI sets nothing of its own.
+   work: -1 (no option) -> 0, 0 (--native) -> SUPERMAT_WORK_NATIVE, N -> N */
+static int cli_work(int opt) { return opt < 0 ? 0 : opt == 0 ? SUPERMAT_WORK_NATIVE : opt; }
+/* --detail / --chroma (cli_levers): -1 (not given) -> 0, 0 (off) -> SUPERMAT_OFF, v -> v */
+static float cli_step(float v) { return v < 0.0f ? 0.0f : v == 0.0f ? SUPERMAT_OFF : v; }
+/* the session fields of the shared options */
+static void cli_session_opts(supermat_session_desc *sd, int work_opt, const cli_levers *lv) {
+    sd->work_width = sd->work_height = cli_work(work_opt);
+    sd->detail_sigma = cli_step(lv->detail);
+    sd->chroma_weight = cli_step(lv->chroma);
 }

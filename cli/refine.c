@@ -31,8 +31,8 @@ static const cli_optdef cli_opts_refine[] = {
              "\n"
              "The map and the position map are read as 8-bit RGB (alpha is dropped), the mask as 8-bit gray\n"
              "(colour converted as 0.299 R + 0.587 G + 0.114 B, alpha dropped), as the official script does.\n"
-             "All three must have the same size, width and height multiples of 8; they run at the model's work\n"
-             "size (1024x1024 as the official script).\n"),
+             "All three must have the same size (any; with --native multiples of 8); they run at the model's\n"
+             "work size (1024x1024 as the official script) and the refined map comes back at their size.\n"),
     CLI_OPTS(cli_opts_work),
     {CLI_O_DETAIL, "--detail", "off", "as `supermat image --detail`, off only: a UV map has no picture to keep detail from", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "off", "as `supermat image --chroma`, off only: a UV map has no picture to take colour from", NULL, NULL},
@@ -50,7 +50,7 @@ static const cli_optdef cli_opts_refine[] = {
 static int cli_refine(int argc, char **argv) {
     const char *cmd = "refine", *v, *model_arg = NULL, *model_path, *out_dir = NULL, *paths[3] = {NULL, NULL, NULL};
     static const char *const opts[3] = {"--map", "--mask", "--position"}, *const what[3] = {"the map", "the mask", "the position map"};
-    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, work_opt = -1, ws = 0;
+    int want_float = 0, threads = 0, i, m, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, work_opt = -1;
     cli_model_ref mref;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     char *stem = NULL;
@@ -92,15 +92,14 @@ static int cli_refine(int argc, char **argv) {
             cli_error("%s '%s' is %dx%d but the map '%s' is %dx%d: the map, the mask and the position map must have the same "
                       "size (supermat does not resize)", what[i], paths[i], iw, ih, paths[0], w, h);
             rc = CLI_FAIL;
-        } else if (w % 8 || h % 8) {
-            cli_error("the map '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
-                      "resize the three maps first, e.g. to 1024x1024)", paths[0], w, h);
+        } else if (work_opt == 0 && (w % 8 || h % 8)) {
+            cli_error("the map '%s' is %dx%d: --native runs the network at the maps' own size, which needs multiples of 8 "
+                      "(without --native they are resampled to the model's work size)", paths[0], w, h);
             rc = CLI_FAIL;
         }
     }
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &lv, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_UV_REFINE);
-    if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
         supermat_session_desc sd;
         supermat_error err;
@@ -108,8 +107,7 @@ static int cli_refine(int argc, char **argv) {
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.threads = threads;
         sd.max_memory = cli_session_budget(model, lv.max_memory);
-        cli_set_work(&sd, ws, w, h);
-        sd.detail_sigma = lv.detail > 0.0f ? lv.detail : 0.0f;
+        cli_session_opts(&sd, work_opt, &lv);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char msg[64];

@@ -215,12 +215,12 @@ static const cli_optdef cli_opts_views[] = {
              "name: color_0003.png -> 3. Every view needs one; indices must be unique.\n"
              "\n"
              "Views are read like `image` reads images (8-bit RGBA, straight alpha, over gray 0.5). They must\n"
-             "all have the same size, width and height multiples of 8; they run at the model's work size\n"
+             "all have the same size (any; with --native multiples of 8); they run at the model's work size\n"
              "(512x512 as the official script), the maps come back at the views' size. 1 to 64 views (the\n"
              "official model is trained on 6 orthogonal views).\n"),
     CLI_OPTS(cli_opts_work),
-    {CLI_O_DETAIL, "--detail", "F|off", "each view's albedo keeps that view's detail, as `supermat image --detail`\n(default off here)", NULL, NULL},
-    {CLI_O_CHROMA, "--chroma", "W|off", "each view's albedo takes that view's colour, as `supermat image --chroma`\n(default off here)", NULL, NULL},
+    {CLI_O_DETAIL, "--detail", "F|off", "each view's albedo keeps that view's detail, as `supermat image --detail`\n(default: the model's; off for\nthe official and default models)", NULL, NULL},
+    {CLI_O_CHROMA, "--chroma", "W|off", "each view's albedo takes that view's colour, as `supermat image --chroma`\n(default: the model's; off for the official and default models)", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
     {CLI_VIEWS_MODEL, "--model", "FILE", "a supermat-mv model file made by `supermat convert` (required)", NULL, NULL},
     {CLI_VIEWS_CAMERAS, "--cameras", "FILE", "the meta.json with the views' cameras (required)", NULL, NULL},
@@ -235,7 +235,7 @@ static int cli_views(int argc, char **argv) {
     const char *cmd = "views", *v, *model_arg = NULL, *model_path, *cam_path = NULL, *out_dir = NULL;
     cli_model_ref mref;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
-    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0, work_opt = -1, ws = 0;
+    int want_float = 0, threads = 0, i, m, nimg = 0, rc = CLI_OK, tty = isatty(2), w = 0, h = 0, ncam = 0, work_opt = -1;
     supermat_kernel kernel = SUPERMAT_KERNEL_AUTO;
     const char **imgs;
     char **stems = NULL;
@@ -295,9 +295,9 @@ static int cli_views(int argc, char **argv) {
             cli_error("view '%s' is %dx%d but view '%s' is %dx%d: all views must have the same size (supermat does not resize)",
                       imgs[i], iw, ih, imgs[0], w, h);
             rc = CLI_FAIL;
-        } else if (w % 8 || h % 8) {
-            cli_error("view '%s' is %dx%d: width and height must both be multiples of 8 (supermat does not resize; "
-                      "resize the views first, e.g. to 512x512)", imgs[i], w, h);
+        } else if (work_opt == 0 && (w % 8 || h % 8)) {
+            cli_error("view '%s' is %dx%d: --native runs the network at the views' own size, which needs multiples of 8 "
+                      "(without --native they are resampled to the model's work size)", imgs[i], w, h);
             rc = CLI_FAIL;
         }
     }
@@ -310,7 +310,6 @@ static int cli_views(int argc, char **argv) {
 
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &lv, &file, &file_size, &model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, model, SUPERMAT_KIND_SUPERMAT_MV);
-    if (rc == CLI_OK) ws = cli_work_size(file, file_size, model, work_opt);
     if (rc == CLI_OK) {
         supermat_model_info mi;
         memset(&mi, 0, sizeof mi);
@@ -327,9 +326,7 @@ static int cli_views(int argc, char **argv) {
         memset(&sd, 0, sizeof sd);
         sd.model = model; sd.width = w; sd.height = h; sd.outputs = outputs; sd.views = nimg; sd.threads = threads;
         sd.max_memory = cli_session_budget(model, lv.max_memory);
-        cli_set_work(&sd, ws, w, h);
-        sd.detail_sigma = lv.detail > 0.0f ? lv.detail : 0.0f;
-        sd.chroma_weight = lv.chroma > 0.0f ? lv.chroma : 0.0f;
+        cli_session_opts(&sd, work_opt, &lv);
         r = supermat_session_create(&sd, &sess, &err);
         if (r != SUPERMAT_SUCCESS) {
             char what[64];

@@ -105,6 +105,13 @@ static void run_case(supermat_model *model, const char *dir, int inject, double 
     printf("%s (%d view%s, %dx%d), %s, tolerance %.0e:\n", dir, V, V > 1 ? "s" : "", W, H, inject ? "each stage from the golden input of that stage" : "chained end to end", tol);
     memset(&sd, 0, sizeof sd);
     sd.model = model; sd.width = W; sd.height = H; sd.threads = threads; sd.views = V;
+    /* The goldens were dumped at the picture's own size without the detail and colour steps. The tiny official
+       files record no pipeline, so their sessions leave every field 0 (the official computation by default); a
+       file that records one (the default models: work size, detail, colour) is run that way explicitly. */
+    if (info.work_size || info.detail_sigma > 0.0f || info.chroma_weight > 0.0f) {
+        sd.work_width = sd.work_height = SUPERMAT_WORK_NATIVE;
+        sd.detail_sigma = sd.chroma_weight = SUPERMAT_OFF;
+    }
     TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "session_create: %s", err.message);
     memset(&rd, 0, sizeof rd);
     albedo = (float *)malloc(sizeof(float) * 3 * px * V); rough = (float *)malloc(sizeof(float) * px * V);

@@ -461,7 +461,7 @@ static void test_errors(supermat_model *m, supermat_model *mv) {
 /* detail_sigma (chroma 0) or chroma_weight (chroma 1): out-of-range and NaN values, and any value > 0 with a
    UV-refine model (no picture), are INVALID_ARGUMENT naming the field */
 static void refused_values(supermat_model *m, supermat_model *uv, int chroma) {
-    static const float bad[3] = {-0.5f, 1.5f, (float)NAN};
+    static const float bad[3] = {1.0001f, 1.5f, (float)NAN}; /* negative values are SUPERMAT_OFF */
     const char *name = chroma ? "chroma_weight" : "detail_sigma";
     supermat_session_desc sd;
     supermat_session *s = NULL;

@@ -2,6 +2,7 @@
    and checks the mean masked PSNR of each map against a committed floor.
 
    usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE]]]
+   (each `model` when absent: the session field left 0, the model file's pipeline; `off` / `native`: none)
 
    SLICE_DIR/index.txt   one stem per line (blank lines and lines starting with # are skipped)
    SLICE_DIR/<stem>.png            the input picture, RGBA (straight alpha)
@@ -11,12 +12,10 @@
    FLOOR.txt             one line per map: "albedo 21.3", "roughness 17.0", "metallic 15.2" (dB); # starts
                          a comment; all three maps are required
 
-   For each stem the model computes all three maps with default settings (with DETAIL_SIGMA: and
-   session_desc.detail_sigma; with CHROMA_WEIGHT: and session_desc.chroma_weight; 1/64 and 1 are what
-   `supermat image` does by default; with WORK_SIZE N: the network at N x N, session_desc.work_width /
-   work_height, the maps resampled back to the picture's size; `model`: at the model file's
-   pipeline.work_size, as `supermat image` runs it; 0 or absent: at the picture's own size); they are
-   quantised to 8 bits
+   For each stem the model computes all three maps (DETAIL_SIGMA: session_desc.detail_sigma; CHROMA_WEIGHT:
+   session_desc.chroma_weight; WORK_SIZE N: the network at N x N, session_desc.work_width / work_height, the
+   maps resampled back to the picture's size; all three `model`: what the quick start and `supermat image`
+   run); they are quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
    >= 128 and over their channels, values in [0, 1] (v / 255), capped at 100 dB. The table lists each
@@ -165,30 +164,30 @@ int main(int argc, char **argv) {
     supermat_session *sess = NULL;
     supermat_error err;
     supermat_result r;
-    float detail = 0.0f, chroma = 0.0f;
-    int work = 0, work_from_model = 0;
+    float detail = 0.0f, chroma = 0.0f; /* 0: the model file's (session_desc's zero), SUPERMAT_OFF: off */
+    int work = 0;                        /* 0: the model file's, SUPERMAT_WORK_NATIVE: the picture's own size */
 
     if (argc < 4 || argc > 7) {
-        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE|model]]]\n", argv[0]);
+        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA|off|model [CHROMA_WEIGHT|off|model [WORK_SIZE|native|model]]]\n", argv[0]);
         return 2;
     }
-    if (argc >= 5) {
+    if (argc >= 5 && strcmp(argv[4], "model")) {
         char *end = NULL;
-        detail = strtof(argv[4], &end);
-        if (!end || *end || !(detail >= 0.0f && detail <= 1.0f)) { printf("usage: DETAIL_SIGMA '%s': a number in [0, 1]\n", argv[4]); return 2; }
+        detail = strcmp(argv[4], "off") ? strtof(argv[4], &end) : SUPERMAT_OFF;
+        if (detail != SUPERMAT_OFF && (!end || *end || !(detail > 0.0f && detail <= 1.0f))) { printf("usage: DETAIL_SIGMA '%s': off, model or a number in (0, 1]\n", argv[4]); return 2; }
     }
-    if (argc >= 6) {
+    if (argc >= 6 && strcmp(argv[5], "model")) {
         char *end = NULL;
-        chroma = strtof(argv[5], &end);
-        if (!end || *end || !(chroma >= 0.0f && chroma <= 1.0f)) { printf("usage: CHROMA_WEIGHT '%s': a number in [0, 1]\n", argv[5]); return 2; }
+        chroma = strcmp(argv[5], "off") ? strtof(argv[5], &end) : SUPERMAT_OFF;
+        if (chroma != SUPERMAT_OFF && (!end || *end || !(chroma > 0.0f && chroma <= 1.0f))) { printf("usage: CHROMA_WEIGHT '%s': off, model or a number in (0, 1]\n", argv[5]); return 2; }
     }
-    if (argc == 7) {
+    if (argc == 7 && strcmp(argv[6], "model")) {
         char *end = NULL;
         long v;
-        if (!strcmp(argv[6], "model")) work_from_model = 1;
+        if (!strcmp(argv[6], "native")) work = SUPERMAT_WORK_NATIVE;
         else {
             v = strtol(argv[6], &end, 10);
-            if (!end || *end || v < 0 || v > 16384 || v % 8) { printf("usage: WORK_SIZE '%s': 0, a multiple of 8 up to 16384, or model\n", argv[6]); return 2; }
+            if (!end || *end || v < 8 || v > 16384 || v % 8) { printf("usage: WORK_SIZE '%s': native, model or a multiple of 8 up to 16384\n", argv[6]); return 2; }
             work = (int)v;
         }
     }
@@ -203,15 +202,8 @@ int main(int argc, char **argv) {
     file = tu_load(model_path, &file_size);
     TU_CHECK(file != NULL, "cannot read the model '%s'", model_path);
     if (!file) { for (s = 0; s < nstems; s++) free(stems[s]); free(stems); return tu_finish("quality"); }
-    if (work_from_model) { /* as the CLI: the size the file records, 0 = none */
-        char v[32] = "";
-        work = supermat_safetensors_metadata(file, file_size, "pipeline.work_size", v, sizeof v) >= 0 ? atoi(v) : 0;
-        TU_CHECK(work >= 0 && work % 8 == 0, "model '%s': pipeline.work_size '%s' is not a multiple of 8", model_path, v);
-        if (work < 0 || work % 8) work = 0;
-    }
-    printf("quality: model %s, slice %s, floor %s, detail_sigma %g, chroma_weight %g, network at %s", model_path, dir, floor_path,
-           (double)detail, (double)chroma, work ? "" : "the picture's size\n");
-    if (work) printf("%dx%d%s\n", work, work, work_from_model ? " (the model file's work size)" : "");
+    printf("quality: model %s, slice %s, floor %s, detail_sigma %s, chroma_weight %s, work size %s (model: the file's pipeline)\n", model_path, dir,
+           floor_path, argc >= 5 ? argv[4] : "model", argc >= 6 ? argv[5] : "model", argc >= 7 ? argv[6] : "model");
     memset(&md, 0, sizeof md);
     md.data = file;
     md.size = file_size;

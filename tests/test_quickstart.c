@@ -10,7 +10,7 @@ int main(int argc, char **argv) {
     unsigned char *file_bytes;
     size_t file_size;
     long n;
-    int i;
+    int i, w = 64, h = 64;
     FILE *f = argc > 1 ? fopen(argv[1], "rb") : NULL;
     if (!f) { printf("usage: %s MODEL\n", argv[0]); return 2; }
     fseek(f, 0, SEEK_END); n = ftell(f); fseek(f, 0, SEEK_SET);
@@ -25,11 +25,11 @@ int main(int argc, char **argv) {
         supermat_model *model; supermat_error err;
         if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { puts(err.message); return 1; }
         supermat_session_desc sd; memset(&sd, 0, sizeof sd);
-        sd.model = model; sd.width = 64; sd.height = 64;     // any multiple of 8
+        sd.model = model; sd.width = w; sd.height = h;       // the picture's size, any
         supermat_session *s;
         if (supermat_session_create(&sd, &s, &err) != SUPERMAT_SUCCESS) { puts(err.message); return 1; }
         supermat_run_desc rd; memset(&rd, 0, sizeof rd);
-        rd.input.pixels = rgba; rd.input.width = 64; rd.input.height = 64; rd.input.channels = 4;
+        rd.input.pixels = rgba; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
         rd.albedo.pixels = albedo_rgb8;    rd.albedo.channels = 3;      // format 0 = 8-bit
         rd.roughness.pixels = rough8;      rd.roughness.channels = 1;
         rd.metallic.pixels = metal8;       rd.metallic.channels = 1;
