@@ -1,0 +1,456 @@
+/* The model file's pipeline and the 0.2 API around it, through the public API:
+   - supermat_model_info reports the pipeline a file records (pipeline.work_size / detail_sigma /
+     chroma_weight): the default model 256 / 1/64 / 1, the tiny converted model none.
+   - A session's zero fields are the model's: all-zero is bit-identical to the same values set
+     explicitly; SUPERMAT_OFF and any other negative value are the same "off" (identical bytes) and
+     change the albedo.
+   - Any picture size runs when the network has a work size (finite maps in [0, 1], written at the
+     picture's size); at the picture's own size (SUPERMAT_WORK_NATIVE, or a model that records no work
+     size) a side that is not a multiple of 8 is BAD_IMAGE with a message; a work size below
+     SUPERMAT_WORK_NATIVE is INVALID_ARGUMENT.
+   - The descriptor guards: model_desc, session_desc and run_desc filled with 0xA5 (never cleared), or
+     with one canary set, are refused with INVALID_ARGUMENT naming the struct, before anything is read or
+     written; supermat_model_write_packed too.
+   - A pre-packed file created with conv / compute 0 takes the options it was packed for and runs to the
+     bits of the unpacked model created with them.
+   - Roughness / metallic outputs of 2 channels are gray + the input's alpha, of 4 channels gray RGB +
+     the input's alpha; an RGB input gives alpha 255.
+   usage: test_pipeline DEFAULT_MODEL TINY_MODEL */
+#define SUPERMAT_IMPLEMENTATION
+#include "supermat.h"
+#include "test_util.h"
+
+#define PW 97  /* the odd picture: not a multiple of 8 either way */
+#define PH 131
+#define BW 1000 /* the large picture */
+#define BH 750
+#define Q 64   /* the small square picture (pre-packed, alpha outputs, guards) */
+
+static unsigned char *load(const char *path, size_t *size) {
+    unsigned char *d = tu_load(path, size);
+    TU_CHECK(d != NULL, "cannot read %s", path);
+    return d;
+}
+
+static supermat_model *create(const unsigned char *data, size_t size, supermat_conv conv, const char *what) {
+    supermat_model_desc md;
+    supermat_model *m = NULL;
+    supermat_error err;
+    if (!data) return NULL;
+    memset(&md, 0, sizeof md);
+    md.data = data; md.size = size; md.conv = conv;
+    if (supermat_model_create(&md, &m, &err)) { TU_CHECK(0, "%s: %s", what, err.message); return NULL; }
+    return m;
+}
+
+/* the session fields under test */
+typedef struct fields { int ww, wh; float detail, chroma; } fields;
+
+/* float maps of one run: albedo RGBA, roughness and metallic 1 channel (width x height of the picture) */
+typedef struct maps { float *albedo, *rough, *metal; size_t n; } maps;
+static maps maps_new(int w, int h) {
+    maps o;
+    size_t i;
+    o.n = (size_t)w * h;
+    o.albedo = (float *)malloc(o.n * 4 * sizeof(float));
+    o.rough = (float *)malloc(o.n * sizeof(float));
+    o.metal = (float *)malloc(o.n * sizeof(float));
+    for (i = 0; i < o.n * 4; i++) o.albedo[i] = -1.0f; /* unwritten values fail the range check */
+    for (i = 0; i < o.n; i++) { o.rough[i] = -1.0f; o.metal[i] = -1.0f; }
+    return o;
+}
+static void maps_free(maps *o) { free(o->albedo); free(o->rough); free(o->metal); memset(o, 0, sizeof *o); }
+static int maps_same(const maps *a, const maps *b) {
+    return a->n == b->n && !memcmp(a->albedo, b->albedo, a->n * 4 * sizeof(float)) && !memcmp(a->rough, b->rough, a->n * sizeof(float)) &&
+           !memcmp(a->metal, b->metal, a->n * sizeof(float));
+}
+/* every value finite and in [0, 1] */
+static int in01(const float *v, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++) if (!(v[i] >= 0.0f && v[i] <= 1.0f)) return 0;
+    return 1;
+}
+static int maps_in01(const maps *o) { return in01(o->albedo, o->n * 4) && in01(o->rough, o->n) && in01(o->metal, o->n); }
+
+/* one session + run of m on px (w x h, ch channels) with the fields of p; float outputs into o */
+static supermat_result run_f32(const supermat_model *m, const fields *p, int w, int h, const unsigned char *px, int ch, maps *o, supermat_error *err) {
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_result r;
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = w; sd.height = h;
+    sd.work_width = p->ww; sd.work_height = p->wh; sd.detail_sigma = p->detail; sd.chroma_weight = p->chroma;
+    if ((r = supermat_session_create(&sd, &s, err))) return r;
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
+    rd.albedo.pixels = o->albedo; rd.albedo.channels = 4; rd.albedo.format = SUPERMAT_FORMAT_F32;
+    rd.roughness.pixels = o->rough; rd.roughness.channels = 1; rd.roughness.format = SUPERMAT_FORMAT_F32;
+    rd.metallic.pixels = o->metal; rd.metallic.channels = 1; rd.metallic.format = SUPERMAT_FORMAT_F32;
+    r = supermat_run(s, &rd, err);
+    supermat_session_destroy(s);
+    return r;
+}
+
+/* ---- 1. the pipeline a file records ---- */
+static void test_info(const supermat_model *def, const supermat_model *tiny) {
+    supermat_model_info a, b;
+    if (!def || !tiny) return;
+    supermat_model_get_info(def, &a);
+    supermat_model_get_info(tiny, &b);
+    TU_CHECK(a.work_size == 256 && a.detail_sigma == 0.015625f && a.chroma_weight == 1.0f,
+             "default model: work %d detail %.9g chroma %.9g, want 256 / 0.015625 / 1", a.work_size, (double)a.detail_sigma, (double)a.chroma_weight);
+    TU_CHECK(b.work_size == 0 && b.detail_sigma == 0.0f && b.chroma_weight == 0.0f,
+             "tiny model: work %d detail %.9g chroma %.9g, want none", b.work_size, (double)b.detail_sigma, (double)b.chroma_weight);
+    printf("model_info: default work %d, detail %g, chroma %g; tiny %d / %g / %g\n", a.work_size, (double)a.detail_sigma,
+           (double)a.chroma_weight, b.work_size, (double)b.detail_sigma, (double)b.chroma_weight);
+}
+
+/* ---- 2. zero fields are the model's; SUPERMAT_OFF and another negative value are the same off ---- */
+static void test_zero_is_model(const supermat_model *def, const unsigned char *img, maps *zero) {
+    static const fields p0 = {0, 0, 0.0f, 0.0f}, pe = {256, 256, 0.015625f, 1.0f}, poff = {0, 0, SUPERMAT_OFF, SUPERMAT_OFF},
+                      pneg = {256, 256, -0.25f, -0.25f};
+    maps e = maps_new(PW, PH), off = maps_new(PW, PH), neg = maps_new(PW, PH);
+    supermat_error err;
+    supermat_result r;
+    int albedo_differs;
+    r = run_f32(def, &p0, PW, PH, img, 4, zero, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%dx%d, fields 0: %s", PW, PH, err.message);
+    r = run_f32(def, &pe, PW, PH, img, 4, &e, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%dx%d, work 256 detail 1/64 chroma 1: %s", PW, PH, err.message);
+    TU_CHECK(maps_same(zero, &e), "fields 0 and the model's values set explicitly (256x256, 0.015625, 1): not bit-identical");
+    r = run_f32(def, &poff, PW, PH, img, 4, &off, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "detail / chroma SUPERMAT_OFF: %s", err.message);
+    r = run_f32(def, &pneg, PW, PH, img, 4, &neg, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "work 256, detail / chroma -0.25: %s", err.message);
+    albedo_differs = memcmp(zero->albedo, off.albedo, zero->n * 4 * sizeof(float)) != 0;
+    TU_CHECK(albedo_differs, "SUPERMAT_OFF for both steps: albedo identical to the model's steps (the steps did nothing)");
+    TU_CHECK(!memcmp(zero->rough, off.rough, zero->n * sizeof(float)) && !memcmp(zero->metal, off.metal, zero->n * sizeof(float)),
+             "SUPERMAT_OFF: roughness / metallic changed (the steps touch the albedo only)");
+    TU_CHECK(maps_same(&off, &neg), "SUPERMAT_OFF (work 0) and -0.25 (work 256 explicit): not bit-identical");
+    printf("zero = model's: %dx%d fields 0 %s explicit 256/0.015625/1; SUPERMAT_OFF %s; OFF %s -0.25\n", PW, PH,
+           maps_same(zero, &e) ? "==" : "!=", albedo_differs ? "changes the albedo" : "CHANGES NOTHING", maps_same(&off, &neg) ? "==" : "!=");
+    maps_free(&e); maps_free(&off); maps_free(&neg);
+}
+
+/* ---- 3. any picture size with a work size; the picture's own size needs multiples of 8 ---- */
+static void test_sizes(const supermat_model *def, const supermat_model *tiny, const unsigned char *img, const maps *odd) {
+    static const fields p0 = {0, 0, 0.0f, 0.0f}, pnat = {SUPERMAT_WORK_NATIVE, SUPERMAT_WORK_NATIVE, 0.0f, 0.0f}, p64 = {64, 64, 0.0f, 0.0f},
+                      pbad = {-2, 0, 0.0f, 0.0f};
+    static const unsigned char one[4] = {200, 120, 60, 128};
+    unsigned char *big = (unsigned char *)malloc((size_t)BW * BH * 4);
+    maps m1 = maps_new(1, 1), mb = maps_new(BW, BH), mt = maps_new(PW, PH);
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_error err;
+    supermat_result r;
+    size_t i, alpha_bad = 0;
+    if (!big) { TU_CHECK(0, "out of memory"); return; }
+    tu_disc_rgba(big, BW, BH, BW / 2 - 30, BH / 2 + 20, 300);
+    r = run_f32(def, &p0, 1, 1, one, 4, &m1, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && maps_in01(&m1), "1x1, fields 0: %s (maps in [0, 1]: %d)", err.message, maps_in01(&m1));
+    TU_CHECK(odd->n == (size_t)PW * PH && maps_in01(odd), "%dx%d, fields 0: maps not all finite in [0, 1]", PW, PH);
+    r = run_f32(def, &p0, BW, BH, big, 4, &mb, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && maps_in01(&mb), "%dx%d, fields 0: %s (maps in [0, 1]: %d)", BW, BH, err.message, maps_in01(&mb));
+    for (i = 0; i < mb.n; i++) alpha_bad += mb.albedo[i * 4 + 3] != (float)big[i * 4 + 3] / 255.0f;
+    TU_CHECK(r == SUPERMAT_SUCCESS && alpha_bad == 0, "%dx%d: %lu albedo alpha values not the input's", BW, BH, (unsigned long)alpha_bad);
+
+    /* the picture's own size */
+    memset(&sd, 0, sizeof sd);
+    sd.model = def; sd.width = PW; sd.height = PH; sd.work_width = pnat.ww; sd.work_height = pnat.wh;
+    err.message[0] = 0;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && strstr(err.message, "multiples of 8") && !s,
+             "%dx%d, SUPERMAT_WORK_NATIVE: %s (%s), want BAD_IMAGE naming multiples of 8", PW, PH, supermat_result_string(r), err.message);
+    supermat_session_destroy(s); s = NULL;
+    if (tiny) {
+        sd.model = tiny; sd.work_width = 0; sd.work_height = 0;
+        err.message[0] = 0;
+        r = supermat_session_create(&sd, &s, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_BAD_IMAGE && strstr(err.message, "multiples of 8") && !s,
+                 "tiny (no work size) %dx%d, fields 0: %s (%s), want BAD_IMAGE", PW, PH, supermat_result_string(r), err.message);
+        supermat_session_destroy(s); s = NULL;
+        r = run_f32(tiny, &p64, PW, PH, img, 4, &mt, &err);
+        TU_CHECK(r == SUPERMAT_SUCCESS && maps_in01(&mt), "tiny %dx%d at work 64x64: %s (maps in [0, 1]: %d)", PW, PH, err.message, maps_in01(&mt));
+    }
+    sd.model = def; sd.work_width = pbad.ww; sd.work_height = pbad.wh;
+    err.message[0] = 0;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && !s, "work_width -2: %s (%s), want INVALID_ARGUMENT", supermat_result_string(r), err.message);
+    supermat_session_destroy(s); s = NULL;
+    r = supermat_session_memory(&sd, &i, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT, "supermat_session_memory, work_width -2: %s, want INVALID_ARGUMENT", supermat_result_string(r));
+    sd.width = Q; sd.height = Q; sd.work_width = -2; sd.work_height = -2; /* would be the picture's own size if taken as native */
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && !s, "%dx%d, work -2 x -2: %s (%s), want INVALID_ARGUMENT", Q, Q, supermat_result_string(r), err.message);
+    supermat_session_destroy(s); s = NULL;
+    printf("any size: 1x1, %dx%d, %dx%d on the default model's work size in [0, 1]; own size %dx%d refused (BAD_IMAGE), tiny at work 64 runs, work -2 refused\n",
+           PW, PH, BW, BH, PW, PH);
+    maps_free(&m1); maps_free(&mb); maps_free(&mt);
+    free(big);
+}
+
+/* ---- 4. descriptor guards ---- */
+typedef struct membuf { unsigned char *p; size_t n, cap; } membuf;
+static int mem_write(void *user, const void *data, size_t size) {
+    membuf *b = (membuf *)user;
+    if (b->n + size > b->cap) {
+        size_t nc = b->cap ? b->cap : (size_t)1 << 20;
+        unsigned char *np;
+        while (nc < b->n + size) nc *= 2;
+        np = (unsigned char *)realloc(b->p, nc);
+        if (!np) return -1;
+        b->p = np; b->cap = nc;
+    }
+    memcpy(b->p + b->n, data, size);
+    b->n += size;
+    return 0;
+}
+
+/* refused with INVALID_ARGUMENT and a message naming `name` */
+static int refused(supermat_result r, const supermat_error *err, const char *name) {
+    return r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err->message, name) != NULL;
+}
+
+static void test_guards(const unsigned char *tdata, size_t tsize, const unsigned char *img) {
+    static unsigned char alb[Q * Q * 3], rgh[Q * Q], met[Q * Q];
+    supermat_model_desc md;
+    supermat_session_desc sd;
+    supermat_run_desc rd;
+    supermat_model *m = NULL;
+    supermat_session *s = NULL;
+    supermat_error err;
+    supermat_result r;
+    membuf b;
+    size_t bytes = 0, i, touched = 0;
+    int k, cases = 0;
+    if (!tdata) return;
+    memset(&b, 0, sizeof b);
+
+    /* model_desc: never cleared, then each canary alone */
+    for (k = 0; k < 3; k++) {
+        if (k == 0) memset(&md, 0xA5, sizeof md);
+        else memset(&md, 0, sizeof md);
+        md.data = tdata; md.size = tsize;
+        if (k == 1) md._start_canary = 1;
+        if (k == 2) md._end_canary = 1;
+        r = supermat_model_create(&md, &m, &err);
+        TU_CHECK(refused(r, &err, "supermat_model_desc") && !m, "model_desc case %d: %s (%s)", k, supermat_result_string(r), err.message);
+        supermat_model_destroy(m); m = NULL;
+        b.n = 0;
+        r = supermat_model_write_packed(&md, mem_write, &b, NULL, &err);
+        TU_CHECK(refused(r, &err, "supermat_model_desc") && b.n == 0, "write_packed, model_desc case %d: %s (%s), %lu bytes written",
+                 k, supermat_result_string(r), err.message, (unsigned long)b.n);
+        cases++;
+    }
+    memset(&md, 0, sizeof md);
+    md.data = tdata; md.size = tsize;
+    b.n = 0;
+    r = supermat_model_write_packed(&md, mem_write, &b, NULL, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && b.n > 0, "write_packed, canaries 0: %s", err.message);
+    r = supermat_model_create(&md, &m, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && m, "model_desc, canaries 0: %s", err.message);
+    free(b.p);
+    if (!m) return;
+
+    /* session_desc */
+    for (k = 0; k < 3; k++) {
+        if (k == 0) memset(&sd, 0xA5, sizeof sd);
+        else memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = Q; sd.height = Q;
+        if (k == 1) sd._start_canary = 1;
+        if (k == 2) sd._end_canary = 1;
+        r = supermat_session_create(&sd, &s, &err);
+        TU_CHECK(refused(r, &err, "supermat_session_desc") && !s, "session_desc case %d: %s (%s)", k, supermat_result_string(r), err.message);
+        supermat_session_destroy(s); s = NULL;
+        r = supermat_session_memory(&sd, &bytes, &err);
+        TU_CHECK(refused(r, &err, "supermat_session_desc"), "session_memory, session_desc case %d: %s (%s)", k, supermat_result_string(r), err.message);
+        cases++;
+    }
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = Q; sd.height = Q;
+    r = supermat_session_create(&sd, &s, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && s, "session_desc, canaries 0: %s", err.message);
+    if (!s) { supermat_model_destroy(m); return; }
+
+    /* run_desc: refused before any output is written */
+    for (k = 0; k < 3; k++) {
+        if (k == 0) memset(&rd, 0xA5, sizeof rd);
+        else memset(&rd, 0, sizeof rd);
+        rd.input.pixels = (void *)img; rd.input.width = Q; rd.input.height = Q; rd.input.channels = 4;
+        rd.albedo.pixels = alb; rd.albedo.channels = 3;
+        rd.roughness.pixels = rgh; rd.roughness.channels = 1;
+        rd.metallic.pixels = met; rd.metallic.channels = 1;
+        if (k == 1) rd._start_canary = 1;
+        if (k == 2) rd._end_canary = 1;
+        memset(alb, 0x5A, sizeof alb); memset(rgh, 0x5A, sizeof rgh); memset(met, 0x5A, sizeof met);
+        r = supermat_run(s, &rd, &err);
+        for (i = 0; i < sizeof alb; i++) touched += alb[i] != 0x5A;
+        for (i = 0; i < sizeof rgh; i++) touched += (rgh[i] != 0x5A) + (met[i] != 0x5A);
+        TU_CHECK(refused(r, &err, "supermat_run_desc"), "run_desc case %d: %s (%s)", k, supermat_result_string(r), err.message);
+        cases++;
+    }
+    TU_CHECK(touched == 0, "refused runs wrote %lu output bytes", (unsigned long)touched);
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = (void *)img; rd.input.width = Q; rd.input.height = Q; rd.input.channels = 4;
+    rd.albedo.pixels = alb; rd.albedo.channels = 3;
+    rd.roughness.pixels = rgh; rd.roughness.channels = 1;
+    rd.metallic.pixels = met; rd.metallic.channels = 1;
+    r = supermat_run(s, &rd, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "run_desc, canaries 0: %s", err.message);
+    printf("guards: %d uncleared / canary descriptors refused naming their struct (model, write_packed, session, session_memory, run); cleared ones run\n", cases);
+    supermat_session_destroy(s);
+    supermat_model_destroy(m);
+}
+
+/* ---- 5. a pre-packed file's options are the defaults ---- */
+static void test_prepacked(const unsigned char *ddata, size_t dsize, const unsigned char *img) {
+    static const fields p0 = {0, 0, 0.0f, 0.0f};
+    supermat_model_desc md;
+    supermat_model_info info;
+    supermat_model *pm = NULL, *um = NULL;
+    supermat_error err;
+    supermat_result r;
+    membuf b;
+    unsigned char *raw, *al;
+    maps a = maps_new(Q, Q), u = maps_new(Q, Q);
+    uint64_t bytes = 0;
+    if (!ddata) return;
+    memset(&b, 0, sizeof b);
+    memset(&md, 0, sizeof md);
+    md.data = ddata; md.size = dsize; md.conv = SUPERMAT_CONV_WINOGRAD_F2;
+    r = supermat_model_write_packed(&md, mem_write, &b, &bytes, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && bytes == b.n, "write_packed (Winograd F2): %s", err.message);
+    if (r) { free(b.p); maps_free(&a); maps_free(&u); return; }
+    raw = (unsigned char *)malloc(b.n + 64); /* a 64-byte aligned copy, by hand */
+    al = raw + (64 - (size_t)((uintptr_t)raw % 64)) % 64;
+    memcpy(al, b.p, b.n);
+    free(b.p);
+    memset(&md, 0, sizeof md);
+    md.data = al; md.size = (size_t)bytes;
+    r = supermat_model_create(&md, &pm, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && pm, "pre-packed, conv / compute 0: %s", err.message);
+    if (pm) {
+        supermat_model_get_info(pm, &info);
+        TU_CHECK(info.prepacked == 1 && info.conv == SUPERMAT_CONV_WINOGRAD_F2 && info.compute == SUPERMAT_COMPUTE_F32,
+                 "pre-packed info: prepacked %d conv %d compute %d, want 1 / WINOGRAD_F2 / F32", info.prepacked, (int)info.conv, (int)info.compute);
+        TU_CHECK(info.work_size == 256 && info.detail_sigma == 0.015625f && info.chroma_weight == 1.0f,
+                 "pre-packed info: pipeline %d / %g / %g, want the original's 256 / 0.015625 / 1", info.work_size, (double)info.detail_sigma, (double)info.chroma_weight);
+        um = create(ddata, dsize, SUPERMAT_CONV_WINOGRAD_F2, "default model, Winograd F2");
+        if (um) {
+            r = run_f32(pm, &p0, Q, Q, img, 4, &a, &err);
+            TU_CHECK(r == SUPERMAT_SUCCESS, "pre-packed run: %s", err.message);
+            r = run_f32(um, &p0, Q, Q, img, 4, &u, &err);
+            TU_CHECK(r == SUPERMAT_SUCCESS, "unpacked Winograd F2 run: %s", err.message);
+            TU_CHECK(maps_same(&a, &u) && maps_in01(&a), "pre-packed (options 0) and unpacked Winograd F2: maps not bit-identical");
+            printf("pre-packed: %lu bytes, created with options 0: prepacked %d, conv %d; %dx%d maps %s the unpacked Winograd F2 model's\n",
+                   (unsigned long)bytes, info.prepacked, (int)info.conv, Q, Q, maps_same(&a, &u) ? "==" : "!=");
+        }
+    }
+    supermat_model_destroy(pm); supermat_model_destroy(um);
+    free(raw);
+    maps_free(&a); maps_free(&u);
+}
+
+/* ---- 6. alpha in roughness / metallic outputs ---- */
+/* U8 outputs of one run (fields 0): roughness with rc channels, metallic with mc, orm with 4 (NULL = not wanted) */
+static supermat_result run_u8(const supermat_model *m, int w, int h, const unsigned char *px, int ch, unsigned char *rough, int rc,
+                              unsigned char *metal, int mc, unsigned char *orm4, supermat_error *err) {
+    supermat_session_desc sd;
+    supermat_session *s = NULL;
+    supermat_run_desc rd;
+    supermat_result r;
+    memset(&sd, 0, sizeof sd);
+    sd.model = m; sd.width = w; sd.height = h;
+    if ((r = supermat_session_create(&sd, &s, err))) return r;
+    memset(&rd, 0, sizeof rd);
+    rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
+    rd.roughness.pixels = rough; rd.roughness.channels = rc;
+    rd.metallic.pixels = metal; rd.metallic.channels = mc;
+    rd.orm.pixels = orm4; rd.orm.channels = 4;
+    r = supermat_run(s, &rd, err);
+    supermat_session_destroy(s);
+    return r;
+}
+
+/* the alpha checks on one model and picture (w x h RGBA img) */
+static void alpha_case(const supermat_model *m, const char *what, int w, int h, const unsigned char *img) {
+    size_t n = (size_t)w * h, i;
+    unsigned char *r1 = (unsigned char *)malloc(n), *m1 = (unsigned char *)malloc(n), *r2 = (unsigned char *)malloc(n * 2),
+                  *m4 = (unsigned char *)malloc(n * 4), *r4 = (unsigned char *)malloc(n * 4), *m2 = (unsigned char *)malloc(n * 2),
+                  *orm = (unsigned char *)malloc(n * 4), *rgb = (unsigned char *)malloc(n * 3);
+    long bad_gray = 0, bad_alpha = 0, bad_rgb = 0, bad_orm = 0, soft = 0;
+    supermat_error err;
+    supermat_result r;
+    for (i = 0; i < n; i++) { memcpy(rgb + i * 3, img + i * 4, 3); soft += img[i * 4 + 3] > 0 && img[i * 4 + 3] < 255; }
+    r = run_u8(m, w, h, img, 4, r1, 1, m1, 1, NULL, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%s: 1-channel roughness / metallic: %s", what, err.message);
+    r = run_u8(m, w, h, img, 4, r2, 2, m4, 4, orm, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%s: 2-channel roughness, 4-channel metallic: %s", what, err.message);
+    r = run_u8(m, w, h, img, 4, r4, 4, m2, 2, NULL, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%s: 4-channel roughness, 2-channel metallic: %s", what, err.message);
+    for (i = 0; i < n; i++) {
+        unsigned char a = img[i * 4 + 3];
+        bad_gray += (r2[i * 2] != r1[i]) + (m2[i * 2] != m1[i]);
+        bad_gray += (r4[i * 4] != r1[i]) + (r4[i * 4 + 1] != r1[i]) + (r4[i * 4 + 2] != r1[i]);
+        bad_gray += (m4[i * 4] != m1[i]) + (m4[i * 4 + 1] != m1[i]) + (m4[i * 4 + 2] != m1[i]);
+        bad_alpha += (r2[i * 2 + 1] != a) + (m2[i * 2 + 1] != a) + (r4[i * 4 + 3] != a) + (m4[i * 4 + 3] != a);
+        bad_orm += orm[i * 4 + 3] != 255;
+    }
+    TU_CHECK(bad_gray == 0, "%s: %ld gray values of the 2 / 4-channel outputs differ from the 1-channel output", what, bad_gray);
+    TU_CHECK(bad_alpha == 0 && soft > 0, "%s: %ld alpha values not the input's (%ld soft-alpha pixels)", what, bad_alpha, soft);
+    TU_CHECK(bad_orm == 0, "%s: %ld orm 4th-channel values not 255", what, bad_orm);
+    /* an RGB input: alpha 255 */
+    r = run_u8(m, w, h, rgb, 3, r2, 2, m4, 4, NULL, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "%s: RGB input: %s", what, err.message);
+    for (i = 0; i < n; i++) bad_rgb += (r2[i * 2 + 1] != 255) + (m4[i * 4 + 3] != 255);
+    TU_CHECK(bad_rgb == 0, "%s: RGB input: %ld alpha values not 255", what, bad_rgb);
+    printf("alpha outputs (%s, %dx%d): 2-channel = gray + input alpha, 4-channel = gray RGB + input alpha, orm alpha 255, RGB input alpha 255 (%ld soft-alpha pixels)\n",
+           what, w, h, soft);
+    free(r1); free(m1); free(r2); free(m4); free(r4); free(m2); free(orm); free(rgb);
+}
+
+/* the default model at the odd size (the maps resampled from the work size): one run with 2-channel roughness and
+   4-channel metallic against the float 1-channel maps of test_zero_is_model's run (the same fields) */
+static void alpha_default(const supermat_model *m, const unsigned char *img, const maps *odd) {
+    size_t n = (size_t)PW * PH, i;
+    unsigned char *r2 = (unsigned char *)malloc(n * 2), *m4 = (unsigned char *)malloc(n * 4);
+    long bad_gray = 0, bad_alpha = 0;
+    supermat_error err;
+    supermat_result r = run_u8(m, PW, PH, img, 4, r2, 2, m4, 4, NULL, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "default %dx%d: 2-channel roughness, 4-channel metallic: %s", PW, PH, err.message);
+    for (i = 0; i < n && r == SUPERMAT_SUCCESS; i++) {
+        unsigned char a = img[i * 4 + 3], rg = (unsigned char)rintf(odd->rough[i] * 255.0f), mt = (unsigned char)rintf(odd->metal[i] * 255.0f);
+        bad_gray += (r2[i * 2] != rg) + (m4[i * 4] != mt) + (m4[i * 4 + 1] != mt) + (m4[i * 4 + 2] != mt);
+        bad_alpha += (r2[i * 2 + 1] != a) + (m4[i * 4 + 3] != a);
+    }
+    TU_CHECK(r == SUPERMAT_SUCCESS && bad_gray == 0, "default %dx%d: %ld gray values differ from the 1-channel float maps (8-bit)", PW, PH, bad_gray);
+    TU_CHECK(r == SUPERMAT_SUCCESS && bad_alpha == 0, "default %dx%d: %ld alpha values not the input's", PW, PH, bad_alpha);
+    printf("alpha outputs (default, %dx%d from work 256): 2-channel roughness = gray + input alpha, 4-channel metallic = gray RGB + input alpha\n", PW, PH);
+    free(r2); free(m4);
+}
+
+int main(int argc, char **argv) {
+    static unsigned char img[PW * PH * 4], sq[Q * Q * 4];
+    unsigned char *ddata = NULL, *tdata = NULL;
+    size_t dsize = 0, tsize = 0;
+    supermat_model *def, *tiny;
+    maps odd;
+    if (argc < 3) { fprintf(stderr, "usage: %s DEFAULT_MODEL TINY_MODEL\n", argv[0]); return 2; }
+    ddata = load(argv[1], &dsize); tdata = load(argv[2], &tsize);
+    def = create(ddata, dsize, SUPERMAT_CONV_DIRECT, argv[1]);
+    tiny = create(tdata, tsize, SUPERMAT_CONV_DIRECT, argv[2]);
+    tu_disc_rgba(img, PW, PH, 47, 66, 41);   /* soft-edged disc: alpha 0, partial and 255 */
+    tu_disc_rgba(sq, Q, Q, 30, 34, 24);
+    odd = maps_new(PW, PH);
+    test_info(def, tiny);
+    if (def) { test_zero_is_model(def, img, &odd); test_sizes(def, tiny, img, &odd); }
+    test_guards(tdata, tsize, sq);
+    test_prepacked(ddata, dsize, sq);
+    if (tiny) alpha_case(tiny, "tiny", Q, Q, sq);
+    if (def) alpha_default(def, img, &odd);
+    maps_free(&odd);
+    supermat_model_destroy(def); supermat_model_destroy(tiny);
+    free(ddata); free(tdata);
+    return tu_finish("pipeline");
+}
