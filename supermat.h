@@ -28,6 +28,23 @@
  *     supermat_run(s, &rd, &err);
  *     supermat_session_destroy(s); supermat_model_destroy(model);
  *
+ * THE API (the declarations below, in this order)
+ *   supermat_model_create / _destroy      load a model file from memory (validated; weights packed once)
+ *   supermat_model_get_info               its architecture, options, memory and recorded pipeline
+ *   supermat_model_write_packed           write a file whose weights are already packed (fast loads, mmap)
+ *   supermat_session_create / _destroy    plan and allocate everything one picture size needs
+ *   supermat_session_memory               what a session would allocate, without allocating
+ *   supermat_run                          one picture (or SuperMatMV's views, or a UV map) -> maps
+ *   supermat_result_string                the name of a result code
+ *   supermat_pool_create / _destroy       the built-in thread pool, to share between sessions
+ *   Tools (the project's CLI and tests use them; an application running models needs none):
+ *   supermat_json_*, supermat_safetensors_*   read a model file's header and metadata
+ *   supermat_default_threads, supermat_session_desc_threads, supermat_build_optimized, supermat_cpu,
+ *   supermat_session_flops / _last_flops  what a run will use and do
+ *   supermat_bench_conv_*                 one convolution with a chosen micro-kernel (benchmarks)
+ *   Descriptors (model, session, run) are cleared with memset or = {0} before use: 0 is every field's
+ *   default, and a descriptor that was not cleared is refused (_start_canary / _end_canary).
+ *
  * WHAT IT DOES
  *   - Loads a model from a caller-supplied memory buffer: a safetensors file (F32, F16, BF16, I8) whose
  *     `__metadata__` describes the architecture (see MODEL FILE below). Everything is validated first.
@@ -254,51 +271,6 @@ typedef struct supermat_threading {
     void *user;
     int max_threads; /* how many distinct `thread` values parallel_for may pass (>= 1) */
 } supermat_threading;
-
-/* ---- small readers the tools share (JSON tokenizer, safetensors header) ----------------------- */
-typedef enum supermat_json_type {
-    SUPERMAT_JSON_UNDEFINED = 0, SUPERMAT_JSON_OBJECT, SUPERMAT_JSON_ARRAY, SUPERMAT_JSON_STRING,
-    SUPERMAT_JSON_PRIMITIVE, SUPERMAT_JSON_TYPE_COUNT
-} supermat_json_type;
-typedef struct supermat_json_tok {
-    supermat_json_type type;
-    int start, end; /* byte range in the text (strings without their quotes) */
-    int size;       /* object: members; array: elements; key string: 1; otherwise 0 */
-    int next;       /* index of the first token after this token's subtree */
-} supermat_json_tok;
-/* Returns the number of tokens (toks may be NULL to count), or a negative supermat_result. */
-SUPERMAT_API int supermat_json_parse(const char *js, size_t len, supermat_json_tok *toks, int max_toks);
-/* Index of the value of `key` in object token `obj`, or -1. */
-SUPERMAT_API int supermat_json_find(const char *js, const supermat_json_tok *toks, int obj, const char *key);
-/* Unescaped, NUL-terminated copy of a string token; -1 if it does not fit or is not a string. */
-SUPERMAT_API int supermat_json_string(const char *js, const supermat_json_tok *tok, char *buf, size_t cap);
-/* 0 and *out for a number token, -1 otherwise. */
-SUPERMAT_API int supermat_json_number(const char *js, const supermat_json_tok *tok, double *out);
-
-typedef enum supermat_dtype {
-    SUPERMAT_DTYPE_DEFAULT = 0, SUPERMAT_DTYPE_F32, SUPERMAT_DTYPE_F16, SUPERMAT_DTYPE_BF16,
-    SUPERMAT_DTYPE_I8, /* int8 GEMM weights: the F32 tensor NAME_scale beside tensor NAME holds their scales
-                          (see INT8 WEIGHTS in the manual) */
-    SUPERMAT_DTYPE_U8, /* raw bytes: a pre-packed model's panels and index (PRE-PACKED MODELS) */
-    SUPERMAT_DTYPE_COUNT
-} supermat_dtype;
-typedef struct supermat_tensor_info {
-    char name[160];
-    supermat_dtype dtype;
-    int ndim;
-    int64_t shape[8];
-    uint64_t offset; /* from the start of the file */
-    uint64_t nbytes;
-} supermat_tensor_info;
-/* Safetensors header access. `buf` holds at least the first 8 + header-length bytes of a file of
-   `file_size` bytes (all offsets are validated against file_size). */
-SUPERMAT_API supermat_result supermat_safetensors_count(const void *buf, size_t buf_size, uint64_t file_size,
-                                                        int *n_tensors, supermat_error *err);
-SUPERMAT_API supermat_result supermat_safetensors_tensor(const void *buf, size_t buf_size, uint64_t file_size,
-                                                         int index, supermat_tensor_info *out, supermat_error *err);
-/* 0 (and value) if `key` is in __metadata__, -1 otherwise. */
-SUPERMAT_API int supermat_safetensors_metadata(const void *buf, size_t buf_size, const char *key, char *value,
-                                               size_t cap);
 
 /* ---- model ----------------------------------------------------------------------------------- */
 typedef enum supermat_kernel {
@@ -582,6 +554,52 @@ SUPERMAT_API supermat_result supermat_pool_create(int threads, const supermat_al
                                                   supermat_pool **out, supermat_threading *hook);
 SUPERMAT_API void supermat_pool_destroy(supermat_pool *pool);
 
+/* ================================ TOOLS: an application running models needs none of this ====== */
+/* ---- small readers the tools share (JSON tokenizer, safetensors header) ----------------------- */
+typedef enum supermat_json_type {
+    SUPERMAT_JSON_UNDEFINED = 0, SUPERMAT_JSON_OBJECT, SUPERMAT_JSON_ARRAY, SUPERMAT_JSON_STRING,
+    SUPERMAT_JSON_PRIMITIVE, SUPERMAT_JSON_TYPE_COUNT
+} supermat_json_type;
+typedef struct supermat_json_tok {
+    supermat_json_type type;
+    int start, end; /* byte range in the text (strings without their quotes) */
+    int size;       /* object: members; array: elements; key string: 1; otherwise 0 */
+    int next;       /* index of the first token after this token's subtree */
+} supermat_json_tok;
+/* Returns the number of tokens (toks may be NULL to count), or a negative supermat_result. */
+SUPERMAT_API int supermat_json_parse(const char *js, size_t len, supermat_json_tok *toks, int max_toks);
+/* Index of the value of `key` in object token `obj`, or -1. */
+SUPERMAT_API int supermat_json_find(const char *js, const supermat_json_tok *toks, int obj, const char *key);
+/* Unescaped, NUL-terminated copy of a string token; -1 if it does not fit or is not a string. */
+SUPERMAT_API int supermat_json_string(const char *js, const supermat_json_tok *tok, char *buf, size_t cap);
+/* 0 and *out for a number token, -1 otherwise. */
+SUPERMAT_API int supermat_json_number(const char *js, const supermat_json_tok *tok, double *out);
+
+typedef enum supermat_dtype {
+    SUPERMAT_DTYPE_DEFAULT = 0, SUPERMAT_DTYPE_F32, SUPERMAT_DTYPE_F16, SUPERMAT_DTYPE_BF16,
+    SUPERMAT_DTYPE_I8, /* int8 GEMM weights: the F32 tensor NAME_scale beside tensor NAME holds their scales
+                          (see INT8 WEIGHTS in the manual) */
+    SUPERMAT_DTYPE_U8, /* raw bytes: a pre-packed model's panels and index (PRE-PACKED MODELS) */
+    SUPERMAT_DTYPE_COUNT
+} supermat_dtype;
+typedef struct supermat_tensor_info {
+    char name[160];
+    supermat_dtype dtype;
+    int ndim;
+    int64_t shape[8];
+    uint64_t offset; /* from the start of the file */
+    uint64_t nbytes;
+} supermat_tensor_info;
+/* Safetensors header access. `buf` holds at least the first 8 + header-length bytes of a file of
+   `file_size` bytes (all offsets are validated against file_size). */
+SUPERMAT_API supermat_result supermat_safetensors_count(const void *buf, size_t buf_size, uint64_t file_size,
+                                                        int *n_tensors, supermat_error *err);
+SUPERMAT_API supermat_result supermat_safetensors_tensor(const void *buf, size_t buf_size, uint64_t file_size,
+                                                         int index, supermat_tensor_info *out, supermat_error *err);
+/* 0 (and value) if `key` is in __metadata__, -1 otherwise. */
+SUPERMAT_API int supermat_safetensors_metadata(const void *buf, size_t buf_size, const char *key, char *value,
+                                               size_t cap);
+
 /* ---- introspection for tools and benchmarks --------------------------------------------------- */
 /* The thread count that threads = 0 stands for: the online cores, fewer when the process's CPU
  * affinity mask (Linux: Cpus_allowed_list of /proc/self/status, as `taskset` sets it) or its cgroup CPU
@@ -593,13 +611,17 @@ SUPERMAT_API int supermat_default_threads(void);
  * above), 0 when without (-O0, a build type left empty: about 10x slower), -1 where the compiler does not
  * say (MSVC). Tools print a warning on 0, so nobody measures a debug build by accident. */
 SUPERMAT_API int supermat_build_optimized(void);
-SUPERMAT_API int supermat_cpu_has_avx2(void);
-SUPERMAT_API int supermat_cpu_has_avx512(void); /* AVX-512F with the OS saving ZMM state, and AVX2 */
-SUPERMAT_API int supermat_cpu_has_avx512_bf16(void); /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
-SUPERMAT_API int supermat_cpu_has_avx512_vnni(void); /* AVX-512F + BW + AVX512_VNNI (SUPERMAT_COMPUTE_INT8) */
-SUPERMAT_API int supermat_cpu_has_avx_vnni(void);    /* AVX2 + AVX-VNNI (SUPERMAT_COMPUTE_INT8 on the AVX2 kernel) */
-SUPERMAT_API int supermat_cpu_has_neon(void);        /* an aarch64 build (Advanced SIMD is part of the base ISA) */
-SUPERMAT_API int supermat_cpu_has_amx_bf16(void);    /* AMX-TILE + AMX-BF16, enabled by the OS for this process */
+/* What this CPU, OS and build can run: each kernel and compute mode needs its flag (UNSUPPORTED otherwise). */
+typedef struct supermat_cpu_info {
+    int avx2;        /* AVX2 + FMA + F16C with the OS saving YMM state (SUPERMAT_KERNEL_AVX2) */
+    int avx512;      /* AVX-512F with the OS saving ZMM state, and AVX2 (SUPERMAT_KERNEL_AVX512) */
+    int avx512_bf16; /* and AVX512_BF16 (SUPERMAT_COMPUTE_BF16) */
+    int avx512_vnni; /* AVX-512F + BW + AVX512_VNNI (SUPERMAT_COMPUTE_INT8 on the AVX-512 kernel) */
+    int avx_vnni;    /* AVX2 + AVX-VNNI (SUPERMAT_COMPUTE_INT8 on the AVX2 kernel) */
+    int neon;        /* an aarch64 build (Advanced SIMD is part of the base ISA: SUPERMAT_KERNEL_NEON) */
+    int amx_bf16;    /* AMX-TILE + AMX-BF16, enabled by the OS for this process (SUPERMAT_KERNEL_AMX) */
+} supermat_cpu_info;
+SUPERMAT_API supermat_cpu_info supermat_cpu(void);
 /* FLOPs (multiply-add = 2) one run of this session performs, per stage (encode, unet trunk, branch
    tails, decode), excluding norms and activations. */
 typedef struct supermat_flops { double encode, trunk, branch, decode, total; } supermat_flops;
@@ -1265,7 +1287,7 @@ SUPERMAT__DEF int supermat_safetensors_metadata(const void *buf, size_t buf_size
 }
 
 /* >>cpu */
-SUPERMAT__DEF int supermat_cpu_has_avx2(void) {
+static int supermat__cpu_has_avx2(void) {
 #if SUPERMAT__HAS_AVX2
     static int cached = -1;
     unsigned a, b, c, d;
@@ -1286,13 +1308,13 @@ SUPERMAT__DEF int supermat_cpu_has_avx2(void) {
 #endif
 }
 
-SUPERMAT__DEF int supermat_cpu_has_avx512(void) {
+static int supermat__cpu_has_avx512(void) {
 #if SUPERMAT__HAS_AVX512
     static int cached = -1;
     unsigned a, b, c, d;
     int ok = 0;
     if (cached >= 0) return cached;
-    if (supermat_cpu_has_avx2() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 16) & 1)) {
+    if (supermat__cpu_has_avx2() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 16) & 1)) {
         unsigned lo, hi;
         __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
         ok = (lo & 0xE6) == 0xE6; /* XMM, YMM, opmask, ZMM_Hi256, Hi16_ZMM state enabled */
@@ -1304,45 +1326,45 @@ SUPERMAT__DEF int supermat_cpu_has_avx512(void) {
 #endif
 }
 
-SUPERMAT__DEF int supermat_cpu_has_avx512_bf16(void) {
+static int supermat__cpu_has_avx512_bf16(void) {
 #if SUPERMAT__HAS_AVX512
     unsigned a, b, c, d;
-    return supermat_cpu_has_avx512() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 5) & 1);
+    return supermat__cpu_has_avx512() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 5) & 1);
 #else
     return 0;
 #endif
 }
 
-SUPERMAT__DEF int supermat_cpu_has_avx512_vnni(void) {
+static int supermat__cpu_has_avx512_vnni(void) {
 #if SUPERMAT__HAS_AVX512
     unsigned a, b, c, d;
-    return supermat_cpu_has_avx512() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 30) & 1) && ((c >> 11) & 1);
+    return supermat__cpu_has_avx512() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 30) & 1) && ((c >> 11) & 1);
 #else
     return 0;
 #endif
 }
 
-SUPERMAT__DEF int supermat_cpu_has_avx_vnni(void) {
+static int supermat__cpu_has_avx_vnni(void) {
 #if SUPERMAT__HAS_AVXVNNI
     unsigned a, b, c, d;
-    return supermat_cpu_has_avx2() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 4) & 1);
+    return supermat__cpu_has_avx2() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 4) & 1);
 #else
     return 0;
 #endif
 }
 
-SUPERMAT__DEF int supermat_cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
+static int supermat__cpu_has_neon(void) { return SUPERMAT__HAS_NEON; }
 
 #if SUPERMAT__HAS_AMX
 long syscall(long number, ...); /* <unistd.h> declares it only outside strict C99 */
 #endif
-SUPERMAT__DEF int supermat_cpu_has_amx_bf16(void) {
+static int supermat__cpu_has_amx_bf16(void) {
 #if SUPERMAT__HAS_AMX
     static int cached = -1;
     unsigned a, b, c, d;
     int ok = 0;
     if (cached >= 0) return cached;
-    if (supermat_cpu_has_avx512_bf16() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 24) & 1) && ((d >> 22) & 1)) {
+    if (supermat__cpu_has_avx512_bf16() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 24) & 1) && ((d >> 22) & 1)) {
         unsigned lo, hi;
         /* Linux hands out the 8 KB tile state on request (arch_prctl ARCH_REQ_XCOMP_PERM = 0x1023,
            XFEATURE_XTILEDATA = 18; syscall 158 on x86-64); XCR0 bits 17-18 say the OS manages it */
@@ -1356,6 +1378,18 @@ SUPERMAT__DEF int supermat_cpu_has_amx_bf16(void) {
 #else
     return 0;
 #endif
+}
+
+SUPERMAT__DEF supermat_cpu_info supermat_cpu(void) {
+    supermat_cpu_info c;
+    c.avx2 = supermat__cpu_has_avx2();
+    c.avx512 = supermat__cpu_has_avx512();
+    c.avx512_bf16 = supermat__cpu_has_avx512_bf16();
+    c.avx512_vnni = supermat__cpu_has_avx512_vnni();
+    c.avx_vnni = supermat__cpu_has_avx_vnni();
+    c.neon = supermat__cpu_has_neon();
+    c.amx_bf16 = supermat__cpu_has_amx_bf16();
+    return c;
 }
 
 /* >>convert : f16 / bf16 to f32 (scalar, exact) */
@@ -4352,11 +4386,11 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     if ((unsigned)desc->weights >= SUPERMAT_WEIGHTS_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown weight format %d", (int)desc->weights);
     if ((unsigned)desc->conv >= SUPERMAT_CONV_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown convolution algorithm %d", (int)desc->conv);
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
-    if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx2())
+    if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat__cpu_has_avx2())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
     if ((unsigned)desc->compute >= SUPERMAT_COMPUTE_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown compute mode %d", (int)desc->compute);
     if (desc->compute == SUPERMAT_COMPUTE_BF16) {
-        if (!supermat_cpu_has_avx512_bf16())
+        if (!supermat__cpu_has_avx512_bf16())
             return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "bf16 compute needs AVX512_BF16, which this CPU (or build) lacks");
         if (desc->kernel == SUPERMAT_KERNEL_SCALAR || desc->kernel == SUPERMAT_KERNEL_AVX2)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute runs on the AVX-512 kernel (kernel auto or avx512)");
@@ -4366,20 +4400,20 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     if (desc->compute == SUPERMAT_COMPUTE_INT8) {
         if (desc->kernel != SUPERMAT_KERNEL_AUTO && desc->kernel != SUPERMAT_KERNEL_AVX512 && desc->kernel != SUPERMAT_KERNEL_AVX2)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "int8 compute runs on the AVX-512 (AVX512_VNNI) or AVX2 (AVX-VNNI) kernel (kernel auto, avx512 or avx2)");
-        if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512_vnni())
+        if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat__cpu_has_avx512_vnni())
             return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX-512 kernel needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks");
-        if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat_cpu_has_avx_vnni())
+        if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat__cpu_has_avx_vnni())
             return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX2 kernel needs AVX-VNNI, which this CPU (or build: gcc >= 11, clang >= 12) lacks");
-        if (desc->kernel == SUPERMAT_KERNEL_AUTO && !supermat_cpu_has_avx512_vnni() && !supermat_cpu_has_avx_vnni())
+        if (desc->kernel == SUPERMAT_KERNEL_AUTO && !supermat__cpu_has_avx512_vnni() && !supermat__cpu_has_avx_vnni())
             return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute needs AVX512_VNNI or AVX-VNNI, which this CPU (or build) lacks");
     }
-    if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat_cpu_has_avx512())
+    if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat__cpu_has_avx512())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
-    if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat_cpu_has_neon())
+    if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat__cpu_has_neon())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "NEON kernels requested but this is not an aarch64 build");
     if (desc->kernel == SUPERMAT_KERNEL_AMX && desc->compute != SUPERMAT_COMPUTE_BF16)
         return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the AMX kernel multiplies bf16: it needs bf16 compute (compute = SUPERMAT_COMPUTE_BF16)");
-    if (desc->kernel == SUPERMAT_KERNEL_AMX && !supermat_cpu_has_amx_bf16())
+    if (desc->kernel == SUPERMAT_KERNEL_AMX && !supermat__cpu_has_amx_bf16())
         return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AMX kernels requested but this CPU, OS (or build) lacks AMX-TILE + AMX-BF16");
     a = supermat__resolve_allocator(&desc->allocator);
     r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
@@ -4391,7 +4425,7 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     memset(&L, 0, sizeof L);
     L.m = m; L.data = (const unsigned char *)desc->data; L.size = desc->size; L.copy = desc->copy_data; L.err = err;
     L.js = (const char *)desc->data + 8; L.meta = -1;
-    L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat_cpu_has_avx2();
+    L.avx2 = desc->kernel == SUPERMAT_KERNEL_SCALAR ? 0 : supermat__cpu_has_avx2();
     L.weights = (int)desc->weights;
     L.cap = desc->max_memory;
     L.bf16c = desc->compute == SUPERMAT_COMPUTE_BF16;
@@ -4560,12 +4594,12 @@ done:
     if (L.r) { supermat__model_free(m); return L.r; }
     if (L.bf16c) m->info.weights = SUPERMAT_WEIGHTS_BF16;
     if (L.i8c) m->info.weights = SUPERMAT_WEIGHTS_I8;
-    m->info.kernel = !L.avx2 ? (desc->kernel == SUPERMAT_KERNEL_NEON || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_neon())
+    m->info.kernel = !L.avx2 ? (desc->kernel == SUPERMAT_KERNEL_NEON || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat__cpu_has_neon())
                                     ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR)
-                   : L.bf16c && (desc->kernel == SUPERMAT_KERNEL_AMX || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_amx_bf16()))
+                   : L.bf16c && (desc->kernel == SUPERMAT_KERNEL_AMX || (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat__cpu_has_amx_bf16()))
                          ? SUPERMAT_KERNEL_AMX
                    : desc->kernel == SUPERMAT_KERNEL_AVX512 ||
-                             (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512() && (!L.i8c || supermat_cpu_has_avx512_vnni()))
+                             (desc->kernel == SUPERMAT_KERNEL_AUTO && supermat__cpu_has_avx512() && (!L.i8c || supermat__cpu_has_avx512_vnni()))
                          ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
     m->info.unet_in_channels = m->in_ch; m->info.unet_out_channels = m->out_ch; m->info.unet_levels = m->L;
     m->info.layers_per_block = m->lpb; m->info.norm_groups = m->groups;
@@ -6113,16 +6147,16 @@ SUPERMAT__DEF supermat_result supermat_bench_conv_run(supermat_bench_conv *b, su
     memset(&X, 0, sizeof X);
     X.mr = SUPERMAT__MR;
     if (kernel == SUPERMAT_KERNEL_AUTO) {
-        kernel = supermat_cpu_has_avx512() ? SUPERMAT_KERNEL_AVX512 : supermat_cpu_has_avx2() ? SUPERMAT_KERNEL_AVX2
-                 : supermat_cpu_has_neon() ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR;
+        kernel = supermat__cpu_has_avx512() ? SUPERMAT_KERNEL_AVX512 : supermat__cpu_has_avx2() ? SUPERMAT_KERNEL_AVX2
+                 : supermat__cpu_has_neon() ? SUPERMAT_KERNEL_NEON : SUPERMAT_KERNEL_SCALAR;
     }
     switch (kernel) {
     case SUPERMAT_KERNEL_SCALAR: X.ukr = supermat__ukr_scalar; break;
 #if SUPERMAT__HAS_AVX2
-    case SUPERMAT_KERNEL_AVX2: if (supermat_cpu_has_avx2()) X.ukr = supermat__ukr_avx2; break;
+    case SUPERMAT_KERNEL_AVX2: if (supermat__cpu_has_avx2()) X.ukr = supermat__ukr_avx2; break;
 #endif
 #if SUPERMAT__HAS_AVX512
-    case SUPERMAT_KERNEL_AVX512: if (supermat_cpu_has_avx512()) { X.ukr = supermat__ukr_avx512; X.mr = SUPERMAT__MR512; } break;
+    case SUPERMAT_KERNEL_AVX512: if (supermat__cpu_has_avx512()) { X.ukr = supermat__ukr_avx512; X.mr = SUPERMAT__MR512; } break;
 #endif
 #if SUPERMAT__HAS_NEON
     case SUPERMAT_KERNEL_NEON: X.ukr = supermat__ukr_neon; break;

@@ -96,7 +96,7 @@ static int cli_mode_setup(int mode, int w, int h, cli_bi_mode *bm, unsigned *out
     bm->kernel = -1;
     switch (mode) {
     case CLI_MODE_BF16_COMPUTE: /* vdpbf16ps on the AVX-512 kernel */
-        if (!supermat_cpu_has_avx512_bf16()) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_BF16"); return 1; }
+        if (!supermat_cpu().avx512_bf16) { snprintf(why, why_cap, "this CPU (or build) has no AVX512_BF16"); return 1; }
         bm->compute = SUPERMAT_COMPUTE_BF16;
         bm->kernel = SUPERMAT_KERNEL_AVX512;
         break;
@@ -104,7 +104,7 @@ static int cli_mode_setup(int mode, int w, int h, cli_bi_mode *bm, unsigned *out
         *conv = SUPERMAT_CONV_WINOGRAD_F4;
         /* fall through */
     case CLI_MODE_BF16_AMX:
-        if (!supermat_cpu_has_amx_bf16()) { snprintf(why, why_cap, "this CPU (OS or build) has no AMX-BF16"); return 1; }
+        if (!supermat_cpu().amx_bf16) { snprintf(why, why_cap, "this CPU (OS or build) has no AMX-BF16"); return 1; }
         bm->compute = SUPERMAT_COMPUTE_BF16;
         bm->kernel = SUPERMAT_KERNEL_AMX;
         break;
@@ -112,21 +112,21 @@ static int cli_mode_setup(int mode, int w, int h, cli_bi_mode *bm, unsigned *out
         *conv = SUPERMAT_CONV_WINOGRAD_F4;
         /* fall through */
     case CLI_MODE_INT8_COMPUTE: /* vpdpbusd on the AVX-512 kernel (AVX512_VNNI), else on the AVX2 one (AVX-VNNI) */
-        if (!supermat_cpu_has_avx512_vnni() && !supermat_cpu_has_avx_vnni()) {
+        if (!supermat_cpu().avx512_vnni && !supermat_cpu().avx_vnni) {
             snprintf(why, why_cap, "this CPU (or build) has neither AVX512_VNNI nor AVX-VNNI");
             return 1;
         }
         bm->compute = SUPERMAT_COMPUTE_INT8;
-        bm->kernel = supermat_cpu_has_avx512_vnni() ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
+        bm->kernel = supermat_cpu().avx512_vnni ? SUPERMAT_KERNEL_AVX512 : SUPERMAT_KERNEL_AVX2;
         break;
     case CLI_MODE_INT8_COMPUTE_AVX2: /* beside int8_compute on AVX512_VNNI: the 256-bit AVX-VNNI kernel, the same bits */
-        if (!supermat_cpu_has_avx_vnni()) { snprintf(why, why_cap, "this CPU (or build) has no AVX-VNNI"); return 1; }
-        if (!supermat_cpu_has_avx512_vnni()) { snprintf(why, why_cap, "int8_compute already runs the AVX-VNNI kernel"); return 1; }
+        if (!supermat_cpu().avx_vnni) { snprintf(why, why_cap, "this CPU (or build) has no AVX-VNNI"); return 1; }
+        if (!supermat_cpu().avx512_vnni) { snprintf(why, why_cap, "int8_compute already runs the AVX-VNNI kernel"); return 1; }
         bm->compute = SUPERMAT_COMPUTE_INT8;
         bm->kernel = SUPERMAT_KERNEL_AVX2;
         break;
     case CLI_MODE_KERNEL_AVX2: /* beside the f32 row's AVX-512 kernel: the same bits, the time of the narrower one */
-        if (!supermat_cpu_has_avx512()) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
+        if (!supermat_cpu().avx512) { snprintf(why, why_cap, "the f32 row already runs the AVX2 (or scalar) kernel"); return 1; }
         bm->kernel = SUPERMAT_KERNEL_AVX2;
         break;
     case CLI_MODE_F16: *weights = SUPERMAT_WEIGHTS_F16; break;

@@ -2,7 +2,7 @@
  * _mm512_fmadd_ps where the AVX-512 kernel runs) or of the dot instruction a bf16 / int8 compute multiplies
  * with (vdpbf16ps, vpdpbusd), on the calling thread or on every thread of a supermat_threading hook.
  * A bench_peak struct holds what one probe measures and its calibration: no state between calls.
- * Depends on supermat.h's public API only (supermat_threading, supermat_cpu_has_*, the kernel and compute
+ * Depends on supermat.h's public API only (supermat_threading, supermat_cpu(), the kernel and compute
  * enums), <immintrin.h> and clock_gettime. Included by cli/bench.c (the CLI is one translation unit).
  */
 
@@ -149,11 +149,11 @@ BENCH_AVXVNNI static float bench_dot_vnni256(long iters, float seed) {
 /* which dot instruction a model's GEMMs multiply with (its kernel and compute, as supermat_model_get_info says) */
 static int bench_dot_for(supermat_kernel kernel, supermat_compute compute) {
 #if BENCH_HAS_AVX512
-    if (compute == SUPERMAT_COMPUTE_BF16 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu_has_avx512_bf16()) return BENCH_DOT_BF16_ZMM;
-    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu_has_avx512_vnni()) return BENCH_DOT_VNNI_ZMM;
+    if (compute == SUPERMAT_COMPUTE_BF16 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu().avx512_bf16) return BENCH_DOT_BF16_ZMM;
+    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX512 && supermat_cpu().avx512_vnni) return BENCH_DOT_VNNI_ZMM;
 #endif
 #if BENCH_HAS_AVXVNNI
-    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX2 && supermat_cpu_has_avx_vnni()) return BENCH_DOT_VNNI_YMM;
+    if (compute == SUPERMAT_COMPUTE_INT8 && kernel == SUPERMAT_KERNEL_AVX2 && supermat_cpu().avx_vnni) return BENCH_DOT_VNNI_YMM;
 #endif
     (void)kernel; (void)compute;
     return BENCH_DOT_NONE;
@@ -198,7 +198,7 @@ static double bench_peak_of(bench_peak *p, const supermat_threading *hook, int r
     int tasks = hook ? 8 * hook->max_threads : 8, rep;
     double best = 0.0, t;
     float sink[8 * 64];
-    if (!supermat_cpu_has_avx2()) return 0.0;
+    if (!supermat_cpu().avx2) return 0.0;
     job.sink = sink;
     job.dot = dot;
     job.zmm = p->zmm;

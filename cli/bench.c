@@ -345,7 +345,7 @@ static int cli_bench(int argc, char **argv) {
 
     /* (a) here and again at the end (the best counts: a busy neighbour only lowers it); with 512-bit FMAs
        when the pipeline runs the AVX-512 kernel */
-    fma.zmm = kernel == SUPERMAT_KERNEL_AVX512 || kernel == SUPERMAT_KERNEL_AMX || (kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu_has_avx512());
+    fma.zmm = kernel == SUPERMAT_KERNEL_AVX512 || kernel == SUPERMAT_KERNEL_AMX || (kernel == SUPERMAT_KERNEL_AUTO && supermat_cpu().avx512);
     if (!pipeline_only) {
         peak1 = bench_peak_of(&fma, NULL, 3);
         peak = bench_peak_of(&fma, &hook, 3);
@@ -471,8 +471,8 @@ static int cli_bench(int argc, char **argv) {
             rc = CLI_FAIL;
         } else {
             const float *out;
-            if (supermat_cpu_has_avx2()) t_avx2 = cli_gemm_time(g, SUPERMAT_KERNEL_AVX2, &hook, 0.5, ref, nout);
-            if (supermat_cpu_has_avx512()) {
+            if (supermat_cpu().avx2) t_avx2 = cli_gemm_time(g, SUPERMAT_KERNEL_AVX2, &hook, 0.5, ref, nout);
+            if (supermat_cpu().avx512) {
                 t_avx512 = cli_gemm_time(g, SUPERMAT_KERNEL_AVX512, &hook, 0.5, NULL, nout);
                 avx512_same = t_avx512 > 0 && ref && !memcmp(ref, supermat_bench_conv_output(g), nout * sizeof(float));
             }

@@ -323,15 +323,23 @@ static int cli_image(int argc, char **argv) {
         int w, h, c;
         int is16;
         if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory, &is16)) { rc = CLI_FAIL; break; }
-        if (work_opt == 0 && (w % 8 || h % 8)) {
-            cli_error("image '%s' is %dx%d: --native runs the network at the picture's own size, which needs multiples of 8 "
-                      "(without --native it is resampled to the model's work size)", imgs[i], w, h);
-            rc = CLI_FAIL;
-            break;
-        }
     }
     if (rc == CLI_OK) rc = cli_load_model(model_path, kernel, &X.lv, &file, &file_size, &X.model, NULL);
     if (rc == CLI_OK) rc = cli_require_kind(cmd, model_path, X.model, SUPERMAT_KIND_SUPERMAT);
+    if (rc == CLI_OK) { /* at the pictures' own size the sides must be multiples of 8: every picture checked before any work */
+        supermat_model_info mi;
+        memset(&mi, 0, sizeof mi);
+        supermat_model_get_info(X.model, &mi);
+        for (i = 0; i < nimg && rc == CLI_OK && (work_opt == 0 || (work_opt < 0 && !mi.work_size)); i++) {
+            int w, h, c, is16;
+            if (!cli_pic_info(imgs[i], "image", &w, &h, &c, X.lv.max_memory, &is16)) rc = CLI_FAIL;
+            else if (w % 8 || h % 8) {
+                cli_error("image '%s' is %dx%d: the network runs at the picture's own size (%s), which needs multiples of 8 "
+                          "(--work-size N resamples it)", imgs[i], w, h, work_opt == 0 ? "--native" : "the model records no work size");
+                rc = CLI_FAIL;
+            }
+        }
+    }
     if (rc == CLI_OK) rc = cli_mkdirs(out_dir);
     X.outputs = outputs; X.want_float = want_float; X.threads = threads; X.tty = tty; X.prefix = ""; X.work_opt = work_opt;
     for (i = 0; i < nimg && rc == CLI_OK; i++)

@@ -72,8 +72,8 @@ int main(void) {
     /* AVX2 */
     {
         supermat_result r = supermat_bench_conv_run(b, SUPERMAT_KERNEL_AVX2, NULL, &err);
-        have_avx2 = supermat_cpu_has_avx2() && r == SUPERMAT_SUCCESS;
-        if (supermat_cpu_has_avx2()) CHECK("run avx2", r == SUPERMAT_SUCCESS || r == SUPERMAT_ERROR_UNSUPPORTED /* SUPERMAT_NO_AVX2 */);
+        have_avx2 = supermat_cpu().avx2 && r == SUPERMAT_SUCCESS;
+        if (supermat_cpu().avx2) CHECK("run avx2", r == SUPERMAT_SUCCESS || r == SUPERMAT_ERROR_UNSUPPORTED /* SUPERMAT_NO_AVX2 */);
         else CHECK("run avx2 without AVX2: UNSUPPORTED", r == SUPERMAT_ERROR_UNSUPPORTED);
         if (have_avx2) {
             double d = rel_diff(scalar, supermat_bench_conv_output(b), n);

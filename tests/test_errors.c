@@ -436,7 +436,7 @@ static void test_compute(void) {
         {SUPERMAT_KERNEL_NEON, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the NEON kernel"},
         {SUPERMAT_KERNEL_AMX, 0, SUPERMAT_COMPUTE_INT8, SUPERMAT_ERROR_INVALID_ARGUMENT, "int8 compute on the AMX kernel"},
     };
-    int i, has = supermat_cpu_has_avx512_bf16(), has8 = supermat_cpu_has_avx512_vnni(), has8v = supermat_cpu_has_avx_vnni();
+    int i, has = supermat_cpu().avx512_bf16, has8 = supermat_cpu().avx512_vnni, has8v = supermat_cpu().avx_vnni;
     for (i = 0; i < (int)(sizeof cases / sizeof cases[0]); i++) {
         supermat_model_desc md;
         supermat_model *m = NULL;
@@ -463,7 +463,7 @@ static void test_compute(void) {
         else {
             TU_CHECK(r == SUPERMAT_SUCCESS, "bf16 compute: %s", err.message);
             if (m) { /* AUTO: AMX tiles where the CPU and OS allow them, else vdpbf16ps on the AVX-512 kernel */
-                supermat_kernel want_k = supermat_cpu_has_amx_bf16() ? SUPERMAT_KERNEL_AMX : SUPERMAT_KERNEL_AVX512;
+                supermat_kernel want_k = supermat_cpu().amx_bf16 ? SUPERMAT_KERNEL_AMX : SUPERMAT_KERNEL_AVX512;
                 supermat_model_get_info(m, &info);
                 TU_CHECK(info.compute == SUPERMAT_COMPUTE_BF16 && info.kernel == want_k && info.weights == SUPERMAT_WEIGHTS_BF16,
                          "bf16 compute model info: compute %d kernel %d (want %d) weights %d", (int)info.compute, (int)info.kernel, (int)want_k, (int)info.weights);
@@ -478,7 +478,7 @@ static void test_compute(void) {
             m = NULL;
             md.kernel = SUPERMAT_KERNEL_AMX; /* AMX by name: a model, or UNSUPPORTED without it */
             r = supermat_model_create(&md, &m, &err);
-            if (supermat_cpu_has_amx_bf16()) TU_CHECK(r == SUPERMAT_SUCCESS && m, "bf16 compute on AMX: %s", err.message);
+            if (supermat_cpu().amx_bf16) TU_CHECK(r == SUPERMAT_SUCCESS && m, "bf16 compute on AMX: %s", err.message);
             else TU_CHECK(r == SUPERMAT_ERROR_UNSUPPORTED && !m, "AMX without AMX: got %s", supermat_result_string(r));
         }
         {   /* int8 compute, from f32 and from int8 weights: AUTO picks the AVX-512 kernel (AVX512_VNNI), else the
@@ -505,7 +505,7 @@ static void test_compute(void) {
                 }
             md.kernel = SUPERMAT_KERNEL_AUTO; md.compute = SUPERMAT_COMPUTE_BF16; md.weights = SUPERMAT_WEIGHTS_DEFAULT;
         }
-        if (!supermat_cpu_has_neon()) { /* the NEON kernel by name on a build without it */
+        if (!supermat_cpu().neon) { /* the NEON kernel by name on a build without it */
             supermat_model_destroy(m);
             m = NULL;
             md.compute = SUPERMAT_COMPUTE_F32; md.kernel = SUPERMAT_KERNEL_NEON;

@@ -113,7 +113,7 @@ static void test_softmax_extremes(void) {
     float q[6 * 16], k[5 * 16], v[5 * 16], o[6 * 16], kp[16 * 16 * 4], vp[16 * 16 * 4];
     float *scratch;
     int i, j, avx2;
-    for (avx2 = 0; avx2 <= supermat_cpu_has_avx2(); avx2++) {
+    for (avx2 = 0; avx2 <= supermat_cpu().avx2; avx2++) {
         memset(&X, 0, sizeof X);
         X.avx2 = avx2;
         supermat__select_kernels(&X);
@@ -195,7 +195,7 @@ static void test_f16_overflow(void) {
     memset(p, 0, sizeof p);
     for (j = 0; j < N; j++) for (k = 0; k < K; k++) p[((size_t)(j / 16) * K + k) * 16 + j % 16] = w[j * K + k];
     TU_CHECK(supermat__quantize_panels(p, sizeof p / sizeof p[0], K, N, K, 1, q, scale, &bad) == 0, "f16 panels");
-    for (avx2 = 0; avx2 <= supermat_cpu_has_avx2(); avx2++) {
+    for (avx2 = 0; avx2 <= supermat_cpu().avx2; avx2++) {
         double worst = 0.0, ymax = 0.0;
         memset(&X, 0, sizeof X);
         X.avx2 = avx2;

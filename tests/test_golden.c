@@ -237,12 +237,12 @@ int main(int argc, char **argv) {
     if (strstr(kern, ":wf2")) md.conv = SUPERMAT_CONV_WINOGRAD_F2;
     if (strstr(kern, ":wf4")) md.conv = SUPERMAT_CONV_WINOGRAD_F4;
     if (strstr(kern, ":bf16c")) { /* bf16 compute (AVX512_BF16) */
-        if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16 on this CPU (or build)\n"); free(file); return 77; }
+        if (!supermat_cpu().avx512_bf16) { printf("SKIP: no AVX512_BF16 on this CPU (or build)\n"); free(file); return 77; }
         md.compute = SUPERMAT_COMPUTE_BF16;
     }
     if (strstr(kern, ":i8c")) { /* int8 compute: AVX512_VNNI on the AVX-512 kernel, AVX-VNNI on the AVX2 one */
         int avx2 = !strncmp(kern, "avx2", 4);
-        if (!(avx2 ? supermat_cpu_has_avx_vnni() : supermat_cpu_has_avx512_vnni())) {
+        if (!(avx2 ? supermat_cpu().avx_vnni : supermat_cpu().avx512_vnni)) {
             printf("SKIP: no %s on this CPU (or build)\n", avx2 ? "AVX-VNNI" : "AVX512_VNNI");
             free(file);
             return 77;
@@ -250,20 +250,20 @@ int main(int argc, char **argv) {
         md.compute = SUPERMAT_COMPUTE_INT8;
     }
     if (!strncmp(kern, "avx2", 4)) {
-        if (!supermat_cpu_has_avx2()) { printf("SKIP: no AVX2 on this CPU (or build)\n"); free(file); return 77; }
+        if (!supermat_cpu().avx2) { printf("SKIP: no AVX2 on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX2;
     }
     if (!strncmp(kern, "avx512", 6)) {
-        if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F on this CPU (or build)\n"); free(file); return 77; }
+        if (!supermat_cpu().avx512) { printf("SKIP: no AVX-512F on this CPU (or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AVX512;
     }
     if (!strncmp(kern, "amx", 3)) { /* bf16 compute on AMX tiles */
-        if (!supermat_cpu_has_amx_bf16()) { printf("SKIP: no AMX-BF16 on this CPU (or OS, or build)\n"); free(file); return 77; }
+        if (!supermat_cpu().amx_bf16) { printf("SKIP: no AMX-BF16 on this CPU (or OS, or build)\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_AMX;
         md.compute = SUPERMAT_COMPUTE_BF16;
     }
     if (!strncmp(kern, "neon", 4)) {
-        if (!supermat_cpu_has_neon()) { printf("SKIP: not an aarch64 build: no NEON kernel\n"); free(file); return 77; }
+        if (!supermat_cpu().neon) { printf("SKIP: not an aarch64 build: no NEON kernel\n"); free(file); return 77; }
         md.kernel = SUPERMAT_KERNEL_NEON;
     }
     TU_CHECK(supermat_model_create(&md, &model, &err) == SUPERMAT_SUCCESS, "model_create: %s", err.message);

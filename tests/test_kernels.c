@@ -19,7 +19,7 @@ typedef struct kctx { supermat__ctx X; supermat_pool *pool; float *mem; } kctx;
 #define NMODES 4
 static const char *KN(int mode) { return mode == 3 ? "neon" : mode == 2 ? "avx512" : mode ? "avx2" : "scalar"; }
 static int mode_ok(int mode) {
-    return mode == 0 || (mode == 1 ? supermat_cpu_has_avx2() : mode == 2 ? supermat_cpu_has_avx512() : supermat_cpu_has_neon());
+    return mode == 0 || (mode == 1 ? supermat_cpu().avx2 : mode == 2 ? supermat_cpu().avx512 : supermat_cpu().neon);
 }
 static void kctx_init(kctx *k, int avx2, int threads) {
     int i, nt;
@@ -344,7 +344,7 @@ SUPERMAT__AVX2 static float contract_probe(volatile float *v) { float a = v[0], 
 static int fp_contracts(void) {
     volatile float v[2];
     v[0] = 1.0f + 1.0f / 4096; v[1] = -(1.0f + 2.0f / 4096); /* a * a = 1 + 2^-11 + 2^-24: 0 unless fused */
-    return supermat_cpu_has_avx2() && contract_probe(v) != 0.0f;
+    return supermat_cpu().avx2 && contract_probe(v) != 0.0f;
 }
 #else
 static int fp_contracts(void) { return 0; }
@@ -464,7 +464,7 @@ static void test_winograd(void) {
 
 static void test_exp(void) {
 #if SUPERMAT__HAS_AVX2
-    if (supermat_cpu_has_avx2()) {
+    if (supermat_cpu().avx2) {
         float x[8], y[8];
         double worst = 0;
         int i, j;
@@ -487,7 +487,7 @@ static void test_exp(void) {
 static void test_same_bits(void) {
     kctx k[2];
     int t, mode;
-    if (!supermat_cpu_has_avx512()) { printf("SKIP: no AVX-512F: AVX-512 vs AVX2 bits not compared\n"); return; }
+    if (!supermat_cpu().avx512) { printf("SKIP: no AVX-512F: AVX-512 vs AVX2 bits not compared\n"); return; }
     kctx_init(&k[0], 1, 1);
     kctx_init(&k[1], 2, 3);
     for (t = 0; t < 24; t++) {
@@ -587,9 +587,9 @@ static float bf16_round(float x) { uint16_t h = supermat__f32_to_bf16(x); return
 static void test_bf16_compute(void) {
 #if SUPERMAT__HAS_AVX512
     kctx k[2][2];
-    int t, th, v, nv = supermat_cpu_has_amx_bf16() ? 2 : 1;
+    int t, th, v, nv = supermat_cpu().amx_bf16 ? 2 : 1;
     double worst_r[2] = {0, 0}, worst_x[2] = {0, 0};
-    if (!supermat_cpu_has_avx512_bf16()) { printf("SKIP: no AVX512_BF16: bf16 compute not tested\n"); return; }
+    if (!supermat_cpu().avx512_bf16) { printf("SKIP: no AVX512_BF16: bf16 compute not tested\n"); return; }
     if (nv < 2) printf("SKIP: no AMX-BF16 (CPU, OS or build): the AMX kernel was not tested\n");
     for (v = 0; v < nv; v++) {
         kctx_init(&k[v][0], 2, 1);
@@ -662,8 +662,8 @@ static void test_int8_compute(void) {
     int t, th, v, has[2];
     double worst_r[2] = {0, 0}, worst_x[2] = {0, 0};
     static const char *const vname[2] = {"AVX512_VNNI", "AVX-VNNI"};
-    has[0] = supermat_cpu_has_avx512_vnni();
-    has[1] = supermat_cpu_has_avx_vnni();
+    has[0] = supermat_cpu().avx512_vnni;
+    has[1] = supermat_cpu().avx_vnni;
     if (!has[0]) printf("SKIP: no AVX512_VNNI: the 512-bit int8 kernel not tested\n");
     if (!has[1]) printf("SKIP: no AVX-VNNI (or a compiler without it): the 256-bit int8 kernel not tested\n");
     if (!has[0] && !has[1]) return;

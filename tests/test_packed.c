@@ -298,8 +298,8 @@ int main(int argc, char **argv) {
         if (!file) { printf("cannot read %s\n", argv[1 + f]); return 1; }
         for (o = 0; o < (int)(sizeof O / sizeof O[0]); o++) {
             unsigned char *packed;
-            if (O[o].compute == SUPERMAT_COMPUTE_BF16 && !supermat_cpu_has_avx512_bf16()) { printf("%s %s: skipped (no AVX512_BF16 here)\n", names[f], O[o].name); continue; }
-            if (O[o].compute == SUPERMAT_COMPUTE_INT8 && !supermat_cpu_has_avx512_vnni()) { printf("%s %s: skipped (no AVX512_VNNI here)\n", names[f], O[o].name); continue; }
+            if (O[o].compute == SUPERMAT_COMPUTE_BF16 && !supermat_cpu().avx512_bf16) { printf("%s %s: skipped (no AVX512_BF16 here)\n", names[f], O[o].name); continue; }
+            if (O[o].compute == SUPERMAT_COMPUTE_INT8 && !supermat_cpu().avx512_vnni) { printf("%s %s: skipped (no AVX512_VNNI here)\n", names[f], O[o].name); continue; }
             if (f == 3 && O[o].weights != SUPERMAT_WEIGHTS_DEFAULT) continue; /* the int8 file as stored */
             if (f == 3 && O[o].compute == SUPERMAT_COMPUTE_BF16) continue;
             packed = check_one(names[f], file, size, &O[o], &psize);

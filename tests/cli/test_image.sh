@@ -163,13 +163,20 @@ run image --model "$MODEL" --max-memory lots --out "$T/mm4" "$SPHERE"
 check "--max-memory with a bad size: exit 2" [ $RC -eq 2 ]
 
 # ---- --detail and --chroma: the albedo keeps the picture's detail and colour -------------------
+# Their defaults are what the model file records: MODEL records none (as an official file), STEPS the same
+# network recording the default model's detail 1/64 and colour 1.
+STEPS=$T/tiny_steps.safetensors
+run convert --from "$MODEL" --detail 1/64 --chroma 1 --out "$STEPS"
+check "setup: the tiny model recording detail 1/64 and colour 1" [ $RC -eq 0 ]
 # the network's maps alone, to compare with
 GT=$T/gt
-run image --model "$MODEL" --detail off --chroma off --out "$GT" "$SPHERE"
+run image --model "$STEPS" --detail off --chroma off --out "$GT" "$SPHERE"
 check "image --detail off --chroma off exits 0" [ $RC -eq 0 ]
-# --detail: image's default (1/64) changes the albedo only; a value out of range is a usage error
+run image --model "$MODEL" --out "$T/no_steps" "$SPHERE"
+check "image: a model that records no step gets none by default" cmp -s "$T/no_steps/sphere_64_albedo.png" "$GT/sphere_64_albedo.png"
+# --detail: the recorded 1/64 changes the albedo only; a value out of range is a usage error
 DT=$T/detail_default
-run image --model "$MODEL" --chroma off --out "$DT" "$SPHERE"
+run image --model "$STEPS" --chroma off --out "$DT" "$SPHERE"
 check "image with the default --detail exits 0" [ $RC -eq 0 ]
 check "image: the default --detail changes the albedo" bash -c "! cmp -s '$DT/sphere_64_albedo.png' '$GT/sphere_64_albedo.png'"
 check "image: the default --detail leaves roughness and metallic" bash -c "cmp -s '$DT/sphere_64_roughness.png' '$GT/sphere_64_roughness.png' && cmp -s '$DT/sphere_64_metallic.png' '$GT/sphere_64_metallic.png'"
@@ -185,15 +192,15 @@ check "refine --detail exits 2 (a UV map has no picture)" [ $RC -eq 2 ]
 # --chroma: image's default (1, after the detail step) changes the albedo only; 0 and off are the same;
 # a value out of range is a usage error; views' default is off
 CH=$T/chroma_default
-run image --model "$MODEL" --out "$CH" "$SPHERE"
+run image --model "$STEPS" --out "$CH" "$SPHERE"
 check "image with the default --chroma exits 0" [ $RC -eq 0 ]
 check "image: the default --chroma changes the albedo" bash -c "! cmp -s '$CH/sphere_64_albedo.png' '$DT/sphere_64_albedo.png'"
 check "image: the default --chroma leaves roughness and metallic" bash -c "cmp -s '$CH/sphere_64_roughness.png' '$DT/sphere_64_roughness.png' && cmp -s '$CH/sphere_64_metallic.png' '$DT/sphere_64_metallic.png'"
 run image --model "$MODEL" --chroma 1 --detail 0.015625 --out "$T/chroma_explicit" "$SPHERE"
 check "image --chroma 1 --detail 0.015625 = the default" cmp -s "$T/chroma_explicit/sphere_64_albedo.png" "$CH/sphere_64_albedo.png"
-run image --model "$MODEL" --chroma 0 --out "$T/chroma_zero" "$SPHERE"
+run image --model "$STEPS" --chroma 0 --out "$T/chroma_zero" "$SPHERE"
 check "image --chroma 0 = --chroma off" cmp -s "$T/chroma_zero/sphere_64_albedo.png" "$DT/sphere_64_albedo.png"
-run image --model "$MODEL" --chroma 0.5 --out "$T/chroma_half" "$SPHERE"
+run image --model "$STEPS" --chroma 0.5 --out "$T/chroma_half" "$SPHERE"
 check "image --chroma 0.5 differs from 0 and 1" bash -c "! cmp -s '$T/chroma_half/sphere_64_albedo.png' '$DT/sphere_64_albedo.png' && ! cmp -s '$T/chroma_half/sphere_64_albedo.png' '$CH/sphere_64_albedo.png'"
 for bad in 1.5 -0.1 nan grey; do
     run image --model "$MODEL" --chroma "$bad" --out "$T/chroma_bad" "$SPHERE"

@@ -142,8 +142,9 @@ cp "$SPHERE" "$T/vin/front.png"
 run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$T/vin/front.png"
 check "a view without a number exits 1" [ $RC -eq 1 ]
 check "a view without a number: the message names it" grep -q 'front.png' "$T/err"
-run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$BAD"
-check "a 30x30 view exits 1" [ $RC -eq 1 ]
+cp "$BAD" "$T/vin/bad_0000.png" # a camera index that meta.json has: the size is what is wrong
+run views --model "$MV" --cameras "$MVIMG/meta.json" --out "$T/views_bad" "$T/vin/bad_0000.png"
+check "a 30x30 view exits 1 (the model records no work size: the views' own size)" [ $RC -eq 1 ]
 check "a 30x30 view: multiples of 8" grep -q 'multiples of 8' "$T/err"
 run views --model "$MV" --cameras "$T/no_such_meta.json" --out "$T/views_bad" "$MVIMG/color_0000.png"
 check "a missing meta.json exits 1" [ $RC -eq 1 ]
