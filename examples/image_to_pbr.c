@@ -1,10 +1,15 @@
 /* image_to_pbr.c - the smallest useful supermat program: one picture in, three PBR maps out.
  *
- *   cc -O2 -I.. image_to_pbr.c -o image_to_pbr -lm -lpthread      (needs Debian's libstb-dev)
+ *   cc -std=c99 -O2 -I.. image_to_pbr.c -o image_to_pbr -lm -lpthread      (needs Debian's libstb-dev)
  *   ./image_to_pbr model.safetensors picture.png out_prefix
  *
- * writes out_prefix_albedo.png, out_prefix_roughness.png, out_prefix_metallic.png. The picture must
- * be a multiple of 8 pixels in both sizes (the official model was trained at 512x512). */
+ * writes out_prefix_albedo.png, out_prefix_roughness.png and out_prefix_metallic.png at the picture's size
+ * (any size), from any model file (pre-packed by `supermat pack` too). Every session field is left 0, so the
+ * model file's pipeline runs (its work size, detail and colour steps) as in `supermat image`: these are its
+ * maps of an 8-bit picture, pixel for pixel (tests/cli/test_parity.sh), when built as it is, -std=c99 (gcc's
+ * default GNU modes fuse multiply-adds, -ffp-contract=fast, which moves a few values by 1/255). A picture with
+ * a transparent pixel gets an RGBA albedo and gray + alpha roughness and metallic (the library copies the
+ * input's alpha into the 4th / 2nd channel), any other RGB and gray. */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
 #if defined(__GNUC__)
@@ -38,48 +43,60 @@ static void *read_file(const char *path, size_t *size) {
 }
 
 int main(int argc, char **argv) {
+    static const char *const names[3] = {"albedo", "roughness", "metallic"};
     supermat_model_desc md;
     supermat_session_desc sd;
     supermat_run_desc rd;
+    supermat_image *out[3];
     supermat_model *model = NULL;
     supermat_session *session = NULL;
     supermat_error err;
-    unsigned char *rgba, *albedo, *rough, *metal;
-    size_t size = 0;
-    void *file;
-    int w, h, n, ok = 0;
+    unsigned char *rgba = NULL, *maps[3] = {NULL, NULL, NULL};
+    void *file = NULL;
+    size_t size = 0, np, i;
+    int w, h, n, k, alpha = 0, ok = 0;
     char path[1024];
     if (argc != 4) { fprintf(stderr, "usage: %s model.safetensors picture.png out_prefix\n", argv[0]); return 2; }
-    file = read_file(argv[1], &size);
-    rgba = stbi_load(argv[2], &w, &h, &n, 4);
-    if (!file || !rgba) { fprintf(stderr, "cannot read %s\n", file ? argv[2] : argv[1]); return 1; }
+    if (!(file = read_file(argv[1], &size))) { fprintf(stderr, "cannot read %s\n", argv[1]); return 1; }
+    if (!(rgba = stbi_load(argv[2], &w, &h, &n, 4))) {
+        fprintf(stderr, "cannot read %s: %s\n", argv[2], stbi_failure_reason());
+        free(file);
+        return 1;
+    }
+    /* the maps keep the picture's alpha when its file has one (2 or 4 channels) that is not all opaque */
+    np = (size_t)w * (size_t)h;
+    if (n == 2 || n == 4)
+        for (i = 0; i < np && !alpha; i++) alpha = rgba[i * 4 + 3] != 255;
     memset(&md, 0, sizeof md);
     md.data = file; md.size = size;
-    if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { fprintf(stderr, "model: %s\n", err.message); return 1; }
+    md.copy_data = 1;   /* the model keeps no pointer into `file` (freed below); a pre-packed file in a buffer
+                           that is not 64-byte aligned (malloc's) is refused without it */
+    if (supermat_model_create(&md, &model, &err) != SUPERMAT_SUCCESS) { fprintf(stderr, "model: %s\n", err.message); goto done; }
+    free(file);
+    file = NULL;
     memset(&sd, 0, sizeof sd);
-    sd.model = model; sd.width = w; sd.height = h;
-    if (supermat_session_create(&sd, &session, &err) != SUPERMAT_SUCCESS) { fprintf(stderr, "session: %s\n", err.message); return 1; }
-    albedo = (unsigned char *)malloc((size_t)w * h * 3);
-    rough = (unsigned char *)malloc((size_t)w * h);
-    metal = (unsigned char *)malloc((size_t)w * h);
+    sd.model = model; sd.width = w; sd.height = h;   /* the rest 0: the model file's pipeline */
+    if (supermat_session_create(&sd, &session, &err) != SUPERMAT_SUCCESS) { fprintf(stderr, "session: %s\n", err.message); goto done; }
     memset(&rd, 0, sizeof rd);
     rd.input.pixels = rgba; rd.input.width = w; rd.input.height = h; rd.input.channels = 4;
-    rd.albedo.pixels = albedo; rd.albedo.channels = 3;
-    rd.roughness.pixels = rough; rd.roughness.channels = 1;
-    rd.metallic.pixels = metal; rd.metallic.channels = 1;
-    if (supermat_run(session, &rd, &err) != SUPERMAT_SUCCESS) fprintf(stderr, "run: %s\n", err.message);
-    else {
-        snprintf(path, sizeof path, "%s_albedo.png", argv[3]);
-        ok = stbi_write_png(path, w, h, 3, albedo, w * 3);
-        snprintf(path, sizeof path, "%s_roughness.png", argv[3]);
-        ok = ok && stbi_write_png(path, w, h, 1, rough, w);
-        snprintf(path, sizeof path, "%s_metallic.png", argv[3]);
-        ok = ok && stbi_write_png(path, w, h, 1, metal, w);
-        if (!ok) fprintf(stderr, "cannot write %s\n", path);
+    out[0] = &rd.albedo; out[1] = &rd.roughness; out[2] = &rd.metallic;
+    for (k = 0; k < 3; k++) {   /* 8-bit: RGB / gray, with alpha RGBA / gray + alpha */
+        out[k]->channels = (k == 0 ? 3 : 1) + alpha;
+        if (!(maps[k] = (unsigned char *)malloc(np * (size_t)out[k]->channels))) { fprintf(stderr, "out of memory\n"); goto done; }
+        out[k]->pixels = maps[k];
     }
-    supermat_session_destroy(session);
-    supermat_model_destroy(model);
-    free(albedo); free(rough); free(metal); free(file);
+    if (supermat_run(session, &rd, &err) != SUPERMAT_SUCCESS) { fprintf(stderr, "run: %s\n", err.message); goto done; }
+    for (k = 0; k < 3; k++) {
+        int ch = out[k]->channels;
+        if (snprintf(path, sizeof path, "%s_%s.png", argv[3], names[k]) >= (int)sizeof path) { fprintf(stderr, "%s: too long\n", argv[3]); goto done; }
+        if (!stbi_write_png(path, w, h, ch, maps[k], w * ch)) { fprintf(stderr, "cannot write %s\n", path); goto done; }
+    }
+    ok = 1;
+done:
+    supermat_session_destroy(session);   /* both take NULL */
+    supermat_model_destroy(model);       /* after every session of it */
+    for (k = 0; k < 3; k++) free(maps[k]);
+    free(file);
     stbi_image_free(rgba);
     return ok ? 0 : 1;
 }
