@@ -147,6 +147,9 @@
  *   per 64 rows of K and those chunks in float32 (1e-5 relative of the float64 sums of the same quantized
  *   operands); its error against f32 is the quantization's; its two kernels (AVX512_VNNI on the AVX-512
  *   kernel, AVX-VNNI on the AVX2 one) give the same bits. Denormals are not flushed.
+ *   Compile the implementation with -std=c99 (or -ffp-contract=off): gcc's default GNU modes fuse a * b + c
+ *   in plain C into FMAs where they see fit, which moves the last bits (an 8-bit map by 1 in a few pixels).
+ *   The project's tools and tests build that way, so the same flags give their bytes.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,
@@ -177,9 +180,11 @@
  *   `supermat.packed.data` (the panels, 64-byte aligned in the file) and `supermat.packed.index`, the
  *   metadata keys supermat.packed ("1"), supermat.packed.weights / .conv / .compute (the enum values),
  *   and every tensor of the original file except those only the packing read. supermat_model_create
- *   uses its panels in place from desc->data, which must then be 64-byte aligned (a mapped file is) and
- *   outlive the model, unless copy_data is set. Creating it asks for the options it was packed for
- *   (weights may be DEFAULT), else UNSUPPORTED. Every offset and size in the index is checked against
+ *   uses its panels in place from desc->data when they are 64-byte aligned (a mapped file, or an aligned
+ *   allocation; it must then outlive the model); otherwise, or with copy_data, the whole model is copied
+ *   into its own memory (supermat_model_info.prepacked_bytes is 0 then). conv and compute left 0 are
+ *   the ones it was packed for; other options than it was packed for (weights may be DEFAULT) are
+ *   UNSUPPORTED. Every offset and size in the index is checked against
  *   the architecture and the blob; the panel values themselves are used as the file gives them (no
  *   NaN scan, which would read every page: pack only files you trust, or run them once).
  *
@@ -430,7 +435,8 @@ typedef struct supermat_session_desc {
     int threads;                 /* built-in pool: 0 = all cores, 1 = run on the calling thread */
     supermat_threading threading;/* a caller's parallel-for; overrides `threads` when set */
     supermat_allocator allocator;
-    /* ---- speed / memory levers; all zero = the official computation ---- */
+    /* ---- the pipeline and the speed / memory levers; all zero = what the model file records (for an
+       official file, the official computation) ---- */
     /* Network size: the images (width x height) are resampled to work_width x work_height (multiples
        of 8), the network runs there and the maps are resampled back (bilinear, antialiased when
        reducing). 0 = the model's work size (supermat_model_info.work_size: the size its file records,
@@ -4570,10 +4576,7 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
             L.pk_size = L.ti[td].nbytes;
             L.pk_idx = L.data + L.ti[tx].offset;
             L.pk_n = (int)(L.ti[tx].nbytes / (8 * SUPERMAT__PKF));
-            if (!L.copy && ((uintptr_t)L.pk & 63)) {
-                L.r = supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "a pre-packed model is used in place: its buffer must start at a 64-byte aligned address (map the file, allocate aligned, or set copy_data)");
-                goto done;
-            }
+            if ((uintptr_t)L.pk & 63) L.copy = 1; /* not 64-byte aligned (a plain malloc): copied, as with copy_data */
             m->info.weights = (supermat_weights)pwts;
             m->info.prepacked = 1;
         }

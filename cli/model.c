@@ -185,7 +185,7 @@ static const cli_optdef cli_opts_machine[] = {
     {CLI_O_MAX_MEMORY, "--max-memory", "SIZE", CLI_HELP_MAX_MEMORY, NULL, NULL},
     CLI_OPTS(cli_opts_levers),
     CLI_END};
-/* --native and --work-size: the network's size (cli_work_size) */
+/* --native and --work-size: the network's size (cli_work) */
 static const cli_optdef cli_opts_work[] = {
     {CLI_O_NATIVE, "--native", NULL, "run each picture at its own size instead", NULL, NULL},
     {CLI_O_WORK_SIZE, "--work-size", "N", "at N x N (a multiple of 8)", NULL, NULL},
