@@ -19,24 +19,6 @@
 #include <stdint.h>
 
 
-/* a growing memory file; fail_at >= 0 makes that write call fail */
-typedef struct membuf { unsigned char *p; size_t n, cap; long calls, fail_at; } membuf;
-static int mem_write(void *user, const void *data, size_t size) {
-    membuf *b = (membuf *)user;
-    if (b->fail_at >= 0 && b->calls++ == b->fail_at) return -1;
-    if (b->n + size > b->cap) {
-        size_t nc = b->cap ? b->cap : 1 << 16;
-        unsigned char *np;
-        while (nc < b->n + size) nc *= 2;
-        np = (unsigned char *)realloc(b->p, nc);
-        if (!np) return -1;
-        b->p = np; b->cap = nc;
-    }
-    memcpy(b->p + b->n, data, size);
-    b->n += size;
-    return 0;
-}
-
 /* a copy of n bytes at a 64-byte aligned address (+ shift) */
 typedef struct aligned { void *base; unsigned char *p; } aligned;
 static aligned aligned_copy(const unsigned char *src, size_t n, size_t shift) {
@@ -111,7 +93,7 @@ static unsigned char *check_one(const char *what, const unsigned char *file, siz
     supermat_model *m0 = NULL, *m1 = NULL, *m2 = NULL;
     supermat_model_info i0, i1, i2;
     supermat_error err;
-    membuf b;
+    tu_membuf b;
     aligned al;
     uint64_t bytes = 0;
     size_t n0 = 0, n1 = 0;
@@ -122,7 +104,7 @@ static unsigned char *check_one(const char *what, const unsigned char *file, siz
     memset(&b, 0, sizeof b);
     b.fail_at = -1;
     md.data = file; md.size = size; md.weights = o->weights; md.conv = o->conv; md.compute = o->compute;
-    r = supermat_model_write_packed(&md, mem_write, &b, &bytes, &err);
+    r = supermat_model_write_packed(&md, tu_mem_write, &b, &bytes, &err);
     TU_CHECK(r == SUPERMAT_SUCCESS && bytes == b.n, "%s %s: write_packed: %s", what, o->name, err.message);
     if (r) { free(b.p); return NULL; }
     TU_CHECK(supermat_model_create(&md, &m0, &err) == SUPERMAT_SUCCESS, "%s %s: original: %s", what, o->name, err.message);
@@ -170,7 +152,7 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
     supermat_model_desc md;
     supermat_model *m = NULL;
     supermat_error err;
-    membuf b;
+    tu_membuf b;
     aligned al = aligned_copy(packed, psize, 0);
     unsigned char *p = al.p;
     uint64_t hl = 0;
@@ -193,7 +175,7 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
     md.weights = SUPERMAT_WEIGHTS_DEFAULT;
     /* packing a pre-packed file */
     memset(&b, 0, sizeof b); b.fail_at = -1;
-    r = supermat_model_write_packed(&md, mem_write, &b, NULL, &err);
+    r = supermat_model_write_packed(&md, tu_mem_write, &b, NULL, &err);
     TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && b.n == 0, "packing a pre-packed file: %s", err.message);
     free(b.p);
     /* a write callback that fails at each call in turn */
@@ -202,7 +184,7 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
         memset(&o, 0, sizeof o);
         o.data = file; o.size = size;
         memset(&b, 0, sizeof b); b.fail_at = i;
-        r = supermat_model_write_packed(&o, mem_write, &b, NULL, &err);
+        r = supermat_model_write_packed(&o, tu_mem_write, &b, NULL, &err);
         free(b.p);
         if (r == SUPERMAT_SUCCESS) break;
         TU_CHECK(r == SUPERMAT_ERROR_IO, "write failure at call %d: %s", i, supermat_result_string(r));
@@ -218,7 +200,7 @@ static void check_refusals(const unsigned char *file, size_t size, const unsigne
         o.data = file; o.size = size;
         o.allocator.alloc = tu_count_alloc; o.allocator.free = tu_count_free; o.allocator.user = &c;
         memset(&b, 0, sizeof b); b.fail_at = -1;
-        r = supermat_model_write_packed(&o, mem_write, &b, NULL, &err);
+        r = supermat_model_write_packed(&o, tu_mem_write, &b, NULL, &err);
         free(b.p);
         TU_CHECK(c.live == 0, "packing with allocation %d failing leaks %ld blocks", i, c.live);
         if (r == SUPERMAT_SUCCESS) break;

@@ -191,22 +191,6 @@ static void test_sizes(const supermat_model *def, const supermat_model *tiny, co
 }
 
 /* ---- 4. descriptor guards ---- */
-typedef struct membuf { unsigned char *p; size_t n, cap; } membuf;
-static int mem_write(void *user, const void *data, size_t size) {
-    membuf *b = (membuf *)user;
-    if (b->n + size > b->cap) {
-        size_t nc = b->cap ? b->cap : (size_t)1 << 20;
-        unsigned char *np;
-        while (nc < b->n + size) nc *= 2;
-        np = (unsigned char *)realloc(b->p, nc);
-        if (!np) return -1;
-        b->p = np; b->cap = nc;
-    }
-    memcpy(b->p + b->n, data, size);
-    b->n += size;
-    return 0;
-}
-
 /* refused with INVALID_ARGUMENT and a message naming `name` */
 static int refused(supermat_result r, const supermat_error *err, const char *name) {
     return r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err->message, name) != NULL;
@@ -221,11 +205,12 @@ static void test_guards(const unsigned char *tdata, size_t tsize, const unsigned
     supermat_session *s = NULL;
     supermat_error err;
     supermat_result r;
-    membuf b;
+    tu_membuf b;
     size_t bytes = 0, i, touched = 0;
     int k, cases = 0;
     if (!tdata) return;
     memset(&b, 0, sizeof b);
+    b.fail_at = -1;
 
     /* model_desc: never cleared, then each canary alone */
     for (k = 0; k < 3; k++) {
@@ -238,7 +223,7 @@ static void test_guards(const unsigned char *tdata, size_t tsize, const unsigned
         TU_CHECK(refused(r, &err, "supermat_model_desc") && !m, "model_desc case %d: %s (%s)", k, supermat_result_string(r), err.message);
         supermat_model_destroy(m); m = NULL;
         b.n = 0;
-        r = supermat_model_write_packed(&md, mem_write, &b, NULL, &err);
+        r = supermat_model_write_packed(&md, tu_mem_write, &b, NULL, &err);
         TU_CHECK(refused(r, &err, "supermat_model_desc") && b.n == 0, "write_packed, model_desc case %d: %s (%s), %lu bytes written",
                  k, supermat_result_string(r), err.message, (unsigned long)b.n);
         cases++;
@@ -246,7 +231,7 @@ static void test_guards(const unsigned char *tdata, size_t tsize, const unsigned
     memset(&md, 0, sizeof md);
     md.data = tdata; md.size = tsize;
     b.n = 0;
-    r = supermat_model_write_packed(&md, mem_write, &b, NULL, &err);
+    r = supermat_model_write_packed(&md, tu_mem_write, &b, NULL, &err);
     TU_CHECK(r == SUPERMAT_SUCCESS && b.n > 0, "write_packed, canaries 0: %s", err.message);
     r = supermat_model_create(&md, &m, &err);
     TU_CHECK(r == SUPERMAT_SUCCESS && m, "model_desc, canaries 0: %s", err.message);
@@ -311,15 +296,16 @@ static void test_prepacked(const unsigned char *ddata, size_t dsize, const unsig
     supermat_model *pm = NULL, *um = NULL;
     supermat_error err;
     supermat_result r;
-    membuf b;
+    tu_membuf b;
     unsigned char *raw, *al;
     maps a = maps_new(Q, Q), u = maps_new(Q, Q);
     uint64_t bytes = 0;
     if (!ddata) return;
     memset(&b, 0, sizeof b);
+    b.fail_at = -1;
     memset(&md, 0, sizeof md);
     md.data = ddata; md.size = dsize; md.conv = SUPERMAT_CONV_WINOGRAD_F2;
-    r = supermat_model_write_packed(&md, mem_write, &b, &bytes, &err);
+    r = supermat_model_write_packed(&md, tu_mem_write, &b, &bytes, &err);
     TU_CHECK(r == SUPERMAT_SUCCESS && bytes == b.n, "write_packed (Winograd F2): %s", err.message);
     if (r) { free(b.p); maps_free(&a); maps_free(&u); return; }
     raw = (unsigned char *)malloc(b.n + 64); /* a 64-byte aligned copy, by hand */

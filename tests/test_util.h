@@ -33,6 +33,25 @@ static inline void tu_count_free(void *user, void *p, size_t size) {
     c->live--; c->bytes -= size;
     free(raw);
 }
+/* a growing memory file for supermat_write_fn (supermat_model_write_packed); fail_at >= 0 makes that write
+   call fail (from 0; -1 = never: set it, a zeroed tu_membuf fails its first write) */
+typedef struct tu_membuf { unsigned char *p; size_t n, cap; long calls, fail_at; } tu_membuf;
+static inline int tu_mem_write(void *user, const void *data, size_t size) {
+    tu_membuf *b = (tu_membuf *)user;
+    if (b->fail_at >= 0 && b->calls++ == b->fail_at) return -1;
+    if (b->n + size > b->cap) {
+        size_t nc = b->cap ? b->cap : (size_t)1 << 16;
+        unsigned char *np;
+        while (nc < b->n + size) nc *= 2;
+        np = (unsigned char *)realloc(b->p, nc);
+        if (!np) return -1;
+        b->p = np; b->cap = nc;
+    }
+    memcpy(b->p + b->n, data, size);
+    b->n += size;
+    return 0;
+}
+
 #define TU_CHECK(cond, ...) do { if (cond) tu_pass++; else { tu_fail++; printf("FAIL %s:%d: ", __FILE__, __LINE__); printf(__VA_ARGS__); printf("\n"); } } while (0)
 
 static inline int tu_finish(const char *name) {
