@@ -1277,17 +1277,22 @@ SUPERMAT__DEF supermat_result supermat_safetensors_tensor(const void *buf, size_
     return r;
 }
 
+/* 0 and the value of `key` in a tokenized header's __metadata__, -1 when it has none (or it does not fit) */
+static int supermat__meta_value(const char *js, const supermat_json_tok *toks, const char *key, char *value, size_t cap) {
+    int m = supermat_json_find(js, toks, 0, "__metadata__"), v;
+    return m >= 0 && (v = supermat_json_find(js, toks, m, key)) >= 0 && supermat_json_string(js, &toks[v], value, cap) >= 0 ? 0 : -1;
+}
+
 SUPERMAT__DEF int supermat_safetensors_metadata(const void *buf, size_t buf_size, const char *key, char *value, size_t cap) {
     supermat_allocator a = supermat__resolve_allocator(NULL);
     supermat_json_tok *toks;
-    int ntok, m, v, res = -1;
+    int ntok, res;
     const char *js = (const char *)buf + 8;
     uint64_t hlen = 0;
     if (!buf || buf_size < 8 || !key) return -1;
     if (supermat__st_header(buf, buf_size, buf_size, &hlen, NULL)) return -1;
     if (supermat__st_tokens(buf, buf_size, 8 + hlen, &a, &toks, &ntok, NULL)) return -1;
-    m = supermat_json_find(js, toks, 0, "__metadata__");
-    if (m >= 0 && (v = supermat_json_find(js, toks, m, key)) >= 0 && supermat_json_string(js, &toks[v], value, cap) >= 0) res = 0;
+    res = supermat__meta_value(js, toks, key, value, cap);
     supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
     return res;
 }
@@ -4637,16 +4642,16 @@ SUPERMAT__DEF supermat_result supermat_model_create(const supermat_model_desc *d
         supermat_allocator a = supermat__resolve_allocator(&d.allocator);
         supermat_json_tok *toks = NULL;
         uint64_t hlen = 0;
-        int ntok = 0, m, k;
+        int ntok = 0;
         const char *js = (const char *)d.data + 8;
         if (!supermat__st_header(d.data, d.size, d.size, &hlen, NULL) && !supermat__st_tokens(d.data, d.size, 8 + hlen, &a, &toks, &ntok, NULL)) {
-            m = supermat_json_find(js, toks, 0, "__metadata__");
-            if (m >= 0 && (k = supermat_json_find(js, toks, m, "supermat.packed")) >= 0 && supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && !strcmp(v, "1")) {
-                if (d.conv == SUPERMAT_CONV_DIRECT && (k = supermat_json_find(js, toks, m, "supermat.packed.conv")) >= 0 &&
-                    supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && v[0] >= '0' && v[0] < '0' + SUPERMAT_CONV_COUNT && !v[1])
+            if (!supermat__meta_value(js, toks, "supermat.packed", v, sizeof v) && !strcmp(v, "1")) {
+                /* one digit, an enum value (anything else is left to supermat__model_create's messages) */
+                if (d.conv == SUPERMAT_CONV_DIRECT && !supermat__meta_value(js, toks, "supermat.packed.conv", v, sizeof v) &&
+                    v[0] >= '0' && v[0] < '0' + SUPERMAT_CONV_COUNT && !v[1])
                     d.conv = (supermat_conv)(v[0] - '0');
-                if (d.compute == SUPERMAT_COMPUTE_F32 && (k = supermat_json_find(js, toks, m, "supermat.packed.compute")) >= 0 &&
-                    supermat_json_string(js, &toks[k], v, sizeof v) >= 0 && v[0] >= '0' && v[0] < '0' + SUPERMAT_COMPUTE_COUNT && !v[1])
+                if (d.compute == SUPERMAT_COMPUTE_F32 && !supermat__meta_value(js, toks, "supermat.packed.compute", v, sizeof v) &&
+                    v[0] >= '0' && v[0] < '0' + SUPERMAT_COMPUTE_COUNT && !v[1])
                     d.compute = (supermat_compute)(v[0] - '0');
             }
             supermat__free(&a, toks, sizeof(supermat_json_tok) * (size_t)ntok);
