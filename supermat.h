@@ -35,6 +35,7 @@
  *   supermat_session_create / _destroy    plan and allocate everything one picture size needs
  *   supermat_session_memory               what a session would allocate, without allocating
  *   supermat_run                          one picture (or SuperMatMV's views, or a UV map) -> maps
+ *   supermat_detail / _memory             the detail step alone, on an albedo made elsewhere (UV bakes)
  *   supermat_result_string                the name of a result code
  *   supermat_pool_create / _destroy       the built-in thread pool, to share between sessions
  *   Tools (the project's CLI and tests use them; an application running models needs none):
@@ -42,7 +43,7 @@
  *   supermat_default_threads, supermat_session_desc_threads, supermat_build_optimized, supermat_cpu,
  *   supermat_session_flops / _last_flops  what a run will use and do
  *   supermat_bench_conv_*                 one convolution with a chosen micro-kernel (benchmarks)
- *   Descriptors (model, session, run) are cleared with memset or = {0} before use: 0 is every field's
+ *   Descriptors (model, session, run, detail) are cleared with memset or = {0} before use: 0 is every field's
  *   default, and a descriptor that was not cleared is refused (_start_canary / _end_canary).
  *
  * WHAT IT DOES
@@ -168,8 +169,10 @@
  *   reports them): pipeline.work_size, the square the network runs at (`supermat convert` records the
  *   official scripts' 512, UV refine 1024; 0 = the picture's own size); pipeline.detail_sigma and
  *   pipeline.chroma_weight, the detail and colour steps (session_desc.detail_sigma / chroma_weight;
- *   the default model records 1/64 and 1, an official conversion neither). So the shortest program
- *   runs the model as it was measured, and `supermat image` sets nothing more.
+ *   the default model records 1/64 and 1, an official conversion neither); pipeline.bake_detail_sigma
+ *   (supermat / supermat-mv), the detail step supermat_uv.h's bake applies to textures baked from this
+ *   model's views (supermat_uv_bake_desc.detail_sigma; the multi-view default records 1/32). So the
+ *   shortest program runs the model as it was measured, and `supermat image` / `mesh` set nothing more.
  *
  * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
  *   A model file in which the GEMM weights are already the runtime's packed panels (16 columns per
@@ -384,6 +387,8 @@ typedef struct supermat_model_info {
     int work_size;                 /* pipeline.work_size: the square the network runs at; 0 = the picture's size */
     float detail_sigma;            /* pipeline.detail_sigma: 0 = no detail step */
     float chroma_weight;           /* pipeline.chroma_weight: 0 = no colour step */
+    float bake_detail_sigma;       /* pipeline.bake_detail_sigma: supermat_uv.h's detail step for textures baked
+                                      from this model's views; 0 = none */
 } supermat_model_info;
 
 typedef struct supermat_model supermat_model;
@@ -552,6 +557,33 @@ typedef struct supermat_run_desc {
 
 SUPERMAT_API supermat_result supermat_run(supermat_session *session, const supermat_run_desc *desc,
                                           supermat_error *err);
+
+/* ---- the detail step alone -------------------------------------------------------------------- */
+/* What session_desc.detail_sigma does to a run's albedo, for an albedo made elsewhere: supermat_uv.h's bake
+   runs it in UV space, on its texture; a run's own step is this same code. Per colour channel, in linear
+   light, albedo = I x clamp(G(w A) / G(w I), 1/4, 4), with I, A, G and the fallback where G(w I) < 1e-6
+   as session_desc.detail_sigma says and s = sigma x max(width, height). The weight w is `weight`'s first
+   channel (clamped to [0, 1]) or, without one, the picture's alpha (1 without alpha), and 0 outside
+   `region` when one is given. Written: every pixel of `region` (first channel > 0), or without a region
+   the pixels of w > 0; the others keep their value. */
+typedef struct supermat_detail_desc {
+    uint32_t _start_canary;      /* leave 0 (see supermat_model_desc) */
+    float sigma;                 /* the low-pass's sigma as a fraction of max(width, height): (0, 1] */
+    supermat_image picture;      /* I: 3 or 4 channels, sRGB-encoded (8-bit, or float in [0, 1]), finite */
+    supermat_image albedo;       /* A, read and written: F32, 3 channels, sRGB-encoded in [0, 1] (out: clamped),
+                                    the picture's size (width / height 0 = it); finite */
+    supermat_image weight;       /* optional (pixels NULL = none): the picture's size, 1 to 4 channels */
+    supermat_image region;       /* optional (pixels NULL = none): the picture's size, 1 to 4 channels */
+    supermat_threading threading;/* a parallel-for (a pool's hook); none = the calling thread */
+    supermat_allocator allocator;
+    void *scratch;               /* optional: supermat_detail_memory() bytes, 16-byte aligned, used instead of */
+    size_t scratch_size;         /* allocating (then nothing is allocated) */
+    uint32_t _end_canary;
+} supermat_detail_desc;
+/* The scratch bytes supermat_detail needs for this desc (2 floats a pixel, line buffers per thread); the desc
+   is checked as by supermat_detail, its pixels are not read. */
+SUPERMAT_API supermat_result supermat_detail_memory(const supermat_detail_desc *desc, size_t *bytes, supermat_error *err);
+SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, supermat_error *err);
 
 /* ---- built-in thread pool (absent with SUPERMAT_NO_PTHREADS) ---------------------------------- */
 typedef struct supermat_pool supermat_pool;
@@ -4548,11 +4580,12 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
         double ws = supermat__meta_num(&L, "pipeline.work_size", 0, 16384, 0, 0);
         m->info.detail_sigma = (float)supermat__meta_num(&L, "pipeline.detail_sigma", 0, 1, 0, 0);
         m->info.chroma_weight = (float)supermat__meta_num(&L, "pipeline.chroma_weight", 0, 1, 0, 0);
+        m->info.bake_detail_sigma = (float)supermat__meta_num(&L, "pipeline.bake_detail_sigma", 0, 1, 0, 0);
         if (L.r) goto done;
         if (ws != floor(ws) || ((int)ws % 8) || (ws > 0 && ws < 8)) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.work_size' = %g: 0 or a multiple of 8 up to 16384", ws); goto done; }
         m->info.work_size = (int)ws;
-        if (m->info.kind == SUPERMAT_KIND_UV_REFINE && (m->info.detail_sigma > 0.0f || m->info.chroma_weight > 0.0f)) {
-            L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata pipeline.detail_sigma / pipeline.chroma_weight on a uv-refine model, which has no picture to take them from");
+        if (m->info.kind == SUPERMAT_KIND_UV_REFINE && (m->info.detail_sigma > 0.0f || m->info.chroma_weight > 0.0f || m->info.bake_detail_sigma > 0.0f)) {
+            L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata pipeline.detail_sigma / chroma_weight / bake_detail_sigma on a uv-refine model, which has no picture to take them from");
             goto done;
         }
     }
@@ -5484,15 +5517,25 @@ static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0
 
 /* The detail and colour steps, a row of pixels a task. Linear light of the picture: an 8-bit picture's
    256 values from a table (the same doubles supermat__lin gives for them), a float picture's through
-   supermat__lin. */
+   supermat__lin. The albedo is a run's raw decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one
+   ([0, 1], srgb 1, supermat_detail), 3 floats a pixel, rows `astride` bytes apart. */
 typedef struct supermat__post {
     const supermat_image *in;
-    float *alb, *g;   /* the albedo (raw decode, [-1, 1], w x h x 3); detail: its w x h x 2 plane */
+    const supermat_image *wt, *rg; /* detail: the weight and the region (supermat_detail_desc), or NULL */
+    float *alb, *g;   /* the albedo; detail: its w x h x 2 plane */
+    size_t astride;
+    int srgb;
     int w, h, c;      /* c: the detail step's colour channel */
     float k;          /* chroma_weight */
     double gr, *rs;   /* detail: the whole image's ratio; per-row sums of the plane's two channels (h x 2) */
     const double *lut; /* 256 entries for an 8-bit picture, else NULL */
 } supermat__post;
+static float *supermat__post_alb(const supermat__post *P, int x, int y) {
+    return (float *)(void *)((unsigned char *)P->alb + (size_t)y * P->astride) + (size_t)x * 3;
+}
+/* the albedo's linear light, and a linear value encoded back as the albedo is */
+static double supermat__post_alin(const supermat__post *P, float v) { return supermat__lin(P->srgb ? (double)v : v * 0.5 + 0.5); }
+static float supermat__post_aenc(const supermat__post *P, double lin) { return P->srgb ? (float)supermat__srgb(lin) : (float)(supermat__srgb(lin) * 2.0 - 1.0); }
 static double supermat__post_lin(const supermat__post *P, int x, int y, int c) {
     const supermat_image *in = P->in;
     if (P->lut) {
@@ -5502,8 +5545,14 @@ static double supermat__post_lin(const supermat__post *P, int x, int y, int c) {
     return supermat__lin(supermat__px(in, x, y, c));
 }
 static float supermat__post_alpha(const supermat__post *P, int x, int y) {
-    float a = P->in->channels == 4 ? supermat__px(P->in, x, y, 3) : 1.0f;
+    float a;
+    if (P->rg && !(supermat__px(P->rg, x, y, 0) > 0.0f)) return 0.0f;
+    a = P->wt ? supermat__px(P->wt, x, y, 0) : P->in->channels == 4 ? supermat__px(P->in, x, y, 3) : 1.0f;
     return a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f; /* NaN -> 0 */
+}
+/* detail: the pixels written (the region's, else those of weight > 0) */
+static int supermat__post_writes(const supermat__post *P, int x, int y) {
+    return P->rg ? supermat__px(P->rg, x, y, 0) > 0.0f : supermat__post_alpha(P, x, y) > 0.0f;
 }
 /* detail, one row: the plane's two channels (alpha x linear albedo, alpha x linear picture) and their row sums */
 static void supermat__detail_in_task(void *user, int y, int thread) {
@@ -5514,7 +5563,7 @@ static void supermat__detail_in_task(void *user, int y, int thread) {
     for (x = 0; x < P->w; x++) {
         size_t i = (size_t)y * P->w + x;
         float a = supermat__post_alpha(P, x, y);
-        P->g[2 * i] = a > 0.0f ? (float)(a * supermat__lin(P->alb[i * 3 + P->c] * 0.5 + 0.5)) : 0.0f;
+        P->g[2 * i] = a > 0.0f ? (float)(a * supermat__post_alin(P, supermat__post_alb(P, x, y)[P->c])) : 0.0f;
         P->g[2 * i + 1] = a > 0.0f ? (float)(a * supermat__post_lin(P, x, y, P->c)) : 0.0f;
         sa += P->g[2 * i]; si += P->g[2 * i + 1];
     }
@@ -5528,23 +5577,22 @@ static void supermat__detail_out_task(void *user, int y, int thread) {
     for (x = 0; x < P->w; x++) {
         size_t i = (size_t)y * P->w + x;
         double q;
-        if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue;
+        if (!supermat__post_writes(P, x, y)) continue;
         q = P->g[2 * i + 1] > 1e-6f ? (double)P->g[2 * i] / P->g[2 * i + 1] : P->gr;
         q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-        P->alb[i * 3 + P->c] = (float)(supermat__srgb(supermat__post_lin(P, x, y, P->c) * q) * 2.0 - 1.0);
+        supermat__post_alb(P, x, y)[P->c] = supermat__post_aenc(P, supermat__post_lin(P, x, y, P->c) * q);
     }
 }
-/* the albedo of one view keeps its input picture's detail, a channel at a time; g: w x h x 2, tmp: max(w, h) x 2
-   a thread, rs: h x 2 doubles */
-static void supermat__detail(supermat__ctx *X, const supermat_image *in, float sigma, float *alb, int w, int h, float *g, float *tmp,
-                             double *rs, const double *lut) {
+/* the albedo of one view (or a caller's, supermat_detail: P's albedo, weight and region set) keeps its input
+   picture's detail, a channel at a time; g: w x h x 2, tmp: max(w, h) x 2 x SUPERMAT__BOX_LINES a thread,
+   rs: h x 2 doubles */
+static void supermat__detail(supermat__ctx *X, supermat__post P, float sigma, float *g, float *tmp, double *rs, const double *lut) {
+    int w = P.w, h = P.h;
     double s = (double)sigma * (w > h ? w : h);
     int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass, y;
-    supermat__post P;
     if (r < 1) r = 1;
-    memset(&P, 0, sizeof P);
-    P.in = in; P.alb = alb; P.g = g; P.w = w; P.h = h; P.rs = rs;
-    P.lut = in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
+    P.g = g; P.rs = rs;
+    P.lut = P.in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     for (c = 0; c < 3; c++) {
         double sa = 0.0, si = 0.0;
         P.c = c;
@@ -5567,7 +5615,7 @@ static void supermat__chroma_task(void *user, int y, int thread) {
     int x, c;
     (void)thread;
     for (x = 0; x < P->w; x++) {
-        float *alb = P->alb + ((size_t)y * P->w + x) * 3;
+        float *alb = supermat__post_alb(P, x, y);
         double A[3], I[3], la, li;
         if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
         for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[c] * 0.5 + 0.5); I[c] = supermat__post_lin(P, x, y, c); }
@@ -5582,7 +5630,7 @@ static void supermat__chroma_task(void *user, int y, int thread) {
 static void supermat__chroma(supermat__ctx *X, const supermat_image *in, float k, float *alb, int w, int h, const double *lut) {
     supermat__post P;
     memset(&P, 0, sizeof P);
-    P.in = in; P.alb = alb; P.w = w; P.h = h; P.k = k;
+    P.in = in; P.alb = alb; P.astride = (size_t)w * 3 * sizeof(float); P.w = w; P.h = h; P.k = k;
     P.lut = in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     supermat__par(X, h, supermat__chroma_task, &P);
 }
@@ -5705,8 +5753,13 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
             float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2 * SUPERMAT__BOX_LINES * T);
             double *rs = (double *)supermat__get(X, (size_t)S->h * 4); /* h x 2 doubles */
             if (supermat__live(X))
-                for (i = 0; i < V; i++)
-                    supermat__detail(X, supermat__view_in(rd, i), S->detail, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, g0, g1, rs, lut);
+                for (i = 0; i < V; i++) {
+                    supermat__post P;
+                    memset(&P, 0, sizeof P);
+                    P.in = supermat__view_in(rd, i); P.alb = dec[0].d + (size_t)i * S->h * S->w * 3;
+                    P.astride = (size_t)S->w * 3 * sizeof(float); P.w = S->w; P.h = S->h;
+                    supermat__detail(X, P, S->detail, g0, g1, rs, lut);
+                }
             supermat__put(X, (float *)rs);
             supermat__put(X, g1);
             supermat__put(X, g0);
@@ -5974,6 +6027,78 @@ static const supermat_image *supermat__out(const supermat_run_desc *rd, int k, i
     arr[0] = rd->albedo_views; arr[1] = rd->roughness_views; arr[2] = rd->metallic_views; arr[3] = rd->orm_views; arr[4] = NULL;
     o = arr[k] ? &arr[k][v] : (v == 0 ? one[k] : NULL);
     return o && o->pixels ? o : NULL;
+}
+
+/* >>detail: supermat_detail, the detail step on a caller's albedo (the same supermat__detail a run applies) */
+/* checks the desc (scan: the float pixels too, for NaN / Inf) and sizes the scratch: sz = plane, line buffers, row sums */
+static supermat_result supermat__detail_plan(const supermat_detail_desc *d, size_t sz[3], int scan, supermat_error *err) {
+    const supermat_image *pic;
+    supermat_image alb;
+    supermat_result r;
+    int w, h, T;
+    if (!d) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail desc must not be NULL");
+    if ((r = supermat__canary(d->_start_canary, d->_end_canary, "supermat_detail_desc", err))) return r;
+    if (!(d->sigma > 0.0f && d->sigma <= 1.0f))
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail sigma %g: from 0 (exclusive) to 1", (double)d->sigma);
+    pic = &d->picture;
+    if (!pic->pixels || !d->albedo.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: the picture and the albedo must have pixels");
+    w = pic->width; h = pic->height;
+    if (w < 1 || h < 1 || w > 16384 || h > 16384) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "detail: picture size %dx%d: width and height from 1 to 16384", w, h);
+    if ((r = supermat__check_image(pic, "the picture", w, h, scan, 3, err))) return r;
+    alb = d->albedo;
+    if (alb.format != SUPERMAT_FORMAT_F32 || alb.channels != 3) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "detail: the albedo must be F32 with 3 channels (it is %s with %d)", alb.format == SUPERMAT_FORMAT_U8 ? "U8" : "F32", alb.channels);
+    if (alb.stride % sizeof(float)) return supermat__fail(err, SUPERMAT_ERROR_BAD_IMAGE, NULL, "detail: the albedo's stride %llu is not a whole number of floats", (unsigned long long)alb.stride);
+    if ((r = supermat__check_image(&alb, "the albedo", w, h, 0, 3, err))) return r;
+    if (!alb.width) alb.width = w;
+    if (!alb.height) alb.height = h;
+    if (scan && (r = supermat__check_image(&alb, "the albedo", w, h, 1, 3, err))) return r; /* NaN / Inf */
+    if (d->weight.pixels && (r = supermat__check_image(&d->weight, "the weight", w, h, scan, 1, err))) return r;
+    if (d->region.pixels && (r = supermat__check_image(&d->region, "the region", w, h, scan, 1, err))) return r;
+    if (d->threading.parallel_for && d->threading.max_threads < 1) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threading.max_threads must be >= 1");
+    if (d->scratch && ((uintptr_t)d->scratch % 16)) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: scratch is not 16-byte aligned");
+    T = d->threading.parallel_for ? d->threading.max_threads : 1;
+    sz[0] = (size_t)w * h * 2 * sizeof(float);                                     /* the plane */
+    sz[1] = (size_t)SUPERMAT__MAX(w, h) * 2 * SUPERMAT__BOX_LINES * T * sizeof(float); /* line buffers */
+    sz[2] = (size_t)h * 2 * sizeof(double);                                         /* row sums */
+    return SUPERMAT_SUCCESS;
+}
+SUPERMAT__DEF supermat_result supermat_detail_memory(const supermat_detail_desc *d, size_t *bytes, supermat_error *err) {
+    size_t sz[3];
+    supermat_result r = supermat__detail_plan(d, sz, 0, err);
+    if (r) return r;
+    if (bytes) *bytes = sz[0] + sz[1] + sz[2];
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, supermat_error *err) {
+    size_t sz[3], need;
+    supermat_allocator al;
+    supermat__ctx X;
+    supermat__post P;
+    double lut[256];
+    unsigned char *mem;
+    int i;
+    supermat_result r = supermat__detail_plan(d, sz, 1, err);
+    if (r) return r;
+    need = sz[0] + sz[1] + sz[2];
+    al = supermat__resolve_allocator(&d->allocator);
+    if (d->scratch && d->scratch_size < need)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: scratch_size %llu, it needs %llu bytes (supermat_detail_memory)",
+                              (unsigned long long)d->scratch_size, (unsigned long long)need);
+    mem = d->scratch ? (unsigned char *)d->scratch : (unsigned char *)al.alloc(al.user, need, 64);
+    if (!mem) return supermat__fail(err, SUPERMAT_ERROR_OUT_OF_MEMORY, NULL, "detail: out of memory (%llu bytes)", (unsigned long long)need);
+    memset(&X, 0, sizeof X);
+    if (d->threading.parallel_for) X.thr = d->threading;
+    else X.thr.max_threads = 1;
+    for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
+    memset(&P, 0, sizeof P);
+    P.in = &d->picture; P.wt = d->weight.pixels ? &d->weight : NULL; P.rg = d->region.pixels ? &d->region : NULL;
+    P.alb = (float *)d->albedo.pixels; P.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
+    P.srgb = 1; P.w = d->picture.width; P.h = d->picture.height;
+    supermat__detail(&X, P, d->sigma, (float *)(void *)mem, (float *)(void *)(mem + sz[0]), (double *)(void *)(mem + sz[0] + sz[1]), lut);
+    if (!d->scratch) al.free(al.user, mem, need);
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
 }
 
 SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_run_desc *rd, supermat_error *err) {

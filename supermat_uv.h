@@ -26,6 +26,12 @@
  *     supermat_error err;
  *     if (supermat_uv_bake(&bd, &out, NULL, &err) != SUPERMAT_SUCCESS) puts(err.message);
  *
+ * THE MODELS' PIPELINE
+ *   Every field left 0 is what the model files record (supermat_model_info): the networks run at their
+ *   work sizes (view_work_size, refine_work_size) and the albedo gets the view model's detail step, so
+ *   the quick start bakes what `supermat mesh` bakes with the same models. SUPERMAT_WORK_NATIVE and
+ *   SUPERMAT_OFF override a file's value with none.
+ *
  * THE PIPELINE (one call, supermat_uv_bake)
  *   1. Validate and normalise the mesh (see FRAMES). Zero-area triangles are skipped and counted.
  *   2. Render the 6 official orthographic views (SuperMatMV's training cameras, supermat_uv_cameras())
@@ -49,8 +55,9 @@
  *      position frame, 127/255 gray outside the charts (as the official example).
  *   5. Refine albedo and RM with the two UV-refine networks at the texture size (1024x1024 default).
  *      A NULL refine model (or passthrough) skips that refinement.
- *   5b. With `detail_sigma` > 0 (off by default; `supermat mesh` turns it on, see DETAIL), the albedo
- *      keeps the input texture's detail: input colour x low-pass(albedo) / low-pass(input colour).
+ *   5b. With a detail step (`detail_sigma`; left 0, the one the view model's file records: 1/32 for the
+ *      multi-view default, none for an official file; see DETAIL), the albedo keeps the input texture's
+ *      detail: input colour x low-pass(albedo) / low-pass(input colour).
  *   6. Gutter fill and output: texels that hold no value (outside the charts, or unseen when nothing
  *      was refined) take the value of a nearest valid texel, up to `gutter` texels away (default 16:
  *      enough for a 1024 texture's mip chain down to 64x64), then the mean of the valid texels.
@@ -158,7 +165,7 @@
 #include "supermat.h"
 
 #define SUPERMAT_UV_VERSION_MAJOR 0
-#define SUPERMAT_UV_VERSION_MINOR 1
+#define SUPERMAT_UV_VERSION_MINOR 2
 #define SUPERMAT_UV_VERSION_PATCH 0
 #define SUPERMAT_UV_VERSION ((SUPERMAT_UV_VERSION_MAJOR << 16) | (SUPERMAT_UV_VERSION_MINOR << 8) | SUPERMAT_UV_VERSION_PATCH)
 
@@ -189,6 +196,7 @@ typedef enum supermat_uv_position_frame {
 
 /* One primitive: borrowed arrays with strides in bytes. */
 typedef struct supermat_uv_part {
+    uint32_t _start_canary;     /* leave 0, as _end_canary: a part not cleared (memset 0) is refused */
     const float *positions;     size_t position_stride; /* xyz, world (Z up); stride 0 = 12 */
     const float *uvs;           size_t uv_stride;       /* uv; stride 0 = 8; required */
     const float *normals;       size_t normal_stride;   /* optional xyz: the outer side, and cos^k weights */
@@ -200,6 +208,7 @@ typedef struct supermat_uv_part {
     const float *base_color_factor; /* linear RGBA multiplier (glTF baseColorFactor); NULL = 1 */
     supermat_uv_wrap wrap_u, wrap_v;
     int output;                 /* the output texture this part's UVs address, 0 .. output_count-1 */
+    uint32_t _end_canary;
 } supermat_uv_part;
 
 typedef enum supermat_uv_debug_kind {
@@ -221,16 +230,19 @@ typedef enum supermat_uv_debug_kind {
 } supermat_uv_debug_kind;
 
 typedef struct supermat_uv_bake_desc {
+    uint32_t _start_canary;      /* leave 0, as _end_canary: a desc not cleared (memset 0) is refused */
     const supermat_uv_part *parts;
     int part_count;
     int output_count;            /* output textures (one per material); 0 = 1 */
     int texture_width, texture_height; /* output size: 0 = 1024; multiples of 8 */
     int view_size;               /* rendered views: 0 = 512 (the networks' size); a multiple of 8 */
     int view_work_size;          /* the view model's network size: the views are resampled to it and the maps
-                                    back (supermat_session_desc.work_width/height); 0 = the view size. The
-                                    size the model was made for (a file's pipeline.work_size: 512 official,
-                                    128 the default model) */
-    int refine_work_size;        /* likewise for the UV-refine models (official: 1024); 0 = the texture size */
+                                    back (supermat_session_desc.work_width/height). 0 = the size its file
+                                    records (supermat_model_info.work_size: 512 official, 128 the multi-view
+                                    default; the view size for a file that records none);
+                                    SUPERMAT_WORK_NATIVE = the view size */
+    int refine_work_size;        /* likewise for the UV-refine models and the texture size (0: each refine
+                                    model's own, official 1024, the defaults 256) */
     int supersample;             /* samples per pixel per axis: 0 = 4 (16 samples), 1 .. 8 */
     float ortho_half_width;      /* half the view width in the view frame: 0 = 1.1 */
     int uv_origin_bottom_left;   /* 0: glTF UVs; 1: OpenGL UVs (v = 0 at the last row) */
@@ -262,8 +274,11 @@ typedef struct supermat_uv_bake_desc {
                   int channels);
     void *debug_user;
     float detail_sigma;          /* > 0: the albedo keeps the input texture's detail (see DETAIL), low-pass
-                                    sigma as a fraction of the texture's larger side (1/32 in `supermat
-                                    mesh`); 0 = off (the official pipeline); at most 1 */
+                                    sigma as a fraction of the texture's larger side, at most 1. 0 = the view
+                                    model's (supermat_model_info.bake_detail_sigma: the multi-view default
+                                    records 1/32, an official file none; none with passthrough);
+                                    SUPERMAT_OFF (negative) = off (the official pipeline) */
+    uint32_t _end_canary;
 } supermat_uv_bake_desc;
 
 /* One output texture's images (pixels NULL = not wanted; width/height 0 = the texture size, else equal). */
@@ -897,75 +912,32 @@ static void supermat_uv__bp_task(void *user, int band, int thread) {
 }
 
 /* >>uv-post */
-/* One box-filter pass of half-width r over n channels: rows (dir 0) or columns (dir 1), zero outside
-   the texture, sums in double; src -> dst; one task per SUPERMAT_UV__BAND lines. */
-typedef struct supermat_uv__boxjob {
-    const float *src;
-    float *dst;
-    int w, h, n, r, dir;
-} supermat_uv__boxjob;
-
-static void supermat_uv__box_task(void *user, int band, int thread) {
-    const supermat_uv__boxjob *J = (const supermat_uv__boxjob *)user;
-    int len = J->dir ? J->h : J->w, lines = J->dir ? J->w : J->h, n = J->n, r = J->r, l, k, c;
-    int l0 = band * SUPERMAT_UV__BAND, l1 = l0 + SUPERMAT_UV__BAND > lines ? lines : l0 + SUPERMAT_UV__BAND;
-    size_t step = J->dir ? (size_t)J->w * n : (size_t)n, lstep = J->dir ? (size_t)n : (size_t)J->w * n;
-    (void)thread;
-    for (l = l0; l < l1; l++) {
-        const float *s = J->src + l * lstep;
-        float *d = J->dst + l * lstep;
-        double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-        for (k = 0; k < r && k < len; k++)
-            for (c = 0; c < n; c++) acc[c] += s[k * step + c];
-        for (k = 0; k < len; k++) {
-            if (k + r < len) for (c = 0; c < n; c++) acc[c] += s[(k + r) * step + c];
-            if (k - r - 1 >= 0) for (c = 0; c < n; c++) acc[c] -= s[(k - r - 1) * step + c];
-            for (c = 0; c < n; c++) d[k * step + c] = (float)acc[c];
-        }
+/* DETAIL: supermat.h's detail step (supermat_detail, the code a run's detail_sigma runs) on the texture:
+   the picture is the input colour at the chart texels (`lit`, sRGB-encoded), the weight `valid` (255 where
+   A holds a value, else 0), the region the chart texels (`layers`): albedo = L x clamp(G(w A) / G(w L), 1/4, 4)
+   at every chart texel (in place, sRGB-encoded in and out). In the measure pass only the scratch is planned:
+   `tmp` (tmp_bytes, free at this point) when it is large enough, else a block of its own. */
+static supermat_result supermat_uv__detail(supermat_uv__ctx *C, int tw, int th, const unsigned char *layers, const unsigned char *valid,
+                                           const float *lit, float *albedo, void *tmp, size_t tmp_bytes) {
+    supermat_detail_desc dd;
+    supermat_result r;
+    size_t need = 0;
+    memset(&dd, 0, sizeof dd);
+    dd.sigma = C->d.detail_sigma;
+    dd.picture.pixels = (void *)lit; dd.picture.width = tw; dd.picture.height = th; dd.picture.channels = 3; dd.picture.format = SUPERMAT_FORMAT_F32;
+    dd.albedo.pixels = albedo; dd.albedo.channels = 3; dd.albedo.format = SUPERMAT_FORMAT_F32;
+    dd.weight.pixels = (void *)valid; dd.weight.width = tw; dd.weight.height = th; dd.weight.channels = 1;
+    dd.region.pixels = (void *)layers; dd.region.width = tw; dd.region.height = th; dd.region.channels = 1;
+    dd.threading = C->thr;
+    dd.allocator = C->al;
+    if ((r = supermat_detail_memory(&dd, &need, C->err))) return r;
+    if (need > tmp_bytes) {
+        SUPERMAT_UV__ALLOC(C, tmp, unsigned char, need);
+        tmp_bytes = need;
     }
-}
-
-static void supermat_uv__box(supermat_uv__ctx *C, const float *src, float *dst, int w, int h, int n, int r, int dir) {
-    supermat_uv__boxjob J;
-    J.src = src; J.dst = dst; J.w = w; J.h = h; J.n = n; J.r = r; J.dir = dir;
-    supermat_uv__parallel(C, ((dir ? w : h) + SUPERMAT_UV__BAND - 1) / SUPERMAT_UV__BAND, supermat_uv__box_task, &J);
-}
-
-/* DETAIL: albedo = L x clamp(G(w A) / G(w L), 1/4, 4) at the chart texels (in place, sRGB-encoded in and
-   out); `valid` says where A holds a value. A channel at a time through tmp: N x 4 floats (two planes of
-   the pair w A, w L). */
-static void supermat_uv__detail(supermat_uv__ctx *C, int tw, int th, const unsigned char *layers, const unsigned char *valid,
-                                const float *lit, float *albedo, float *tmp) {
-    size_t N = (size_t)tw * th, i;
-    double sigma = (double)C->d.detail_sigma * (tw > th ? tw : th);
-    int r = (int)floor((sqrt(4.0 * sigma * sigma + 1.0) - 1.0) * 0.5 + 0.5), pass, c;
-    float *g0 = tmp, *g1 = tmp + N * 2;
-    if (r < 1) r = 1;
-    for (c = 0; c < 3; c++) {
-        double sa = 0.0, sl = 0.0, gr;
-        for (i = 0; i < N; i++) {
-            float *g = g0 + i * 2;
-            g[0] = g[1] = 0.0f;
-            if (!valid[i] || !layers[i]) continue;
-            g[0] = supermat_uv__to_linear(albedo[i * 3 + c]);
-            g[1] = supermat_uv__to_linear(lit[i * 3 + c]);
-            sa += g[0];
-            sl += g[1];
-        }
-        gr = sa > 0.0 && sl > 0.0 ? sa / sl : 1.0;
-        for (pass = 0; pass < 3; pass++) {
-            supermat_uv__box(C, g0, g1, tw, th, 2, r, 0);
-            supermat_uv__box(C, g1, g0, tw, th, 2, r, 1);
-        }
-        for (i = 0; i < N; i++) {
-            const float *g = g0 + i * 2;
-            double q;
-            if (!layers[i]) continue;
-            q = g[1] > 1e-6f ? (double)g[0] / g[1] : gr;
-            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-            albedo[i * 3 + c] = supermat_uv__to_srgb((float)(supermat_uv__to_linear(lit[i * 3 + c]) * q));
-        }
-    }
+    if (C->measure) return SUPERMAT_SUCCESS;
+    dd.scratch = tmp; dd.scratch_size = tmp_bytes;
+    return supermat_detail(&dd, C->err);
 }
 
 /* Fills texels where valid == 0 with the value of a nearest valid texel: a breadth-first search over
@@ -1076,6 +1048,9 @@ static supermat_result supermat_uv__check_image(supermat_error *err, const super
 static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, supermat_uv_bake_desc *d, supermat_error *err) {
     int i;
     if (!in) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "the bake desc is NULL");
+    if (in->_start_canary || in->_end_canary)
+        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "supermat_uv_bake_desc: _start_canary / _end_canary are 0x%x / 0x%x, not 0: "
+                                 "clear the struct (memset to 0, or = {0}) before setting its fields", (unsigned)in->_start_canary, (unsigned)in->_end_canary);
     *d = *in;
     if (!d->output_count) d->output_count = 1;
     if (!d->texture_width) d->texture_width = 1024;
@@ -1095,9 +1070,9 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "texture size %dx%d: multiples of 8 from 8 to 16384", d->texture_width, d->texture_height);
     if (d->view_size < 8 || d->view_size % 8 || d->view_size > 8192)
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "view size %d: a multiple of 8 from 8 to 8192", d->view_size);
-    if (d->view_work_size < 0 || d->view_work_size % 8 || d->view_work_size > 16384 || d->refine_work_size < 0 ||
-        d->refine_work_size % 8 || d->refine_work_size > 16384)
-        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "view_work_size %d / refine_work_size %d: 0 or a multiple of 8 up to 16384",
+    if (d->view_work_size < SUPERMAT_WORK_NATIVE || (d->view_work_size > 0 && d->view_work_size % 8) || d->view_work_size > 16384 ||
+        d->refine_work_size < SUPERMAT_WORK_NATIVE || (d->refine_work_size > 0 && d->refine_work_size % 8) || d->refine_work_size > 16384)
+        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "view_work_size %d / refine_work_size %d: 0 (the model's), SUPERMAT_WORK_NATIVE or a multiple of 8 up to 16384",
                                  d->view_work_size, d->refine_work_size);
     if (d->supersample < 1 || d->supersample > 8 || (long)d->view_size * d->supersample > 16384)
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "supersample %d: 1 to 8 (and view size x supersample <= 16384)", d->supersample);
@@ -1112,14 +1087,15 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "bad max_angle_deg %g, depth_tolerance %g or edge_reject %d",
                                  (double)d->max_angle_deg, (double)d->depth_tolerance, d->edge_reject);
     if (d->threads < 0) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "threads %d < 0", d->threads);
-    if (!(d->detail_sigma >= 0.0f && d->detail_sigma <= 1.0f))
-        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "detail_sigma %g: from 0 (off) to 1", (double)d->detail_sigma);
+    if (!(d->detail_sigma <= 1.0f)) /* NaN too */
+        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "detail_sigma %g: at most 1 (0 = the view model's, SUPERMAT_OFF = off)", (double)d->detail_sigma);
     if (!d->passthrough) {
         supermat_model_info info;
         if (!d->mv_model) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "mv_model is NULL (give a SuperMatMV model, or set passthrough)");
         supermat_model_get_info(d->mv_model, &info);
         if (info.kind != SUPERMAT_KIND_SUPERMAT_MV && info.kind != SUPERMAT_KIND_SUPERMAT)
             return supermat_uv__fail(err, SUPERMAT_ERROR_UNSUPPORTED, "mv_model is neither a supermat-mv nor a single-view supermat model");
+        if (d->detail_sigma == 0.0f) d->detail_sigma = info.bake_detail_sigma; /* the view model's recorded step */
         if (d->albedo_refine_model) {
             supermat_model_get_info(d->albedo_refine_model, &info);
             if (info.kind != SUPERMAT_KIND_UV_REFINE) return supermat_uv__fail(err, SUPERMAT_ERROR_UNSUPPORTED, "albedo_refine_model is not a uv-refine model");
@@ -1131,10 +1107,14 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
     } else {
         d->mv_model = NULL; d->albedo_refine_model = NULL; d->rm_refine_model = NULL;
     }
+    if (d->detail_sigma < 0.0f) d->detail_sigma = 0.0f; /* SUPERMAT_OFF */
     for (i = 0; i < d->part_count; i++) {
         const supermat_uv_part *P = &d->parts[i];
         uint32_t ni = supermat_uv__index_count(P);
         supermat_result r;
+        if (P->_start_canary || P->_end_canary)
+            return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "part %d (supermat_uv_part): _start_canary / _end_canary are 0x%x / 0x%x, not 0: "
+                                     "clear the struct (memset to 0, or = {0}) before setting its fields", i, (unsigned)P->_start_canary, (unsigned)P->_end_canary);
         if (!P->positions) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "part %d has no positions", i);
         if (!P->uvs) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "part %d has no UVs: the mesh needs texture coordinates (unwrap it first)", i);
         if ((P->position_stride && P->position_stride < 12) || (P->uv_stride && P->uv_stride < 8) ||
@@ -1312,10 +1292,10 @@ static supermat_result supermat_uv__session(supermat_uv__ctx *C, const supermat_
     supermat_session_desc sd;
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = w; sd.height = h; sd.views = views;
-    /* the bake's own settings (view_work_size / refine_work_size; its detail step is its own), not the pipeline
-       the model file records for single pictures */
-    if (work && (work != w || work != h)) sd.work_width = sd.work_height = work;
-    else sd.work_width = sd.work_height = SUPERMAT_WORK_NATIVE;
+    /* view_work_size / refine_work_size: 0 the model's recorded size (as the session's 0), SUPERMAT_WORK_NATIVE
+       or N; the bake's detail step is its own (in UV space), so the file's steps for single pictures are off */
+    if (work > 0 && (work != w || work != h)) sd.work_width = sd.work_height = work;
+    else if (work != 0) sd.work_width = sd.work_height = SUPERMAT_WORK_NATIVE;
     sd.detail_sigma = sd.chroma_weight = SUPERMAT_OFF;
     sd.threads = C->thr.parallel_for ? 0 : 1;
     sd.threading = C->thr;
@@ -1505,9 +1485,9 @@ static supermat_result supermat_uv__bake_output(supermat_uv__ctx *C, int o, floa
     SUPERMAT_UV__ALLOC(C, src, int32_t, N);
     SUPERMAT_UV__ALLOC(C, queue, int32_t, N);
     SUPERMAT_UV__ALLOC(C, gen, uint16_t, N);
-    if (B.lit && !C->measure) { /* the detail step, in B.acc (N x 6 floats, free again; it needs N x 4) */
-        for (i = 0; i < N; i++) valid[i] = (unsigned char)(refine_a ? B.layers[i] != 0 : B.seen[i] != 0);
-        supermat_uv__detail(C, tw, th, B.layers, valid, B.lit, partial_a, B.acc);
+    if (B.lit) { /* the detail step, its scratch in B.acc (N x 6 floats, free again) when that is enough */
+        if (!C->measure) for (i = 0; i < N; i++) valid[i] = (unsigned char)((refine_a ? B.layers[i] != 0 : B.seen[i] != 0) ? 255 : 0);
+        SUPERMAT_UV__TRY(supermat_uv__detail(C, tw, th, B.layers, valid, B.lit, partial_a, B.acc, N * 6 * sizeof(float)));
     }
     if (!C->measure) {
         for (c = 0; c < 2; c++) {

@@ -784,17 +784,6 @@ bool load_model(const char *path, supermat_model **m) {
     return true;
 }
 
-/* the network size a loaded model's file records (pipeline.work_size: 512 from `supermat convert`, 128 for the
-   default model trained at 128x128; 0 = none), as `supermat image` uses it; dflt for a file that records none */
-int model_work_size(const char *path, int dflt) {
-    auto it = g_models.find(path);
-    char v[32];
-    if (it == g_models.end() || supermat_safetensors_metadata(it->second.map, it->second.size, "pipeline.work_size", v, sizeof v) != 0)
-        return dflt;
-    int n = std::atoi(v);
-    return n >= 8 && n % 8 == 0 && n <= 16384 ? n : 0;
-}
-
 /* the first instance of each mesh, depth first from the roots: its world matrix. Each node is walked once:
    glTF's nodes form a forest, and a file whose nodes share children (a DAG of depth 64 has 2^64 paths) must
    not make the walk exponential (found by fuzz_gltf: corpus/gltf/regress_shared_children.gltf) */
@@ -883,7 +872,8 @@ extern "C" const cli_optdef supermat_cli_mesh_bake_options[] = {
                                                   "128 for the multi-view default; native = the view / texture size)", NULL, NULL},
     {MESH_O_DETAIL, "--detail", "F|off", "the albedo keeps the input texture's detail: input x low-pass(albedo) /\n"
                                          "low-pass(input), lighting assumed smooth over F x the texture size\n"
-                                         "(default 1/32 with networks, off with --passthrough; supermat_uv.h DETAIL)", NULL, NULL},
+                                         "(default: what the view model's file records, 1/32 for the multi-view\n"
+                                         "default, none for an official file; off with --passthrough; supermat_uv.h DETAIL)", NULL, NULL},
     {MESH_O_THREADS, "--threads", "N", "threads (default 0 = all cores)", NULL, NULL},
     {MESH_O_GUTTER, "--gutter", "N", "texels filled around the baked ones (default 0 = 16; < 0 the whole texture)", NULL, NULL},
     {MESH_O_EDGE_REJECT, "--edge-reject", "N", "view pixels closer than N to a silhouette or depth edge left out (default 0)", NULL, NULL},
@@ -1325,12 +1315,11 @@ static int run_mesh(const supermat_cli_mesh_opts &opt, const char *in, const cha
     bd.parts = parts.data(); bd.part_count = (int)parts.size(); bd.output_count = nout;
     bd.texture_width = bd.texture_height = size;
     bd.view_size = views;
-    if (!passthrough) { /* the networks run at the size their files record (as `supermat image`), or --work-size */
-        bd.view_work_size = work_opt >= 0 ? work_opt : model_work_size(mv_path, 512);
-        if (bc || rm) bd.refine_work_size = work_opt >= 0 ? work_opt : model_work_size(bc ? bc_path : rm_path, 1024);
-    }
+    /* only what the command line says: the rest (the networks' work sizes, the detail step) is what the model
+       files record, applied by supermat_uv.h as for any caller */
+    bd.view_work_size = bd.refine_work_size = work_opt < 0 ? 0 : work_opt == 0 ? SUPERMAT_WORK_NATIVE : work_opt;
     bd.supersample = supersample;
-    bd.detail_sigma = detail >= 0.0f ? detail : passthrough ? 0.0f : 1.0f / 32.0f;
+    bd.detail_sigma = detail < 0.0f ? 0.0f : detail == 0.0f ? SUPERMAT_OFF : detail;
     bd.passthrough = passthrough;
     bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm;
     bd.weight = weight;

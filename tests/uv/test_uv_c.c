@@ -8,7 +8,14 @@
    Given TINY too: the single-view model as mv_model (view by view), its predictions bit for bit those of
    supermat_run on each view alone, and the same sweeps.
 
-   usage: test_uv_c [TINY_MV TINY_UV [TINY]] */
+   Given DEFAULT_MV (the multi-view default, which records a work size and a bake detail step): a bake
+   with those fields 0 gives the bytes of one with the recorded values set explicitly; SUPERMAT_OFF and any
+   negative detail_sigma are the same "off", and differ from it; SUPERMAT_WORK_NATIVE differs from 0.
+
+   The descriptor guards: a bake desc or a part filled with garbage (never cleared), or with one canary
+   set, is refused with INVALID_ARGUMENT naming the struct, before anything is allocated or written.
+
+   usage: test_uv_c [TINY_MV TINY_UV [TINY [DEFAULT_MV]]] */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200112L
 #endif
@@ -338,6 +345,89 @@ static unsigned char *read_all(const char *path, size_t *n) {
     return b;
 }
 
+/* ---- the descriptor guards ---- */
+static void guards(const supermat_uv_bake_desc *good, const supermat_uv_part *good_part) {
+    static unsigned char alb[32 * 32 * 4];
+    supermat_uv_bake_desc bd;
+    supermat_uv_part part;
+    supermat_uv_output out;
+    supermat_error err;
+    supermat_result r;
+    tu_counting c;
+    char msg[600];
+    int k;
+    memset(&out, 0, sizeof out);
+    out.base_color.pixels = alb; out.base_color.channels = 4;
+    for (k = 0; k < 5; k++) {
+        /* 0: a desc filled with garbage and then set field by field, as a program that forgot the memset;
+           1, 2: one canary of the desc; 3: a part filled with garbage; 4: a part's end canary */
+        bd = *good; part = *good_part;
+        if (k == 0) {
+            memset(&bd, 0xA5, sizeof bd);
+            bd.parts = &part; bd.part_count = 1; bd.passthrough = 1; bd.texture_width = bd.texture_height = 32;
+            bd.view_size = 8; bd.supersample = 1; bd.threads = 1;
+        }
+        if (k == 1) bd._start_canary = 1;
+        if (k == 2) bd._end_canary = 0xFFFFFFFFu;
+        if (k == 3) {
+            memset(&part, 0xA5, sizeof part);
+            part.positions = good_part->positions; part.uvs = good_part->uvs; part.vertex_count = good_part->vertex_count;
+            part.indices = good_part->indices; part.index_count = good_part->index_count; part.output = 0;
+        }
+        if (k == 4) part._end_canary = 7;
+        bd.parts = &part;
+        memset(&c, 0, sizeof c); c.fail_at = -1;
+        bd.allocator.alloc = tu_count_alloc; bd.allocator.free = tu_count_free; bd.allocator.user = &c;
+        memset(alb, 0xCD, sizeof alb);
+        memset(&err, 0, sizeof err);
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        snprintf(msg, sizeof msg, "guard %d: %s (%s), %ld allocations", k, supermat_result_string(r), err.message, c.calls);
+        CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, k < 3 ? "supermat_uv_bake_desc" : "supermat_uv_part") &&
+              strstr(err.message, "canary") && c.calls == 0 && untouched(alb, sizeof alb), msg);
+        if (k == 1 || k == 3) {
+            size_t bytes = 0;
+            r = supermat_uv_bake_memory(&bd, &bytes, &err);
+            CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "canary"), "guard: supermat_uv_bake_memory refuses it too");
+        }
+    }
+    printf("guards: %s\n", err.message);
+}
+
+/* ---- the view model's pipeline: fields left 0 are what its file records ---- */
+static void model_pipeline(supermat_uv_bake_desc bd, const supermat_model *mv) {
+    enum { S = 32, NB = 5 };
+    static unsigned char alb[NB][S * S * 4], mr[NB][S * S * 3];
+    supermat_uv_output out;
+    supermat_model_info info;
+    supermat_error err;
+    supermat_result r;
+    char msg[600];
+    int k, same[NB];
+    memset(&info, 0, sizeof info);
+    supermat_model_get_info(mv, &info);
+    CHECK(info.work_size > 0 && info.bake_detail_sigma > 0.0f, "the multi-view default records a work size and a bake detail step");
+    bd.passthrough = 0; bd.mv_model = mv; bd.albedo_refine_model = NULL; bd.rm_refine_model = NULL;
+    bd.texture_width = bd.texture_height = S; bd.view_size = 16; bd.supersample = 1;
+    for (k = 0; k < NB; k++) {
+        /* 0: all 0; 1: the recorded values set; 2: SUPERMAT_OFF; 3: another negative; 4: SUPERMAT_WORK_NATIVE */
+        bd.view_work_size = k == 1 ? info.work_size : k == 4 ? SUPERMAT_WORK_NATIVE : 0;
+        bd.detail_sigma = k == 1 ? info.bake_detail_sigma : k == 2 ? SUPERMAT_OFF : k == 3 ? -0.25f : 0.0f;
+        memset(&out, 0, sizeof out);
+        out.base_color.pixels = alb[k]; out.base_color.channels = 4;
+        out.metallic_roughness.pixels = mr[k]; out.metallic_roughness.channels = 3;
+        r = supermat_uv_bake(&bd, &out, NULL, &err);
+        snprintf(msg, sizeof msg, "default mv model, case %d: %s", k, err.message);
+        CHECK(r == SUPERMAT_SUCCESS, msg);
+    }
+    for (k = 1; k < NB; k++) same[k] = !memcmp(alb[0], alb[k], sizeof alb[0]) && !memcmp(mr[0], mr[k], sizeof mr[0]);
+    CHECK(same[1], "fields 0 = the model's recorded work size and bake detail step (identical bytes)");
+    CHECK(!same[2] && !memcmp(mr[0], mr[2], sizeof mr[0]), "SUPERMAT_OFF turns the detail step off (albedo differs, RM identical)");
+    CHECK(!memcmp(alb[2], alb[3], sizeof alb[2]), "any negative detail_sigma is SUPERMAT_OFF");
+    CHECK(!same[4], "SUPERMAT_WORK_NATIVE runs at the view size, not the recorded work size");
+    printf("default mv model: work size %d, bake detail %g; zero = recorded %d, off differs %d, native differs %d\n",
+           info.work_size, (double)info.bake_detail_sigma, same[1], !same[2], !same[4]);
+}
+
 int main(int argc, char **argv) {
     /* a quad in the XZ plane facing the front camera (-Y), UVs covering [0.25, 0.75]^2 */
     static const float xyz[12] = {-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1};
@@ -465,6 +555,7 @@ int main(int argc, char **argv) {
             printf("textures past the address space: refused (%s)\n", err.message);
         }
     }
+    guards(&bd, &part);
     /* the sweeps, on the same quad, textures 32x32, views 16x16 (8x8 when passthrough) */
     part.positions = xyz;
     bd.weight = SUPERMAT_UV_WEIGHT_AVERAGE; bd.cos_power = 0.0f;
@@ -489,7 +580,7 @@ int main(int argc, char **argv) {
         detail_check(b2, pat, 1.0f / 32.0f, "passthrough + detail");
         b2.detail_sigma = 0.1f;
         sweeps(b2, "passthrough + detail");
-        bad_sigma[0] = -0.1f; bad_sigma[1] = 1.5f; bad_sigma[2] = (float)NAN;
+        bad_sigma[0] = 1.0001f; bad_sigma[1] = 1.5f; bad_sigma[2] = (float)NAN;
         for (i = 0; i < 3; i++) {
             b2.detail_sigma = bad_sigma[i];
             r = supermat_uv_bake(&b2, &out, NULL, &err);
@@ -543,6 +634,19 @@ int main(int argc, char **argv) {
             }
             supermat_model_destroy(sv);
             free(fsv);
+        }
+        if (argc >= 5) { /* DEFAULT_MV */
+            size_t nd = 0;
+            unsigned char *fd = read_all(argv[4], &nd);
+            supermat_model *dm = NULL;
+            CHECK(fd != NULL, "read the multi-view default");
+            if (fd) {
+                md.data = fd; md.size = nd;
+                CHECK(supermat_model_create(&md, &dm, &err) == SUPERMAT_SUCCESS, err.message);
+            }
+            if (dm) model_pipeline(bd, dm);
+            supermat_model_destroy(dm);
+            free(fd);
         }
         supermat_model_destroy(mv);
         supermat_model_destroy(uvm);
