@@ -122,6 +122,8 @@ static int cli_info(int argc, char **argv) {
         else printf("detail        none (--detail F: the albedo keeps the picture's detail)\n");
         if (mi.chroma_weight > 0.0f) printf("colour        %g: the albedo takes the picture's colour at the network's luminance (--chroma off: no)\n", (double)mi.chroma_weight);
         else printf("colour        none (--chroma W: the albedo takes the picture's colour)\n");
+        if (mi.bake_detail_sigma > 0.0f) printf("bake detail   %g of the texture's larger side: `mesh` keeps the input texture's detail (--detail off: no)\n", (double)mi.bake_detail_sigma);
+        else printf("bake detail   none (`mesh --detail F`: the baked albedo keeps the input texture's detail)\n");
     }
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
     printf("build         %s\n", supermat_build_optimized() == 1 ? "optimised" :

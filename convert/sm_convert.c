@@ -1973,13 +1973,14 @@ static void sm__meta_add(sm__metas *ms, const char *key, const char *fmt, ...) {
     ms->n++;
 }
 
-/* pipeline.detail_sigma / pipeline.chroma_weight: 0 (off) to 1, and off for a uv-refine model (it has no
-   input picture to keep detail or take colour from: supermat.h refuses the steps for it) */
+/* pipeline.detail_sigma / pipeline.chroma_weight / pipeline.bake_detail_sigma: 0 (off) to 1, and off for a
+   uv-refine model (it has no input picture to keep detail or take colour from, and no views to bake:
+   supermat.h refuses the steps for it) */
 static int sm__pipeline_step_check(const char *key, float v, int uv, char *err, size_t cap) {
     if (!(v >= 0.0f && v <= 1.0f)) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.%s %g: from 0 (off) to 1", key, (double)v);
     if (v > 0.0f && uv)
         return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.%s: a uv-refine model has no input picture for the %s step",
-                       key, key[0] == 'd' ? "detail" : "colour");
+                       key, key[0] == 'd' ? "detail" : key[0] == 'b' ? "bake detail" : "colour");
     return 0;
 }
 
@@ -2439,11 +2440,13 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     }
     sm__meta_add(ms, "pipeline.work_size", "%d", d->work_size < 0 ? 0 : d->work_size ? d->work_size : kind == SM__KIND_UV ? 1024 : 512);
     if ((r = sm__pipeline_step_check("detail_sigma", d->detail_sigma, kind == SM__KIND_UV, err, cap)) != 0 ||
-        (r = sm__pipeline_step_check("chroma_weight", d->chroma_weight, kind == SM__KIND_UV, err, cap)) != 0)
+        (r = sm__pipeline_step_check("chroma_weight", d->chroma_weight, kind == SM__KIND_UV, err, cap)) != 0 ||
+        (r = sm__pipeline_step_check("bake_detail_sigma", d->bake_detail_sigma, kind == SM__KIND_UV, err, cap)) != 0)
         goto done;
     /* recorded only when on: a conversion without them writes the file it always wrote */
     if (d->detail_sigma > 0.0f) sm__meta_add(ms, "pipeline.detail_sigma", "%.9g", (double)d->detail_sigma);
     if (d->chroma_weight > 0.0f) sm__meta_add(ms, "pipeline.chroma_weight", "%.9g", (double)d->chroma_weight);
+    if (d->bake_detail_sigma > 0.0f) sm__meta_add(ms, "pipeline.bake_detail_sigma", "%.9g", (double)d->bake_detail_sigma);
 
     /* UNet config, checked against the checkpoint */
     r = sm__json_load(&uc, d->base_dir, "unet/config.json", 0, err, cap);
@@ -2655,7 +2658,7 @@ done:
     return r;
 }
 
-/* >>pipeline : a converted model file's pipeline.* metadata (work size, detail and colour steps), rewritten
+/* >>pipeline : a converted model file's pipeline.* metadata (work size, detail, colour and bake detail steps), rewritten
    without the checkpoint */
 static int sm__tok_is(const char *js, const supermat_json_tok *t, const char *s) {
     size_t n = strlen(s);
@@ -2667,7 +2670,9 @@ static int sm__member_end(const supermat_json_tok *tok, int key) {
 }
 int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *edit, unsigned char **header,
                        size_t *header_size, size_t *data_offset, char *err, size_t cap) {
-    static const char *const keys[3] = {"pipeline.work_size", "pipeline.detail_sigma", "pipeline.chroma_weight"};
+#define SM__PK 4 /* the pipeline keys, in the converter's order */
+    static const char *const keys[SM__PK] = {"pipeline.work_size", "pipeline.detail_sigma", "pipeline.chroma_weight",
+                                             "pipeline.bake_detail_sigma"};
     const unsigned char *f = (const unsigned char *)file;
     const char *js;
     supermat_json_tok *tok = NULL;
@@ -2675,10 +2680,10 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
     sm__sbuf b;
     uint64_t hlen, nlen;
     int nt, meta, n, i, k, p, r = 0, last = -1, any = 0;
-    int op[3];      /* 0: kept, 1: set to val[k], -1: removed */
-    int at[3];      /* the member holding key k, or -1 */
-    int pos[3];     /* an added key goes before member pos[k] (n: after the last) */
-    char val[3][40];
+    int op[SM__PK];      /* 0: kept, 1: set to val[k], -1: removed */
+    int at[SM__PK];      /* the member holding key k, or -1 */
+    int pos[SM__PK];     /* an added key goes before member pos[k] (n: after the last) */
+    char val[SM__PK][40];
     memset(&b, 0, sizeof b);
     if (header) *header = NULL;
     if (!f || !edit || !header || !header_size || !data_offset)
@@ -2688,14 +2693,14 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
     if (edit->work_size < -1 || edit->work_size > 16384 || (edit->work_size > 0 && edit->work_size % 8))
         return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384, or -1 (none)", edit->work_size);
     snprintf(val[0], sizeof val[0], "%d", edit->work_size < 0 ? 0 : edit->work_size);
-    for (k = 1; k < 3; k++) {
-        float v = k == 1 ? edit->detail_sigma : edit->chroma_weight;
+    for (k = 1; k < SM__PK; k++) {
+        float v = k == 1 ? edit->detail_sigma : k == 2 ? edit->chroma_weight : edit->bake_detail_sigma;
         if (v < 0.0f) { op[k] = 0; continue; }
         if (!(v <= 1.0f)) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s %g: from 0 (off) to 1, or negative (kept)", keys[k], (double)v);
         op[k] = v > 0.0f ? 1 : -1;
         snprintf(val[k], sizeof val[k], "%.9g", (double)v);
     }
-    if (!op[0] && !op[1] && !op[2]) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: no key to rewrite");
+    if (!op[0] && !op[1] && !op[2] && !op[3]) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: no key to rewrite");
     /* the header */
     if (size < 8) return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%zu bytes: too short for a safetensors file", size);
     hlen = sm__u64(f);
@@ -2716,22 +2721,23 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
         r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "not a supermat model file (no supermat.format_version in its metadata)");
         goto done;
     }
-    if (op[1] > 0 || op[2] > 0) { /* supermat.h refuses the detail and colour steps for a uv-refine model */
+    if (op[1] > 0 || op[2] > 0 || op[3] > 0) { /* supermat.h refuses the detail, colour and bake detail steps for a uv-refine model */
+        static const char *const step[SM__PK] = {"", "detail", "colour", "bake detail"};
         char kind[32];
         i = supermat_json_find(js, tok, meta, "supermat.kind");
         if (i >= 0 && supermat_json_string(js, &tok[i], kind, sizeof kind) >= 0 && !strcmp(kind, "uv-refine")) {
-            r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model has no input picture for the %s step",
-                        keys[op[1] > 0 ? 1 : 2], op[1] > 0 ? "detail" : "colour");
+            k = op[1] > 0 ? 1 : op[2] > 0 ? 2 : 3;
+            r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model has no input picture for the %s step", keys[k], step[k]);
             goto done;
         }
     }
     n = tok[meta].size; /* >= 1: format_version */
     mk = (int *)malloc(sizeof *mk * (size_t)n);
     if (!mk) { r = sm__err(err, cap, SUPERMAT_ERROR_OUT_OF_MEMORY, "out of memory (%d metadata keys)", n); goto done; }
-    at[0] = at[1] = at[2] = -1;
+    for (k = 0; k < SM__PK; k++) at[k] = -1;
     for (i = 0, p = meta + 1; i < n; i++, p = tok[p].next) {
         mk[i] = p;
-        for (k = 0; k < 3; k++) {
+        for (k = 0; k < SM__PK; k++) {
             if (!sm__tok_is(js, &tok[p], keys[k])) continue;
             if (at[k] >= 0) { r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%s appears twice in the metadata", keys[k]); goto done; }
             if (op[k] && tok[p + 1].type != SUPERMAT_JSON_STRING) { r = sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%s is not a string", keys[k]); goto done; }
@@ -2740,12 +2746,12 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
     }
     /* where an added key goes: after the pipeline key before it that stays, else before the one after it that
        stays, else first (keys added at one place in the converter's order) */
-    for (k = 0; k < 3; k++) {
+    for (k = 0; k < SM__PK; k++) {
         int j;
         pos[k] = -1;
         if (op[k] <= 0 || at[k] >= 0) continue;
         for (j = k - 1; j >= 0 && pos[k] < 0; j--) if (at[j] >= 0 && op[j] >= 0) pos[k] = at[j] + 1;
-        for (j = k + 1; j < 3 && pos[k] < 0; j++) if (at[j] >= 0 && op[j] >= 0) pos[k] = at[j];
+        for (j = k + 1; j < SM__PK && pos[k] < 0; j++) if (at[j] >= 0 && op[j] >= 0) pos[k] = at[j];
         if (pos[k] < 0) pos[k] = 0;
     }
     /* the new text: the members in their order (their bytes, and the bytes between them, as they are) with the
@@ -2753,7 +2759,7 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
     sm__sb_put(&b, js, (size_t)tok[meta].start + 1);                                              /* ... "__metadata__":{ */
     sm__sb_put(&b, js + tok[meta].start + 1, (size_t)(tok[mk[0]].start - 1 - tok[meta].start - 1)); /* the space before the first key */
     for (p = 0; p <= n; p++) {
-        for (k = 0; k < 3; k++) {
+        for (k = 0; k < SM__PK; k++) {
             if (pos[k] != p) continue;
             if (any) sm__sb_str(&b, ",");
             sm__sb_str(&b, "\"");
@@ -2765,13 +2771,13 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
             last = -1;
         }
         if (p == n) break;
-        for (k = 0; k < 3 && at[k] != p; k++) {}
-        if (k < 3 && op[k] < 0) continue; /* removed */
+        for (k = 0; k < SM__PK && at[k] != p; k++) {}
+        if (k < SM__PK && op[k] < 0) continue; /* removed */
         if (any) { /* the bytes after the member emitted last and before its next one (its comma), else a comma */
             if (last >= 0 && last + 1 < n) sm__sb_put(&b, js + sm__member_end(tok, mk[last]), (size_t)(tok[mk[last + 1]].start - 1 - sm__member_end(tok, mk[last])));
             else sm__sb_str(&b, ",");
         }
-        if (k < 3 && op[k] > 0) { /* the value's text, quotes included, replaced */
+        if (k < SM__PK && op[k] > 0) { /* the value's text, quotes included, replaced */
             sm__sb_put(&b, js + tok[mk[p]].start - 1, (size_t)(tok[mk[p] + 1].start - 1 - (tok[mk[p]].start - 1)));
             sm__sb_str(&b, "\"");
             sm__sb_str(&b, val[k]);
@@ -2802,6 +2808,7 @@ done:
     free(tok);
     free(b.p);
     return r;
+#undef SM__PK
 }
 
 /* >>main : `cc -DSM_CONVERT_MAIN -I. convert/sm_convert.c -lm -lpthread -o sm_convert` */

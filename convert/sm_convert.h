@@ -63,6 +63,10 @@ typedef struct sm_convert_desc {
     float chroma_weight;    /* metadata pipeline.chroma_weight, the colour step's weight
                                (supermat_session_desc.chroma_weight): 0 = not recorded (off), else (0, 1];
                                not for uv-refine */
+    float bake_detail_sigma; /* metadata pipeline.bake_detail_sigma, the detail step supermat_uv.h's bake applies
+                               to textures baked from this model's views, as a fraction of the texture's larger
+                               side (supermat_uv_bake_desc.detail_sigma): 0 = not recorded (none), else (0, 1];
+                               not for uv-refine */
 } sm_convert_desc;
 
 /* Converts. 0 on success, else a negative supermat_result and a message in err. Output tensors: the
@@ -78,13 +82,14 @@ typedef struct sm_pipeline_edit {
                             up to 16384), -1 = none (recorded as "0") */
     float detail_sigma;  /* pipeline.detail_sigma: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
     float chroma_weight; /* pipeline.chroma_weight: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
+    float bake_detail_sigma; /* pipeline.bake_detail_sigma: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
 } sm_pipeline_edit;
 /* `file` is the whole model file in memory (a supermat model file: its metadata has supermat.format_version);
    at least one key of `edit` must change something. A key that is set replaces its value in place; a key
-   added goes after the pipeline.* key before it (work_size, detail_sigma, chroma_weight: the converter's
-   order), else before the one after it, else first in the metadata; a key removed takes one comma with it.
-   Every other byte of the header is kept (the other metadata, its order, the tensors' entries). A detail or
-   colour step is refused for a uv-refine file (no input picture). Returns 0 and a malloc'ed new header
+   added goes after the pipeline.* key before it (work_size, detail_sigma, chroma_weight, bake_detail_sigma: the
+   converter's order), else before the one after it, else first in the metadata; a key removed takes one comma
+   with it. Every other byte of the header is kept (the other metadata, its order, the tensors' entries). A
+   detail, colour or bake detail step is refused for a uv-refine file (no input picture). Returns 0 and a malloc'ed new header
    (*header, *header_size bytes: the 8-byte length and the JSON); the new file is that header followed by
    file[*data_offset .. size), the tensor bytes as they are. The header keeps its length (padded with
    spaces) or grows by a multiple of 64 bytes, so every tensor, and a pre-packed file's panels, keeps its

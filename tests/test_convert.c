@@ -1305,7 +1305,7 @@ static void tc_ws_file(tc_buf *b, const char *json, size_t pad_to, const char *d
 static int tc_ws_header(const void *f, size_t n, int ws, unsigned char **h, size_t *hs, size_t *off, char *err, size_t cap) {
     sm_pipeline_edit e;
     e.work_size = ws;
-    e.detail_sigma = e.chroma_weight = -1.0f;
+    e.detail_sigma = e.chroma_weight = e.bake_detail_sigma = -1.0f;
     return sm_pipeline_header(f, n, &e, h, hs, off, err, cap);
 }
 static void test_work_size_header(void) {
@@ -1397,13 +1397,13 @@ static void test_work_size_header(void) {
     free(b.p);
 }
 
-/* sm_pipeline_header's detail and colour keys on hand-made files: set, replaced, added in the converter's order,
-   removed (with one comma), every other byte of the header kept (spaces between members too), and the
-   refusals. tc_pe: `in` (the metadata members) padded to `pad` bytes, rewritten; `want` the members
-   expected, NULL = refused */
+/* sm_pipeline_header's detail, colour and bake detail keys on hand-made files: set, replaced, added in the
+   converter's order, removed (with one comma), every other byte of the header kept (spaces between members
+   too), and the refusals. tc_peb: `in` (the metadata members) padded to `pad` bytes, rewritten; `want` the
+   members expected, NULL = refused; tc_pe: the bake detail kept */
 #define TC_PE_HEAD "{\"__metadata__\":{"
 #define TC_PE_TAIL "},\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}"
-static void tc_pe(const char *what, const char *in, size_t pad, int ws, float det, float chr, const char *want) {
+static void tc_peb(const char *what, const char *in, size_t pad, int ws, float det, float chr, float bake, const char *want) {
     tc_buf b;
     sm_pipeline_edit e;
     unsigned char *h = NULL;
@@ -1417,6 +1417,7 @@ static void tc_pe(const char *what, const char *in, size_t pad, int ws, float de
     e.work_size = ws;
     e.detail_sigma = det;
     e.chroma_weight = chr;
+    e.bake_detail_sigma = bake;
     err[0] = 0;
     r = sm_pipeline_header(b.p, b.n, &e, &h, &hs, &off, err, sizeof err);
     if (!want) {
@@ -1444,12 +1445,16 @@ static void tc_pe(const char *what, const char *in, size_t pad, int ws, float de
     free(h);
     free(b.p);
 }
+static void tc_pe(const char *what, const char *in, size_t pad, int ws, float det, float chr, const char *want) {
+    tc_peb(what, in, pad, ws, det, chr, -1.0f, want);
+}
 static void test_pipeline_header(void) {
 #define FV "\"supermat.format_version\":\"1\""
 #define KD "\"supermat.kind\":\"supermat\""
 #define WS "\"pipeline.work_size\":\"256\""
 #define DS "\"pipeline.detail_sigma\":\"0.015625\""
 #define CW "\"pipeline.chroma_weight\":\"1\""
+#define BD "\"pipeline.bake_detail_sigma\":\"0.03125\""
 #define UX "\"unet.x\":\"1\""
     static const char *const base = FV "," KD "," WS "," UX, *both = FV "," KD "," WS "," DS "," CW "," UX;
     const float kept = -1.0f;
@@ -1486,17 +1491,32 @@ static void test_pipeline_header(void) {
     tc_pe("a number, not a string, refused", FV ",\"pipeline.detail_sigma\":0.5", 256, 0, 0.25f, kept, NULL);
     tc_pe("a number in a key not rewritten kept", FV ",\"pipeline.detail_sigma\":0.5", 256, 64, kept, kept, FV ",\"pipeline.work_size\":\"64\",\"pipeline.detail_sigma\":0.5");
     tc_pe("not a supermat file", "\"x\":\"1\"", 256, 0, 0.5f, kept, NULL);
+    /* the bake detail: last in the converter's order */
+    tc_peb("bake detail added after the colour", both, 256, 0, kept, kept, 1.0f / 32, FV "," KD "," WS "," DS "," CW "," BD "," UX);
+    tc_peb("bake detail added after the work size", base, 256, 0, kept, kept, 1.0f / 32, FV "," KD "," WS "," BD "," UX);
+    tc_peb("all four added in the converter's order", base, 0, 0, 1.0f / 64, 1.0f, 1.0f / 32, FV "," KD "," WS "," DS "," CW "," BD "," UX);
+    tc_peb("bake detail replaced in place", FV "," KD "," WS "," BD "," UX, 256, 0, kept, kept, 0.25f,
+           FV "," KD "," WS ",\"pipeline.bake_detail_sigma\":\"0.25\"," UX);
+    tc_peb("bake detail removed", FV "," KD "," WS "," DS "," BD "," UX, 256, 0, kept, kept, 0.0f, FV "," KD "," WS "," DS "," UX);
+    tc_peb("bake detail kept when the others change", FV "," KD "," WS "," BD "," UX, 256, 64, 0.5f, kept, kept,
+           FV "," KD ",\"pipeline.work_size\":\"64\",\"pipeline.detail_sigma\":\"0.5\"," BD "," UX);
+    tc_peb("bake detail alone is something to rewrite", base, 256, 0, kept, kept, 0.0f, base);
+    tc_peb("a uv-refine file: no bake detail step", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, kept, kept, 1.0f / 32, NULL);
+    tc_peb("bake detail 1.5 refused", base, 256, 0, kept, kept, 1.5f, NULL);
+    tc_peb("a bake detail NaN refused", base, 256, 0, kept, kept, (float)(0.0 * HUGE_VAL), NULL);
 #undef FV
 #undef KD
 #undef WS
 #undef DS
 #undef CW
+#undef BD
 #undef UX
 }
 
-/* the converter records pipeline.detail_sigma and pipeline.chroma_weight only when they are on: without them the
-   file has neither key, and its header is the one written with them less the two keys (every other byte,
-   the tensors' too, the same); out of range, and a step for a uv-refine model, refused with nothing written */
+/* the converter records pipeline.detail_sigma, pipeline.chroma_weight and pipeline.bake_detail_sigma only when
+   they are on: without them the file has none of the keys, and its header is the one written with them less the
+   three keys (every other byte, the tensors' too, the same); out of range, and a step for a uv-refine model,
+   refused with nothing written */
 static void test_convert_pipeline(const char *dir, const char *base) {
     sm_convert_desc d;
     tc_st w, o;
@@ -1506,49 +1526,60 @@ static void test_convert_pipeline(const char *dir, const char *base) {
     snprintf(ck, sizeof ck, "%s/supermat.pth", dir);
     memset(&d, 0, sizeof d);
     d.kind = "supermat"; d.checkpoint = ck; d.base_dir = base; d.threads = 2;
-    d.output = with; d.detail_sigma = 1.0f / 64; d.chroma_weight = 1.0f;
+    d.output = with; d.detail_sigma = 1.0f / 64; d.chroma_weight = 1.0f; d.bake_detail_sigma = 1.0f / 32;
     r = sm_convert(&d, err, sizeof err);
     TU_CHECK(r == 0, "convert with the detail and colour steps: %s", err);
     tc_track(with);
-    d.output = without; d.detail_sigma = 0.0f; d.chroma_weight = 0.0f;
+    d.output = without; d.detail_sigma = 0.0f; d.chroma_weight = 0.0f; d.bake_detail_sigma = 0.0f;
     r = sm_convert(&d, err, sizeof err);
     TU_CHECK(r == 0, "convert without them: %s", err);
     tc_track(without);
     if (tc_st_load(&w, with) == 0 && tc_st_load(&o, without) == 0) {
-        static const char *const keys[2] = {",\"pipeline.detail_sigma\":\"0.015625\"", ",\"pipeline.chroma_weight\":\"1\""};
+        static const char *const keys[3] = {",\"pipeline.detail_sigma\":\"0.015625\"", ",\"pipeline.chroma_weight\":\"1\"",
+                                            ",\"pipeline.bake_detail_sigma\":\"0.03125\""};
         char *t = (char *)malloc((size_t)w.hl + 1), *p;
         size_t n, k, on = (size_t)o.hl;
         tc_expect_meta(&w, "pipeline.detail_sigma", "0.015625");
         tc_expect_meta(&w, "pipeline.chroma_weight", "1");
+        tc_expect_meta(&w, "pipeline.bake_detail_sigma", "0.03125");
         tc_expect_meta(&w, "pipeline.work_size", "512");
         TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.detail_sigma", v, sizeof v) < 0, "without the options: no pipeline.detail_sigma");
         TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.chroma_weight", v, sizeof v) < 0, "without the options: no pipeline.chroma_weight");
+        TU_CHECK(supermat_safetensors_metadata(o.b, o.n, "pipeline.bake_detail_sigma", v, sizeof v) < 0, "without the options: no pipeline.bake_detail_sigma");
         memcpy(t, w.b + 8, (size_t)w.hl);
         t[w.hl] = 0;
-        for (k = 0; k < 2; k++) /* the two keys taken out of the text */
+        for (k = 0; k < 3; k++) /* the three keys taken out of the text */
             if ((p = strstr(t, keys[k])) != NULL) memmove(p, p + strlen(keys[k]), strlen(p + strlen(keys[k])) + 1);
             else TU_CHECK(0, "the header with the steps lacks %s", keys[k]);
         n = strlen(t);
         while (n > 0 && t[n - 1] == ' ') n--;
         while (on > 0 && o.b[8 + on - 1] == ' ') on--;
-        TU_CHECK(n == on && !memcmp(t, o.b + 8, n), "the header without the steps is the one with them less the two keys");
+        TU_CHECK(n == on && !memcmp(t, o.b + 8, n), "the header without the steps is the one with them less the three keys");
         TU_CHECK(w.n - 8 - w.hl == o.n - 8 - o.hl && !memcmp(w.b + 8 + w.hl, o.b + 8 + o.hl, (size_t)(o.n - 8 - o.hl)), "the tensor bytes the same with and without the steps");
         free(t);
     } else TU_CHECK(0, "cannot read %s and %s", with, without);
     tc_st_free(&w);
     tc_st_free(&o);
     /* refusals */
-    d.output = never; d.detail_sigma = 2.0f; d.chroma_weight = 0.0f;
+    d.output = never; d.detail_sigma = 2.0f; d.chroma_weight = 0.0f; d.bake_detail_sigma = 0.0f;
     err[0] = 0;
     r = sm_convert(&d, err, sizeof err);
     TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "detail_sigma") && !tc_exists(never), "detail 2 refused: r %d, '%s'", r, err);
     d.detail_sigma = 0.0f; d.chroma_weight = -1.0f;
     r = sm_convert(&d, err, sizeof err);
     TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "chroma_weight") && !tc_exists(never), "colour -1 refused: r %d, '%s'", r, err);
+    d.chroma_weight = 0.0f; d.bake_detail_sigma = 1.5f;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "bake_detail_sigma") && !tc_exists(never), "bake detail 1.5 refused: r %d, '%s'", r, err);
+    d.bake_detail_sigma = 0.0f;
     snprintf(ck, sizeof ck, "%s/uv_refine_bc.pth", dir);
     d.kind = NULL; d.checkpoint = ck; d.detail_sigma = 1.0f / 64; d.chroma_weight = 0.0f;
     r = sm_convert(&d, err, sizeof err);
     TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "uv-refine") && !tc_exists(never), "a detail step for uv-refine refused: r %d, '%s'", r, err);
+    d.detail_sigma = 0.0f; d.bake_detail_sigma = 1.0f / 32;
+    r = sm_convert(&d, err, sizeof err);
+    TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err, "uv-refine") && strstr(err, "bake_detail_sigma") && !tc_exists(never),
+             "a bake detail step for uv-refine refused: r %d, '%s'", r, err);
     tc_track(never);
 }
 
@@ -1574,7 +1605,7 @@ int main(int argc, char **argv) {
     test_reader_small();
     printf("work size rewritten (sm_pipeline_header)\n");
     test_work_size_header();
-    printf("detail and colour keys rewritten (sm_pipeline_header)\n");
+    printf("detail, colour and bake detail keys rewritten (sm_pipeline_header)\n");
     test_pipeline_header();
     printf("values against torch\n");
     test_known_values(dir);

@@ -15,7 +15,13 @@
      bits of the unpacked model created with them.
    - Roughness / metallic outputs of 2 channels are gray + the input's alpha, of 4 channels gray RGB +
      the input's alpha; an RGB input gives alpha 255.
-   usage: test_pipeline DEFAULT_MODEL TINY_MODEL */
+   - pipeline.bake_detail_sigma (the bake detail of supermat_uv.h): reported in model_info.bake_detail_sigma
+     (the multi-view default beside DEFAULT_MODEL 1/32, the default and the tiny model none, the tiny model
+     with the key added 1/32, 1, 0); out of [0, 1] or not a number MALFORMED_FILE naming the key; a value
+     > 0 on a uv-refine file MALFORMED_FILE, 0 accepted.
+   usage: test_pipeline DEFAULT_MODEL TINY_MODEL [TINY_UV_MODEL]
+   (TINY_UV_MODEL: default tiny_uv_refine_bc.safetensors beside TINY_MODEL, as the tiny fixture writes it;
+   the multi-view default: supermat_mv_default.safetensors beside DEFAULT_MODEL, skipped where absent) */
 #define SUPERMAT_IMPLEMENTATION
 #include "supermat.h"
 #include "test_util.h"
@@ -416,13 +422,144 @@ static void alpha_default(const supermat_model *m, const unsigned char *img, con
     free(r2); free(m4);
 }
 
+/* ---- pipeline.bake_detail_sigma ---------------------------------------------------------------------- */
+/* `path` with its last component replaced by `name` */
+static void sibling(char *out, size_t cap, const char *path, const char *name) {
+    const char *sl = strrchr(path, '/');
+    if (sl) snprintf(out, cap, "%.*s/%s", (int)(sl - path), path, name);
+    else snprintf(out, cap, "%s", name);
+}
+/* the file `data` with `members` ("\"key\":\"value\"") put first in its metadata; the header grows by a
+   multiple of 64 bytes (padded with spaces), so the tensors keep their alignment. NULL when the file has no
+   metadata object */
+static unsigned char *with_meta(const unsigned char *data, size_t size, const char *members, size_t *out_size) {
+    static const char mk[] = "\"__metadata__\":{";
+    size_t hl, at, ml = strlen(members) + 1, nl, i;
+    unsigned char *o;
+    const char *h;
+    if (size < 8) return NULL;
+    for (hl = 0, i = 0; i < 8; i++) hl |= (size_t)data[i] << (8 * i);
+    if (hl > size - 8) return NULL;
+    h = (const char *)data + 8;
+    for (at = 0; at + sizeof mk - 1 <= hl && memcmp(h + at, mk, sizeof mk - 1); at++) {}
+    if (at + sizeof mk - 1 > hl) return NULL;
+    at += sizeof mk - 1;
+    nl = hl + (ml + 63) / 64 * 64;
+    o = (unsigned char *)malloc(8 + nl + (size - 8 - hl));
+    if (!o) return NULL;
+    for (i = 0; i < 8; i++) o[i] = (unsigned char)(nl >> (8 * i));
+    memcpy(o + 8, h, at);
+    memcpy(o + 8 + at, members, ml - 1);
+    o[8 + at + ml - 1] = ',';
+    memcpy(o + 8 + at + ml, h + at, hl - at);
+    memset(o + 8 + hl + ml, ' ', nl - hl - ml);
+    memcpy(o + 8 + nl, data + 8 + hl, size - 8 - hl);
+    *out_size = 8 + nl + (size - 8 - hl);
+    return o;
+}
+/* creates the model of `data` with `members` added to its metadata: its result, the bake detail reported */
+static supermat_result create_with(const unsigned char *data, size_t size, const char *members, float *bake, supermat_error *err) {
+    supermat_model_desc md;
+    supermat_model *m = NULL;
+    supermat_model_info info;
+    supermat_result r;
+    size_t n = 0;
+    unsigned char *f = with_meta(data, size, members, &n);
+    *bake = -1.0f;
+    memset(err, 0, sizeof *err);
+    if (!f) { TU_CHECK(0, "cannot add %s to the file", members); return SUPERMAT_ERROR_INVALID_ARGUMENT; }
+    memset(&md, 0, sizeof md);
+    md.data = f; md.size = n;
+    r = supermat_model_create(&md, &m, err);
+    memset(&info, 0, sizeof info);
+    if (r == SUPERMAT_SUCCESS) { supermat_model_get_info(m, &info); *bake = info.bake_detail_sigma; }
+    supermat_model_destroy(m);
+    free(f);
+    return r;
+}
+static void test_bake_detail(const supermat_model *def, const supermat_model *tiny, const unsigned char *tdata, size_t tsize,
+                             const char *default_path, const char *uv_path) {
+    static const struct { const char *v; float want; } ok[] = {{"0.03125", 0.03125f}, {"1", 1.0f}, {"0", 0.0f}, {"1e-3", 0.001f}};
+    static const char *const bad[] = {"1.5", "-0.25", "abc", "", "0.5x", "nan", "1/32"};
+    char path[1024], members[128];
+    unsigned char *uv = NULL, *mv = NULL;
+    size_t uvsize = 0, mvsize = 0, i;
+    supermat_model_info info;
+    supermat_error err;
+    supermat_result r;
+    float bake;
+    int cases = 0;
+    if (def) { supermat_model_get_info(def, &info); TU_CHECK(info.bake_detail_sigma == 0.0f, "default model: bake detail %g, want none", (double)info.bake_detail_sigma); }
+    if (tiny) { supermat_model_get_info(tiny, &info); TU_CHECK(info.bake_detail_sigma == 0.0f, "tiny model: bake detail %g, want none", (double)info.bake_detail_sigma); }
+    sibling(path, sizeof path, default_path, "supermat_mv_default.safetensors");
+    if ((mv = tu_load(path, &mvsize)) != NULL) {
+        supermat_model *m = create(mv, mvsize, SUPERMAT_CONV_DIRECT, path);
+        if (m) {
+            supermat_model_get_info(m, &info);
+            TU_CHECK(info.kind == SUPERMAT_KIND_SUPERMAT_MV && info.bake_detail_sigma == 0.03125f,
+                     "the multi-view default: kind %d bake detail %.9g, want supermat-mv / 0.03125", (int)info.kind, (double)info.bake_detail_sigma);
+            supermat_model_destroy(m);
+        }
+        free(mv);
+    } else printf("(no %s: its bake detail not checked)\n", path);
+    if (!tdata) return;
+    for (i = 0; i < sizeof ok / sizeof ok[0]; i++, cases++) {
+        snprintf(members, sizeof members, "\"pipeline.bake_detail_sigma\":\"%s\"", ok[i].v);
+        r = create_with(tdata, tsize, members, &bake, &err);
+        TU_CHECK(r == SUPERMAT_SUCCESS && bake == ok[i].want, "tiny + bake detail '%s': %s, reported %.9g, want %.9g (%s)", ok[i].v,
+                 supermat_result_string(r), (double)bake, (double)ok[i].want, err.message);
+    }
+    for (i = 0; i < sizeof bad / sizeof bad[0]; i++, cases++) {
+        snprintf(members, sizeof members, "\"pipeline.bake_detail_sigma\":\"%s\"", bad[i]);
+        r = create_with(tdata, tsize, members, &bake, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "pipeline.bake_detail_sigma"),
+                 "tiny + bake detail '%s': %s (%s), want MALFORMED_FILE naming the key", bad[i], supermat_result_string(r), err.message);
+    }
+    /* with the other steps: each reported as recorded */
+    {
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        size_t n = 0;
+        unsigned char *f = with_meta(tdata, tsize, "\"pipeline.detail_sigma\":\"0.015625\",\"pipeline.chroma_weight\":\"1\","
+                                                   "\"pipeline.bake_detail_sigma\":\"0.03125\"", &n);
+        memset(&md, 0, sizeof md);
+        md.data = f; md.size = n;
+        TU_CHECK(f && supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, "tiny + all three steps: %s", f ? err.message : "no file");
+        if (m) {
+            supermat_model_get_info(m, &info);
+            TU_CHECK(info.detail_sigma == 0.015625f && info.chroma_weight == 1.0f && info.bake_detail_sigma == 0.03125f,
+                     "tiny + all three steps: %g / %g / %g, want 0.015625 / 1 / 0.03125", (double)info.detail_sigma, (double)info.chroma_weight,
+                     (double)info.bake_detail_sigma);
+        }
+        supermat_model_destroy(m);
+        free(f);
+        cases++;
+    }
+    /* a uv-refine file: no views to bake, so no bake detail (0 is none, accepted) */
+    if ((uv = tu_load(uv_path, &uvsize)) == NULL) { TU_CHECK(0, "cannot read the tiny uv-refine model %s", uv_path); return; }
+    r = create_with(uv, uvsize, "\"supermat.x\":\"1\"", &bake, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS, "uv-refine + an unknown key: %s (%s), want the file to load", supermat_result_string(r), err.message);
+    r = create_with(uv, uvsize, "\"pipeline.bake_detail_sigma\":\"0.03125\"", &bake, &err);
+    TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "bake_detail_sigma") && strstr(err.message, "uv-refine"),
+             "uv-refine + bake detail 0.03125: %s (%s), want MALFORMED_FILE naming the key and the kind", supermat_result_string(r), err.message);
+    r = create_with(uv, uvsize, "\"pipeline.bake_detail_sigma\":\"0\"", &bake, &err);
+    TU_CHECK(r == SUPERMAT_SUCCESS && bake == 0.0f, "uv-refine + bake detail 0 (none): %s (%s)", supermat_result_string(r), err.message);
+    cases += 3;
+    free(uv);
+    printf("bake detail: reported as recorded (%d tiny / uv-refine files), out of [0, 1] or not a number MALFORMED_FILE, > 0 on uv-refine MALFORMED_FILE%s\n",
+           cases, mvsize ? "; the multi-view default records 1/32" : "");
+}
+
 int main(int argc, char **argv) {
     static unsigned char img[PW * PH * 4], sq[Q * Q * 4];
     unsigned char *ddata = NULL, *tdata = NULL;
     size_t dsize = 0, tsize = 0;
     supermat_model *def, *tiny;
     maps odd;
-    if (argc < 3) { fprintf(stderr, "usage: %s DEFAULT_MODEL TINY_MODEL\n", argv[0]); return 2; }
+    char uv_path[1024];
+    if (argc < 3) { fprintf(stderr, "usage: %s DEFAULT_MODEL TINY_MODEL [TINY_UV_MODEL]\n", argv[0]); return 2; }
+    if (argc > 3) snprintf(uv_path, sizeof uv_path, "%s", argv[3]);
+    else sibling(uv_path, sizeof uv_path, argv[2], "tiny_uv_refine_bc.safetensors");
     ddata = load(argv[1], &dsize); tdata = load(argv[2], &tsize);
     def = create(ddata, dsize, SUPERMAT_CONV_DIRECT, argv[1]);
     tiny = create(tdata, tsize, SUPERMAT_CONV_DIRECT, argv[2]);
@@ -430,6 +567,7 @@ int main(int argc, char **argv) {
     tu_disc_rgba(sq, Q, Q, 30, 34, 24);
     odd = maps_new(PW, PH);
     test_info(def, tiny);
+    test_bake_detail(def, tiny, tdata, tsize, argv[1], uv_path);
     if (def) { test_zero_is_model(def, img, &odd); test_sizes(def, tiny, img, &odd); }
     test_guards(tdata, tsize, sq);
     test_prepacked(ddata, dsize, sq);

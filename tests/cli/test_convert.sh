@@ -12,7 +12,9 @@
 # checkpoint options, onto itself, over a file, a cut file, a checkpoint). --detail / --chroma: recorded only when on
 # (off: the official file byte for byte), 1/64 and 0.5 read, out of range a usage error, refused for uv-refine;
 # `convert --from` with each subset of --work-size, --detail, --chroma changes just those keys (off removes one),
-# the tensor bytes kept. --weights: what `info` reports and
+# the tensor bytes kept. --bake-detail (pipeline.bake_detail_sigma, the detail step `mesh` bakes with): the same
+# checks (recorded only when on, read back by `info`, off removes it, refused for uv-refine and out of range,
+# --from with it alone and with the others, the tensors byte for byte). --weights: what `info` reports and
 # `image` runs for the f16 and int8 files and --weights int8 / bf16 / q4 (exit 2).
 # (convert --packed is in test_pack.sh, the multi-view and UV-refine kinds in test_views.sh / test_refine.sh.)
 set -eu
@@ -168,13 +170,80 @@ check "convert --from with all three: each changed" \
 check "convert --from with all three: says what it set" grep -q "with work size 64x64, detail 0.25, colour off$" "$T/out"
 check "convert --from with all three: the tensor bytes the original's" cmp -s <(tensors "$T/tiny_dc.safetensors") <(tensors "$T/from_all.safetensors")
 run convert --from "$T/tiny_dc.safetensors" --out "$T/never.safetensors"
-check "convert --from with none of --work-size, --detail, --chroma exits 2" [ $RC -eq 2 ]
-check "convert --from with none of --work-size, --detail, --chroma: the message names them" grep -q -- "--from needs --work-size N|native, --detail F|off or --chroma W|off" "$T/err"
+check "convert --from with none of --work-size, --detail, --chroma, --bake-detail exits 2" [ $RC -eq 2 ]
+check "convert --from with none of --work-size, --detail, --chroma, --bake-detail: the message names them" \
+    grep -q -- "--from needs --work-size N|native, --detail F|off, --chroma W|off or --bake-detail F|off" "$T/err"
 run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/tiny_uv.safetensors" --work-size native
 run convert --from "$T/tiny_uv.safetensors" --detail 1/64 --out "$T/never.safetensors"
 check "convert --from a uv-refine file --detail 1/64 exits 1" [ $RC -eq 1 ]
 check "convert --from a uv-refine file --detail: the message says why" grep -q "uv-refine model has no input picture" "$T/err"
 absent "$T/never.safetensors"
+
+# ---- --bake-detail: pipeline.bake_detail_sigma, the detail step `mesh` bakes with -------------------
+BD='"pipeline.bake_detail_sigma"'
+check "an official conversion records no bake detail step" bash -c "! grep -q 'pipeline.bake_detail_sigma' <(tail -c +9 '$MODEL' | head -c 100000)"
+run info "$MODEL"
+check "info: no bake detail recorded says none" grep -Eq '^bake detail +none' "$T/out"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_b0.safetensors" --work-size native --bake-detail off
+check "convert --bake-detail off exits 0" [ $RC -eq 0 ]
+check "convert --bake-detail off writes the file written without it, byte for byte" cmp -s "$MODEL" "$T/tiny_b0.safetensors"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_b.safetensors" --work-size native --bake-detail 1/32
+check "convert --bake-detail 1/32 exits 0" [ $RC -eq 0 ]
+check "convert --bake-detail 1/32 records pipeline.bake_detail_sigma 0.03125" [ "$(meta "$T/tiny_b.safetensors" pipeline.bake_detail_sigma)" = 0.03125 ]
+check "convert --bake-detail: the header is the official one with the key after the work size" \
+    [ "$(hdr "$T/tiny_b.safetensors")" = "$(hdr "$MODEL" | sed "s/\"pipeline.work_size\":\"0\"/&,$BD:\"0.03125\"/")" ]
+check "convert --bake-detail: the tensor bytes the official conversion's" cmp -s <(tensors "$MODEL") <(tensors "$T/tiny_b.safetensors")
+run info "$T/tiny_b.safetensors"
+check "info reads the bake detail back" grep -Eq "^bake detail +0.03125 of the texture's larger side" "$T/out"
+check "info: the bake detail is not the picture's detail step" grep -Eq '^detail +none' "$T/out"
+run convert --kind supermat --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/tiny_dcb.safetensors" --work-size native --detail 1/64 --chroma 1 --bake-detail 1/32
+check "convert --detail --chroma --bake-detail: the three keys in the converter's order" \
+    [ "$(hdr "$T/tiny_dcb.safetensors")" = "$(hdr "$MODEL" | sed "s/\"pipeline.work_size\":\"0\"/&,$DS:\"0.015625\",$CW:\"1\",$BD:\"0.03125\"/")" ]
+for bad in 2 -1 abc 1/0 ''; do
+    run convert --unet "$DATA/tiny/supermat.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --bake-detail "$bad"
+    check "convert --bake-detail '$bad' exits 2" [ $RC -eq 2 ]
+    check "convert --bake-detail '$bad': the message names the option and the value" grep -q -- "--bake-detail: 'off' or .* from 0 to 1 (0.5, 1/64), not '$bad'" "$T/err"
+    run convert --from "$T/tiny_b.safetensors" --out "$T/never.safetensors" --bake-detail "$bad"
+    check "convert --from --bake-detail '$bad' exits 2" [ $RC -eq 2 ]
+done
+run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --bake-detail 1/32
+check "convert --kind uv-refine --bake-detail 1/32 exits 2" [ $RC -eq 2 ]
+check "convert --kind uv-refine --bake-detail: the message says why" grep -q "uv-refine model has no input picture for the bake detail step" "$T/err"
+run convert --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/never.safetensors" --bake-detail 1/32
+check "convert of a uv-refine checkpoint (kind detected) with --bake-detail exits 1" [ $RC -eq 1 ]
+check "convert of a uv-refine checkpoint with --bake-detail: the message names the key" grep -q "pipeline.bake_detail_sigma: a uv-refine model" "$T/err"
+run convert --from "$T/tiny_uv.safetensors" --bake-detail 1/32 --out "$T/never.safetensors"
+check "convert --from a uv-refine file --bake-detail 1/32 exits 1" [ $RC -eq 1 ]
+check "convert --from a uv-refine file --bake-detail: the message says why" grep -q "uv-refine model has no input picture" "$T/err"
+run info "$T/tiny_uv.safetensors"
+check "info on a uv-refine file: no bake detail line" bash -c "! grep -q '^bake detail' '$T/out'"
+absent "$T/never.safetensors"
+# --from: alone, with the others, off; the tensors byte for byte
+run convert --from "$MODEL" --bake-detail 1/32 --out "$T/from_b.safetensors"
+check "convert --from --bake-detail 1/32 exits 0" [ $RC -eq 0 ]
+check "convert --from --bake-detail: says what it set" grep -q "with bake detail 0.03125$" "$T/out"
+check "convert --from --bake-detail: the header a conversion with it writes" [ "$(hdr "$T/from_b.safetensors")" = "$(hdr "$T/tiny_b.safetensors")" ]
+check "convert --from --bake-detail: the tensor bytes the original's" cmp -s <(tensors "$MODEL") <(tensors "$T/from_b.safetensors")
+run convert --from "$T/tiny_dc.safetensors" --bake-detail 1/32 --out "$T/from_dcb.safetensors"
+check "convert --from --bake-detail on a file with both steps: after the colour key" [ "$(hdr "$T/from_dcb.safetensors")" = "$(hdr "$T/tiny_dcb.safetensors")" ]
+run convert --from "$T/tiny_dcb.safetensors" --bake-detail off --out "$T/from_b0.safetensors"
+check "convert --from --bake-detail off exits 0" [ $RC -eq 0 ]
+check "convert --from --bake-detail off: only the bake detail key removed" [ "$(hdr "$T/from_b0.safetensors")" = "$(hdr "$T/tiny_dc.safetensors")" ]
+check "convert --from --bake-detail off: says so" grep -q "with bake detail off$" "$T/out"
+run info "$T/from_b0.safetensors"
+check "info after --bake-detail off: none" grep -Eq '^bake detail +none' "$T/out"
+run convert --from "$T/tiny_dcb.safetensors" --detail off --out "$T/from_d0b.safetensors"
+check "convert --from --detail off: the bake detail kept" \
+    [ "$(hdr "$T/from_d0b.safetensors")" = "$(hdr "$T/tiny_dcb.safetensors" | sed "s/,$DS:\"0.015625\"//")" ]
+run convert --from "$T/tiny_dcb.safetensors" --work-size 64 --detail 0.25 --chroma off --bake-detail 0.5 --out "$T/from_all4.safetensors"
+check "convert --from with all four exits 0" [ $RC -eq 0 ]
+check "convert --from with all four: each changed" \
+    [ "$(hdr "$T/from_all4.safetensors")" = "$(hdr "$T/tiny_dcb.safetensors" | sed "s/\"pipeline.work_size\":\"0\"/\"pipeline.work_size\":\"64\"/; s/$DS:\"0.015625\"/$DS:\"0.25\"/; s/,$CW:\"1\"//; s/$BD:\"0.03125\"/$BD:\"0.5\"/")" ]
+check "convert --from with all four: says what it set" grep -q "with work size 64x64, detail 0.25, colour off, bake detail 0.5$" "$T/out"
+check "convert --from with all four: the tensor bytes the original's" cmp -s <(tensors "$T/tiny_dcb.safetensors") <(tensors "$T/from_all4.safetensors")
+run convert --from "$T/tiny_b.safetensors" --work-size 64 --chroma 1 --out "$T/from_wcb.safetensors"
+check "convert --from --work-size --chroma on a file with a bake detail: the colour between detail's place and the bake detail" \
+    [ "$(hdr "$T/from_wcb.safetensors")" = "$(hdr "$T/tiny_b.safetensors" | sed "s/\"pipeline.work_size\":\"0\"/\"pipeline.work_size\":\"64\",$CW:\"1\"/")" ]
 
 # ---- --weights (GEMM weight storage) ----------------------------------------------------------
 run info --weights int8 "$MODEL"
