@@ -36,5 +36,5 @@ echo "== conversion"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_UV_TESTS=OFF >/dev/null
 cmake --build build -j"$THREADS" --target supermat
 build/supermat convert --force --kind supermat-mv --unet "$WORK/mv2/release/supermat_mv.pth" \
-    --base "$WORK/mv2/release/base" --weights f16 --work-size 128 --out models/supermat_mv_default.safetensors
+    --base "$WORK/mv2/release/base" --weights f16 --work-size 128 --bake-detail 1/32 --out models/supermat_mv_default.safetensors
 build/supermat info models/supermat_mv_default.safetensors
