@@ -4415,6 +4415,51 @@ static void supermat__model_free(supermat_model *m) {
     supermat__free(&a, m, sizeof *m);
 }
 
+/* The kernel / compute / weights combinations a model can be created with, in one place. SUPERMAT__COMBOS: per
+   compute mode, the kernels it runs on (a bit per supermat_kernel) and the weight formats it refuses;
+   SUPERMAT__NEEDS: what the CPU (and build) must have for a compute mode (kernel -1: on any kernel), a
+   kernel (compute -1) or a mode on one kernel. Checked in this order: a mode's own need (refused for the
+   CPU whatever the kernel), the combination (INVALID_ARGUMENT), then each need that applies (UNSUPPORTED). */
+#define SUPERMAT__K(k) (1u << SUPERMAT_KERNEL_##k)
+static const struct supermat__combo { unsigned kernels; const char *kernels_why; unsigned refused_weights; const char *weights_why; }
+supermat__combos[SUPERMAT_COMPUTE_COUNT] = {
+    /* F32 */  {SUPERMAT__K(AUTO) | SUPERMAT__K(SCALAR) | SUPERMAT__K(AVX2) | SUPERMAT__K(AVX512) | SUPERMAT__K(NEON),
+                "the AMX kernel multiplies bf16: it needs bf16 compute (compute = SUPERMAT_COMPUTE_BF16)", 0, NULL},
+    /* BF16 */ {SUPERMAT__K(AUTO) | SUPERMAT__K(AVX512) | SUPERMAT__K(AMX), "bf16 compute runs on the AVX-512 or AMX kernel (kernel auto, avx512 or amx)",
+                1u << SUPERMAT_WEIGHTS_I8, "bf16 compute multiplies bf16 weights: not with int8 weights"},
+    /* INT8 */ {SUPERMAT__K(AUTO) | SUPERMAT__K(AVX512) | SUPERMAT__K(AVX2),
+                "int8 compute runs on the AVX-512 (AVX512_VNNI) or AVX2 (AVX-VNNI) kernel (kernel auto, avx512 or avx2)", 0, NULL},
+};
+static int supermat__cpu_has_any_vnni(void) { return supermat__cpu_has_avx512_vnni() || supermat__cpu_has_avx_vnni(); }
+static const struct supermat__need { int compute, kernel; int (*has)(void); const char *lacks; } supermat__needs[] = {
+    {SUPERMAT_COMPUTE_BF16, -1, supermat__cpu_has_avx512_bf16, "bf16 compute needs AVX512_BF16, which this CPU (or build) lacks"},
+    {-1, SUPERMAT_KERNEL_AVX2, supermat__cpu_has_avx2, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C"},
+    {-1, SUPERMAT_KERNEL_AVX512, supermat__cpu_has_avx512, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F"},
+    {-1, SUPERMAT_KERNEL_NEON, supermat__cpu_has_neon, "NEON kernels requested but this is not an aarch64 build"},
+    {-1, SUPERMAT_KERNEL_AMX, supermat__cpu_has_amx_bf16, "AMX kernels requested but this CPU, OS (or build) lacks AMX-TILE + AMX-BF16"},
+    {SUPERMAT_COMPUTE_INT8, SUPERMAT_KERNEL_AVX512, supermat__cpu_has_avx512_vnni,
+     "int8 compute on the AVX-512 kernel needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks"},
+    {SUPERMAT_COMPUTE_INT8, SUPERMAT_KERNEL_AVX2, supermat__cpu_has_avx_vnni,
+     "int8 compute on the AVX2 kernel needs AVX-VNNI, which this CPU (or build: gcc >= 11, clang >= 12) lacks"},
+    {SUPERMAT_COMPUTE_INT8, SUPERMAT_KERNEL_AUTO, supermat__cpu_has_any_vnni, "int8 compute needs AVX512_VNNI or AVX-VNNI, which this CPU (or build) lacks"},
+};
+#undef SUPERMAT__K
+static supermat_result supermat__check_combo(supermat_kernel kernel, supermat_compute compute, supermat_weights weights, supermat_error *err) {
+    const struct supermat__combo *c = &supermat__combos[compute];
+    size_t i;
+    for (i = 0; i < sizeof supermat__needs / sizeof supermat__needs[0]; i++) /* a mode's own need */
+        if (supermat__needs[i].kernel < 0 && supermat__needs[i].compute == (int)compute && !supermat__needs[i].has())
+            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "%s", supermat__needs[i].lacks);
+    if (!(c->kernels & (1u << kernel))) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s", c->kernels_why);
+    if (c->refused_weights & (1u << weights)) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s", c->weights_why);
+    for (i = 0; i < sizeof supermat__needs / sizeof supermat__needs[0]; i++) {
+        const struct supermat__need *n = &supermat__needs[i];
+        if (n->kernel < 0 || n->kernel != (int)kernel || (n->compute >= 0 && n->compute != (int)compute)) continue;
+        if (!n->has()) return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "%s", n->lacks);
+    }
+    return SUPERMAT_SUCCESS;
+}
+
 static supermat_result supermat__model_create(const supermat_model_desc *desc, supermat_model **out, supermat_error *err, supermat__pkrec *rec) {
     supermat__loader L;
     supermat_model *m;
@@ -4429,35 +4474,8 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
     if ((unsigned)desc->weights >= SUPERMAT_WEIGHTS_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown weight format %d", (int)desc->weights);
     if ((unsigned)desc->conv >= SUPERMAT_CONV_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown convolution algorithm %d", (int)desc->conv);
     if ((unsigned)desc->kernel >= SUPERMAT_KERNEL_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown kernel %d", (int)desc->kernel);
-    if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat__cpu_has_avx2())
-        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX2 kernels requested but this CPU (or build) lacks AVX2/FMA/F16C");
     if ((unsigned)desc->compute >= SUPERMAT_COMPUTE_COUNT) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "unknown compute mode %d", (int)desc->compute);
-    if (desc->compute == SUPERMAT_COMPUTE_BF16) {
-        if (!supermat__cpu_has_avx512_bf16())
-            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "bf16 compute needs AVX512_BF16, which this CPU (or build) lacks");
-        if (desc->kernel == SUPERMAT_KERNEL_SCALAR || desc->kernel == SUPERMAT_KERNEL_AVX2)
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute runs on the AVX-512 kernel (kernel auto or avx512)");
-        if (desc->weights == SUPERMAT_WEIGHTS_I8)
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "bf16 compute multiplies bf16 weights: not with int8 weights");
-    }
-    if (desc->compute == SUPERMAT_COMPUTE_INT8) {
-        if (desc->kernel != SUPERMAT_KERNEL_AUTO && desc->kernel != SUPERMAT_KERNEL_AVX512 && desc->kernel != SUPERMAT_KERNEL_AVX2)
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "int8 compute runs on the AVX-512 (AVX512_VNNI) or AVX2 (AVX-VNNI) kernel (kernel auto, avx512 or avx2)");
-        if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat__cpu_has_avx512_vnni())
-            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX-512 kernel needs AVX512_VNNI (and AVX-512BW), which this CPU (or build) lacks");
-        if (desc->kernel == SUPERMAT_KERNEL_AVX2 && !supermat__cpu_has_avx_vnni())
-            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute on the AVX2 kernel needs AVX-VNNI, which this CPU (or build: gcc >= 11, clang >= 12) lacks");
-        if (desc->kernel == SUPERMAT_KERNEL_AUTO && !supermat__cpu_has_avx512_vnni() && !supermat__cpu_has_avx_vnni())
-            return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "int8 compute needs AVX512_VNNI or AVX-VNNI, which this CPU (or build) lacks");
-    }
-    if (desc->kernel == SUPERMAT_KERNEL_AVX512 && !supermat__cpu_has_avx512())
-        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AVX-512 kernels requested but this CPU (or build) lacks AVX-512F");
-    if (desc->kernel == SUPERMAT_KERNEL_NEON && !supermat__cpu_has_neon())
-        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "NEON kernels requested but this is not an aarch64 build");
-    if (desc->kernel == SUPERMAT_KERNEL_AMX && desc->compute != SUPERMAT_COMPUTE_BF16)
-        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "the AMX kernel multiplies bf16: it needs bf16 compute (compute = SUPERMAT_COMPUTE_BF16)");
-    if (desc->kernel == SUPERMAT_KERNEL_AMX && !supermat__cpu_has_amx_bf16())
-        return supermat__fail(err, SUPERMAT_ERROR_UNSUPPORTED, NULL, "AMX kernels requested but this CPU, OS (or build) lacks AMX-TILE + AMX-BF16");
+    if ((r = supermat__check_combo(desc->kernel, desc->compute, desc->weights, err))) return r;
     a = supermat__resolve_allocator(&desc->allocator);
     r = supermat__st_header(desc->data, desc->size, desc->size, &hlen, err);
     if (r) return r;
