@@ -36,6 +36,7 @@
  *   supermat_session_memory               what a session would allocate, without allocating
  *   supermat_run                          one picture (or SuperMatMV's views, or a UV map) -> maps
  *   supermat_detail / _memory             the detail step alone, on an albedo made elsewhere (UV bakes)
+ *   supermat_srgb_to_linear / _linear_to_srgb  the sRGB transfer every step of both headers uses
  *   supermat_result_string                the name of a result code
  *   supermat_pool_create / _destroy       the built-in thread pool, to share between sessions
  *   Tools (the project's CLI and tests use them; an application running models needs none):
@@ -584,6 +585,10 @@ typedef struct supermat_detail_desc {
    is checked as by supermat_detail, its pixels are not read. */
 SUPERMAT_API supermat_result supermat_detail_memory(const supermat_detail_desc *desc, size_t *bytes, supermat_error *err);
 SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, supermat_error *err);
+/* The sRGB transfer (IEC 61966-2-1) the steps above and supermat_uv.h use: the value clamped to [0, 1] first
+   (NaN -> 0), in double. */
+SUPERMAT_API double supermat_srgb_to_linear(double v);
+SUPERMAT_API double supermat_linear_to_srgb(double v);
 
 /* ---- built-in thread pool (absent with SUPERMAT_NO_PTHREADS) ---------------------------------- */
 typedef struct supermat_pool supermat_pool;
@@ -5532,6 +5537,8 @@ static void supermat__detail_box(supermat__ctx *X, float *g, float *tmp, int w, 
 }
 static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; /* NaN -> 0 */ return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+SUPERMAT__DEF double supermat_srgb_to_linear(double v) { return supermat__lin(v); }
+SUPERMAT__DEF double supermat_linear_to_srgb(double v) { return supermat__srgb(v); }
 
 /* The detail and colour steps, a row of pixels a task. Linear light of the picture: an 8-bit picture's
    256 values from a table (the same doubles supermat__lin gives for them), a float picture's through

@@ -504,14 +504,9 @@ static void supermat_uv__debug(supermat_uv__ctx *C, supermat_uv_debug_kind k, in
 }
 
 /* >>uv-color */
-static float supermat_uv__to_linear(float s) {
-    s = s < 0.0f ? 0.0f : s > 1.0f ? 1.0f : s;
-    return s <= 0.04045f ? s / 12.92f : (float)pow((s + 0.055) / 1.055, 2.4);
-}
-static float supermat_uv__to_srgb(float l) {
-    l = l < 0.0f ? 0.0f : l > 1.0f ? 1.0f : l;
-    return l <= 0.0031308f ? l * 12.92f : (float)(1.055 * pow(l, 1.0 / 2.4) - 0.055);
-}
+/* supermat.h's sRGB transfer (clamped to [0, 1], NaN -> 0), to float */
+static float supermat_uv__to_linear(float s) { return (float)supermat_srgb_to_linear(s); }
+static float supermat_uv__to_srgb(float l) { return (float)supermat_linear_to_srgb(l); }
 
 /* >>uv-texture */
 /* folds a texture coordinate (in [0,1] units) by the wrap mode */
