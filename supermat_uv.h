@@ -26,6 +26,13 @@
  *     supermat_error err;
  *     if (supermat_uv_bake(&bd, &out, NULL, &err) != SUPERMAT_SUCCESS) puts(err.message);
  *
+ * THE API (the declarations below)
+ *   supermat_uv_bake                      a textured mesh -> albedo and metallicRoughness UV textures
+ *   supermat_uv_bake_memory               the bake's peak bytes for a desc, without allocating
+ *   supermat_uv_cameras                   the 6 official camera-to-world matrices the views are rendered with
+ *   Descriptors (bake desc, parts) are cleared with memset or = {0} before use: 0 is every field's default,
+ *   and one that was not cleared is refused (_start_canary / _end_canary). Models come from supermat.h.
+ *
  * THE MODELS' PIPELINE
  *   Every field left 0 is what the model files record (supermat_model_info): the networks run at their
  *   work sizes (view_work_size, refine_work_size) and the albedo gets the view model's detail step, so

@@ -428,6 +428,22 @@ static void model_pipeline(supermat_uv_bake_desc bd, const supermat_model *mv) {
            info.work_size, (double)info.bake_detail_sigma, same[1], !same[2], !same[4]);
 }
 
+/* a model file read and created (checked); *file holds its bytes (free it after the model) */
+static supermat_model *load_model(const char *path, unsigned char **file, const char *what) {
+    size_t n = 0;
+    supermat_model_desc md;
+    supermat_model *m = NULL;
+    supermat_error err;
+    *file = read_all(path, &n);
+    CHECK(*file != NULL, what);
+    if (*file) {
+        memset(&md, 0, sizeof md);
+        md.data = *file; md.size = n;
+        CHECK(supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, err.message);
+    }
+    return m;
+}
+
 int main(int argc, char **argv) {
     /* a quad in the XZ plane facing the front camera (-Y), UVs covering [0.25, 0.75]^2 */
     static const float xyz[12] = {-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1};
@@ -613,14 +629,8 @@ int main(int argc, char **argv) {
             bd.mv_model = mv;
         }
         if (argc >= 4 && mv && uvm) { /* TINY: the single-view model, view by view */
-            size_t nsv = 0;
-            unsigned char *fsv = read_all(argv[3], &nsv);
-            supermat_model *sv = NULL;
-            CHECK(fsv != NULL, "read the tiny single-view model");
-            if (fsv) {
-                md.data = fsv; md.size = nsv;
-                CHECK(supermat_model_create(&md, &sv, &err) == SUPERMAT_SUCCESS, err.message);
-            }
+            unsigned char *fsv = NULL;
+            supermat_model *sv = load_model(argv[3], &fsv, "read the tiny single-view model");
             if (sv) { single_view(bd, sv, 0); single_view(bd, sv, 8); single_view(bd, sv, 32); }
             if (sv) { /* DETAIL with the network's predictions: ratios far from 1, some clipped */
                 supermat_uv_bake_desc b2 = bd;
@@ -636,14 +646,8 @@ int main(int argc, char **argv) {
             free(fsv);
         }
         if (argc >= 5) { /* DEFAULT_MV */
-            size_t nd = 0;
-            unsigned char *fd = read_all(argv[4], &nd);
-            supermat_model *dm = NULL;
-            CHECK(fd != NULL, "read the multi-view default");
-            if (fd) {
-                md.data = fd; md.size = nd;
-                CHECK(supermat_model_create(&md, &dm, &err) == SUPERMAT_SUCCESS, err.message);
-            }
+            unsigned char *fd = NULL;
+            supermat_model *dm = load_model(argv[4], &fd, "read the multi-view default");
             if (dm) model_pipeline(bd, dm);
             supermat_model_destroy(dm);
             free(fd);
