@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# tests/cli/test_bake_parity.sh - examples/bake_gltf.cpp gets `supermat mesh`'s textures (issue 59).
+# tests/uv/test_bake_parity.sh - examples/bake_gltf.cpp gets `supermat mesh`'s textures (issue 59).
 #
-#   bash tests/cli/test_bake_parity.sh BUILD/supermat BUILD/example_bake_gltf SRC_DIR OUT_DIR
+#   bash tests/uv/test_bake_parity.sh BUILD/supermat BUILD/example_bake_gltf SRC_DIR OUT_DIR
 #
 # The example leaves every supermat_uv_bake_desc field it does not need 0 (each model file's pipeline: the
 # networks' work sizes, the view model's detail step) and `supermat mesh` sets nothing of its own, so on
