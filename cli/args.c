@@ -11,6 +11,7 @@ static const char cli_usage_main[] =
     "\n"
     "commands:\n"
     "  convert   official checkpoint (.pth) + Stable Diffusion 2.1 folder -> one model file\n"
+    "  download  `download official`: the official networks from the Hugging Face hub, converted\n"
     "  pack      a model file -> its pre-packed form: created in milliseconds, shared by processes\n"
     "  image     albedo / roughness / metallic maps for images (a supermat model)\n"
     "  views     the same for the views of one object with their cameras (a supermat-mv model)\n"

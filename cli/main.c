@@ -30,6 +30,7 @@
  *   model.c      >>model       the default model: where a command without --model finds it ($SUPERMAT_MODEL,
  *                              the installed data folder, the source tree's models/)
  *   convert.c    >>convert     `supermat convert`
+ *   download.c   >>download    `supermat download official`: the official weights (curl), then convert
  *   image.c      >>image       `supermat image` (and what `views` and `refine` share with it)
  *   views.c      >>views       `supermat views`: meta.json cameras, the multi-view run
  *   refine.c     >>refine      `supermat refine`
@@ -53,6 +54,7 @@
 #include "model.c"
 #include "pack.c"
 #include "convert.c"
+#include "download.c"
 #include "image.c"
 #include "views.c"
 #include "refine.c"
@@ -106,6 +108,7 @@ int main(int argc, char **argv) {
                         "build it with -DCMAKE_BUILD_TYPE=Release\n");
     if (!strcmp(c, "convert")) return cli_convert(argc, argv);
     if (!strcmp(c, "pack")) return cli_pack(argc, argv);
+    if (!strcmp(c, "download")) return cli_download(argc, argv);
     if (!strcmp(c, "image")) return cli_image(argc, argv);
     if (!strcmp(c, "views")) return cli_views(argc, argv);
     if (!strcmp(c, "refine")) return cli_refine(argc, argv);

