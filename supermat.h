@@ -149,9 +149,10 @@
  *   per 64 rows of K and those chunks in float32 (1e-5 relative of the float64 sums of the same quantized
  *   operands); its error against f32 is the quantization's; its two kernels (AVX512_VNNI on the AVX-512
  *   kernel, AVX-VNNI on the AVX2 one) give the same bits. Denormals are not flushed.
- *   Compile the implementation with -std=c99 (or -ffp-contract=off): gcc's default GNU modes fuse a * b + c
- *   in plain C into FMAs where they see fit, which moves the last bits (an 8-bit map by 1 in a few pixels).
- *   The project's tools and tests build that way, so the same flags give their bytes.
+ *   Compile the implementation with -ffp-contract=off (gcc and clang; MSVC's default /fp:precise does not
+ *   fuse): gcc in C++ and in its GNU C modes, and clang in every language, fuse a * b + c in plain C into FMAs
+ *   where they see fit, which moves the last bits (an 8-bit map by 1 in a few pixels). The project's tools,
+ *   examples and tests build that way, so the same flag gives their bytes.
  *
  * MODEL FILE (format version 1)
  *   A safetensors file. Tensors: the official checkpoint's names for the UNet (`conv_in.weight`, ...,

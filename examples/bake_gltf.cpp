@@ -13,7 +13,7 @@
  * uv_bake_parity). cli/mesh.cpp is the complete tool: node transforms, every mesh and material, alpha,
  * texCoord sets, KHR_texture_transform.
  * Build: c++ -O2 -ffp-contract=off bake_gltf.cpp -ltinygltf -lstb -lpthread -lm
- * (-ffp-contract=off as the CLI builds supermat.h: g++ fuses multiply-adds by default, a few values move by 1/255)
+ * (-ffp-contract=off as the CLI builds supermat.h: g++ and clang++ fuse multiply-adds otherwise, a few values move by 1/255)
  */
 #define SUPERMAT_IMPLEMENTATION
 #define SUPERMAT_UV_IMPLEMENTATION

@@ -1,13 +1,13 @@
 /* image_to_pbr.c - the smallest useful supermat program: one picture in, three PBR maps out.
  *
- *   cc -std=c99 -O2 -I.. image_to_pbr.c -o image_to_pbr -lm -lpthread      (needs Debian's libstb-dev)
+ *   cc -std=c99 -O2 -ffp-contract=off -I.. image_to_pbr.c -o image_to_pbr -lm -lpthread   (Debian's libstb-dev)
  *   ./image_to_pbr model.safetensors picture.png out_prefix
  *
  * writes out_prefix_albedo.png, out_prefix_roughness.png and out_prefix_metallic.png at the picture's size
  * (any size), from any model file (pre-packed by `supermat pack` too). Every session field is left 0, so the
  * model file's pipeline runs (its work size, detail and colour steps) as in `supermat image`: these are its
- * maps of an 8-bit picture, pixel for pixel (tests/cli/test_parity.sh), when built as it is, -std=c99 (gcc's
- * default GNU modes fuse multiply-adds, -ffp-contract=fast, which moves a few values by 1/255). A picture with
+ * maps of an 8-bit picture, pixel for pixel (tests/cli/test_parity.sh), when built as it is: -ffp-contract=off
+ * (gcc's GNU modes and clang fuse multiply-adds otherwise, which moves a few values by 1/255). A picture with
  * a transparent pixel gets an RGBA albedo and gray + alpha roughness and metallic (the library copies the
  * input's alpha into the 4th / 2nd channel), any other RGB and gray. */
 #define SUPERMAT_IMPLEMENTATION

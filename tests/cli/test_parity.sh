@@ -11,7 +11,7 @@
 # files may differ), and the example gives them again on the default model pre-packed by `supermat pack`.
 # Also: `image --native` refuses the 97x131 picture (exit 1, multiples of 8) and the example exits 1 on a
 # missing picture or model file. The example is BUILD/example_image_to_pbr (the target of the ctest `example`,
-# built by the default target with the CLI's flags: -std=c99, where gcc does not fuse multiply-adds; built
+# built by the default target with the CLI's flags: -ffp-contract=off, multiply-adds never fused; built
 # with gcc's GNU default -ffp-contract=fast a few values differ by 1/255). Pictures are written and PNGs
 # decoded by /usr/bin/python3 with numpy and zlib (the comparison is checked to find one changed byte first).
 set -eu
