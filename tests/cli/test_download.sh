@@ -190,5 +190,4 @@ check "a bad revision: exit 2" [ $RC -eq 2 ]
 run download nonsense
 check "an unknown download: exit 2" [ $RC -eq 2 ]
 echo "download tests: $(($(date +%s) - t0)) s"
-cp "$T/out" /tmp/dlt/last_out; cp "$T/err" /tmp/dlt/last_err; cp "$LOG" /tmp/dlt/last_log
 summary
