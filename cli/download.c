@@ -38,10 +38,10 @@ static const cli_dl_file cli_dl_files[CLI_DL_NFILES] = {
     {1, "scheduler/scheduler_config.json"}};
 /* the four networks: checkpoint (an index above), kind, the converted file */
 static const struct { int ckpt; const char *kind, *out; } cli_dl_nets[4] = {
-    {0, "supermat", "supermat_official.safetensors"},
-    {1, "supermat-mv", "supermat_mv_official.safetensors"},
-    {2, "uv-refine", "supermat_refine_albedo_official.safetensors"},
-    {3, "uv-refine", "supermat_refine_rm_official.safetensors"}};
+    {0, "supermat", CLI_OFFICIAL_SV},
+    {1, "supermat-mv", CLI_OFFICIAL_MV},
+    {2, "uv-refine", CLI_OFFICIAL_BC},
+    {3, "uv-refine", CLI_OFFICIAL_RM}};
 
 typedef struct cli_dl {
     const char *endpoint, *token, *repo[2], *rev[2];
@@ -326,7 +326,8 @@ static const cli_optdef cli_opts_download[] = {
              "disk without room.\n"
              "\n"
              "options:\n"),
-    {CLI_DL_DIR, "--dir", "DIR", "where the converted files go (default $XDG_DATA_HOME/supermat, else\n"
+    {CLI_DL_DIR, "--dir", "DIR", "where the converted files go (default: the model folder, where --model official\n"
+                                 "looks: $SUPERMAT_MODEL_DIR, else $XDG_DATA_HOME/supermat, else\n"
                                  "~/.local/share/supermat)", NULL, NULL},
     {CLI_DL_REV_SM, "--revision-supermat", "REV", "the revision of " CLI_DL_SUPERMAT_REPO " (default, pinned:\n" CLI_DL_SUPERMAT_REV ")", NULL, NULL},
     {CLI_DL_REV_BASE, "--revision-base", "REV", "the revision of " CLI_DL_BASE_REPO " (default " CLI_DL_BASE_REV ")", NULL, NULL},
@@ -343,21 +344,8 @@ static int cli_dl_rev_ok(const char *r) {
     return 1;
 }
 
-/* the default folder: $XDG_DATA_HOME/supermat, else ~/.local/share/supermat (macOS: ~/Library/Application
-   Support/supermat) */
-static char *cli_dl_default_dir(void) {
-    const char *x = getenv("XDG_DATA_HOME"), *h = getenv("HOME");
-    if (x && x[0] == '/') return cli_join(x, "supermat", "");
-    if (!h || !*h) return NULL;
-#ifdef __APPLE__
-    return cli_join(h, "Library/Application Support/supermat", "");
-#else
-    return cli_join(h, ".local/share/supermat", "");
-#endif
-}
-
 static int cli_download(int argc, char **argv) {
-    const char *cmd = "download", *v, *what = NULL, *dirarg = NULL;
+    const char *cmd = "download", *v, *what = NULL, *dirarg = NULL, *dirfrom = NULL;
     cli_dl D;
     char *dir = NULL, *config = NULL, *outs[4] = {NULL, NULL, NULL, NULL};
     long long size[CLI_DL_NFILES], part[CLI_DL_NFILES], total = 0, todo = 0, conv = 0, unknown = 0;
@@ -394,8 +382,9 @@ static int cli_download(int argc, char **argv) {
         return cli_usage_error(cmd, "HF_ENDPOINT '%s' is not an http:// or https:// URL", D.endpoint);
     D.token = getenv("HF_TOKEN");
     D.tty = isatty(2);
-    dir = dirarg ? cli_join(dirarg, "", "") : cli_dl_default_dir();
-    if (!dir) { cli_error("download: no folder: HOME is not set; give --dir DIR"); return CLI_FAIL; }
+    if (dirarg) dir = cli_join(dirarg, "", "");
+    else dir = cli_model_dir(&dirfrom);
+    if (!dir) { cli_error("download: no folder: neither SUPERMAT_MODEL_DIR nor HOME is set; give --dir DIR"); return CLI_FAIL; }
     if (strlen(dir) > 1 && dir[strlen(dir) - 1] == '/') dir[strlen(dir) - 1] = 0;
     D.dldir = cli_join(dir, "official-download", "");
     for (k = 0; k < 2; k++) {
@@ -422,7 +411,7 @@ static int cli_download(int argc, char **argv) {
         ret = CLI_OK;
         goto done;
     }
-    printf("supermat download official: %d of the 4 official networks into %s\n", nconv, dir);
+    printf("supermat download official: %d of the 4 official networks into %s%s%s%s\n", nconv, dir, dirfrom ? " (" : "", dirfrom ? dirfrom : "", dirfrom ? ")" : "");
     printf("  %s, revision %s%s\n  %s, revision %s%s\n  from %s; downloads in %s%s\n", D.repo[0], D.rev[0],
            strcmp(D.rev[0], CLI_DL_SUPERMAT_REV) ? "" : " (pinned)", D.repo[1], D.rev[1], strcmp(D.rev[1], CLI_DL_BASE_REV) ? "" : " (default)",
            D.endpoint, D.dldir, keep ? " (kept)" : " (deleted after the conversions)");

@@ -15,6 +15,38 @@
 #define CLI_DEFAULT_MODEL "supermat_default.safetensors"
 #define CLI_PATH_CAP 4096
 
+/* The named models (`--model official`): the four files `supermat download official` writes, in the model
+   folder: $SUPERMAT_MODEL_DIR when set and not empty, else the user's data folder ($XDG_DATA_HOME/supermat,
+   else ~/.local/share/supermat; macOS ~/Library/Application Support/supermat; Windows
+   %LOCALAPPDATA%\supermat). */
+#define CLI_OFFICIAL_SV "supermat_official.safetensors"
+#define CLI_OFFICIAL_MV "supermat_mv_official.safetensors"
+#define CLI_OFFICIAL_BC "supermat_refine_albedo_official.safetensors"
+#define CLI_OFFICIAL_RM "supermat_refine_rm_official.safetensors"
+
+/* the model folder, malloc'ed (no trailing '/'), and where it came from; NULL when no variable says
+   (HOME unset) or out of memory */
+static char *cli_model_dir(const char **from) {
+    const char *e = getenv("SUPERMAT_MODEL_DIR"), *x = getenv("XDG_DATA_HOME"), *h = getenv("HOME");
+    char *d = NULL;
+    size_t n;
+    *from = NULL;
+    if (e && *e) { d = cli_join(e, "", ""); *from = "$SUPERMAT_MODEL_DIR"; }
+#ifdef _WIN32
+    else if ((x = getenv("LOCALAPPDATA")) != NULL && *x) { d = cli_join(x, "supermat", ""); *from = "%LOCALAPPDATA%\\supermat"; }
+#else
+    else if (x && x[0] == '/') { d = cli_join(x, "supermat", ""); *from = "$XDG_DATA_HOME/supermat"; }
+#ifdef __APPLE__
+    else if (h && *h) { d = cli_join(h, "Library/Application Support/supermat", ""); *from = "~/Library/Application Support/supermat"; }
+#else
+    else if (h && *h) { d = cli_join(h, ".local/share/supermat", ""); *from = "~/.local/share/supermat"; }
+#endif
+#endif
+    (void)h;
+    if (d && (n = strlen(d)) > 1 && d[n - 1] == '/') d[n - 1] = 0;
+    return d;
+}
+
 typedef struct cli_model_ref {
     char path[CLI_PATH_CAP];
     const char *from; /* "--model", "$SUPERMAT_MODEL", "installed", ... */
