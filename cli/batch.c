@@ -508,7 +508,8 @@ static const cli_optdef cli_opts_batch_run[] = {
                                        "with INPUTs, also the items that have no done record (exit 1 if any)", NULL, NULL},
     CLI_END};
 static const cli_optdef cli_opts_batch_image[] = {
-    {CLI_BATCH_MODEL, "--model", "FILE", "as `supermat image` (default: the default model), loaded once for the batch", NULL, NULL},
+    {CLI_BATCH_MODEL, "--model", "FILE|NAME", "as `supermat image` (a file, official or default; default: the default\n"
+                                                "model), loaded once for the batch", NULL, NULL},
     {CLI_BATCH_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS "; a manifest line's \"outputs\" wins", NULL, NULL},
     {CLI_BATCH_ALPHA, "--alpha", "A", "keep | drop, as `supermat image`", NULL, NULL},
     {CLI_O_FLOAT, "--float", NULL, "also the PFM maps, as `supermat image --float`; a manifest line's \"float\" wins", NULL, NULL},
@@ -519,7 +520,8 @@ static const cli_optdef cli_opts_batch_image[] = {
     CLI_END};
 static const cli_optdef cli_opts_batch[] = {
     CLI_TEXT("usage: supermat batch image [--model FILE] --out DIR [options] INPUT...\n"
-             "       supermat batch mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --passthrough] --out DIR\n"
+             "       supermat batch mesh [--model official | --mv-model F] [--refine | --albedo-refine F | --rm-refine F |\n"
+             "                           --passthrough] --out DIR\n"
              "                           [mesh options] [batch options] INPUT...\n"
              "       supermat batch --merge --out DIR [INPUT...]\n"
              "\n"

@@ -143,7 +143,7 @@ static const cli_optdef cli_opts_bench[] = {
              "circle around the object) and uv-refine (a UV map, its mask and position map).\n"
              "\n"
              "options:\n"),
-    {CLI_BENCH_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL at the end)", NULL, NULL},
+    {CLI_BENCH_MODEL, "--model", "FILE|NAME", "a model file made by `supermat convert`, or a name (official, default:\nsee NAMED MODELS at the end; default: the default model)", NULL, NULL},
     {CLI_BENCH_SIZE, "--size", "S", "image size: S (square) or WxH, multiples of 8 (default 512)", NULL, NULL},
     {CLI_BENCH_VIEWS, "--views", "N", "supermat-mv: views processed together, 1 to 64 (default 6)", NULL, NULL},
     {CLI_BENCH_THREADS, "--threads", "N", "threads (default 0 = all cores)", NULL, NULL},

@@ -269,7 +269,9 @@ static const cli_optdef cli_opts_image[] = {
                                         "they measured closer to ground truth on validation assets (docs/quality.md);\n"
                                         "with `--detail off --chroma off` the albedo is the network's alone", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
-    {CLI_IMAGE_MODEL, "--model", "FILE", "a model file made by `supermat convert` (default: the default model,\nsee DEFAULT MODEL below)", NULL, NULL},
+    {CLI_IMAGE_MODEL, "--model", "FILE|NAME", "a model file made by `supermat convert`, or a name: official (the official\n"
+                                                "network, `supermat download official`), default (see NAMED MODELS and\n"
+                                                "DEFAULT MODEL below; default: the default model)", NULL, NULL},
     {CLI_IMAGE_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
     {CLI_IMAGE_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS, NULL, NULL},
     {CLI_IMAGE_ALPHA, "--alpha", "A", CLI_HELP_ALPHA, NULL, NULL},

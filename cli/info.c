@@ -18,8 +18,10 @@ static const cli_optdef cli_opts_info[] = {
              "Prints a model file's kind and architecture (with the camera embedding of a supermat-mv model\n"
              "and the input channels of a uv-refine model), its parameter counts (UNet trunk, per branch,\n"
              "VAE), the tensor dtypes it stores, its size, the memory the loaded model holds and the memory a\n"
-             "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv). Without FILE: the\n"
-             "default model (below), after a line saying which file that is.\n"
+             "512x512 session plans (all outputs and albedo only; 6 views for supermat-mv). FILE may be a name\n"
+             "(official, official-mv, official-refine-albedo, official-refine-rm: NAMED MODELS below). Without\n"
+             "FILE: the models this tool finds and where (the default model, the mesh defaults beside it, the\n"
+             "model folder and the official networks in it), then the default model.\n"
              "\n"
              "options:\n"),
     {CLI_O_THREADS, "--threads", "N", "thread count the session memory is planned for (default 0 = all cores)", NULL, NULL},
@@ -57,8 +59,10 @@ static int cli_info(int argc, char **argv) {
             return CLI_USAGE;
         }
     }
+    if (!path) cli_print_models();
     if ((m = cli_model_path(cmd, path, 1, &mref)) != CLI_OK) return m;
-    if (!path) printf("default       %s (the default model: %s)\n", mref.path, mref.from);
+    if (!path) printf("\ndefault       %s (the default model: %s)\n", mref.path, mref.from);
+    else if (strcmp(mref.from, "--model")) printf("model         %s (%s)\n", mref.path, mref.from);
     path = mref.path;
     if (cli_read_file(path, &file, &size)) return CLI_FAIL;
 

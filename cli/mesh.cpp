@@ -1,6 +1,6 @@
 /* supermat mesh: bake PBR textures for a glTF asset with supermat_uv.h (C++11, tinygltf).
  *
- *   supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf
+ *   supermat mesh [--model official | --mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf
  *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]
  *                 [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]
  *
@@ -823,11 +823,14 @@ extern "C" void supermat_cli_mesh_keep_models(int keep) {
 /* cli/model.c: the default model's path (what `supermat image` runs without --model); 0 after a
    message when there is none */
 extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **from);
+/* cli/model.c: a named model's file (official-mv, official-refine-albedo, official-refine-rm); 0 after a message */
+extern "C" int supermat_cli_named_model(const char *name, char *path, size_t cap);
 
 /* The options of one `supermat mesh` run, parsed and checked once: by the command itself, and by `batch mesh`
    (before any asset) for all of its assets. */
 struct supermat_cli_mesh_opts {
     const char *mv_path = nullptr, *bc_path = nullptr, *rm_path = nullptr, *dbg = nullptr;
+    int official = 0; /* --model official */
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
     int passthrough = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
@@ -845,10 +848,14 @@ enum {
     MESH_O_MV = 300, MESH_O_ALBEDO_REFINE, MESH_O_RM_REFINE, MESH_O_REFINE, MESH_O_NO_REFINE, MESH_O_PASSTHROUGH,
     MESH_O_KEEP_OBSERVED, MESH_O_TEXTURE_SIZE, MESH_O_VIEWS_SIZE, MESH_O_VIEW_WEIGHT, MESH_O_WORK_SIZE, MESH_O_DETAIL,
     MESH_O_THREADS, MESH_O_GUTTER, MESH_O_EDGE_REJECT, MESH_O_SUPERSAMPLE, MESH_O_MAX_MEMORY, MESH_O_DEBUG_DIR,
-    MESH_O_FORCE, MESH_O_SKIP_EXISTING, MESH_O_ALLOW_OUTSIDE
+    MESH_O_FORCE, MESH_O_SKIP_EXISTING, MESH_O_ALLOW_OUTSIDE, MESH_O_MODEL
 };
 /* what every asset of a run shares: `supermat mesh`'s options, and those `batch mesh` passes on */
 extern "C" const cli_optdef supermat_cli_mesh_bake_options[] = {
+    {MESH_O_MODEL, "--model", "NAME", "official: the official SuperMatMV and both official UV-refine networks, from\n"
+                                      "the model folder that `supermat download official` fills ($SUPERMAT_MODEL_DIR,\n"
+                                      "else the user's data folder: `supermat info` lists them); with --no-refine the\n"
+                                      "SuperMatMV alone. default: the defaults (as no model flag)", NULL, NULL},
     {MESH_O_MV, "--mv-model", "F", "a SuperMatMV model (the six views together), or a single-view model (view by\n"
                                    "view, no cross-view attention: the paper's ablation)", NULL, NULL},
     {MESH_O_REFINE, "--refine", NULL, "also the UV-refine defaults in that folder, each where present (neither:\n"
@@ -891,7 +898,8 @@ static const cli_optdef mesh_opts_files[] = {
                                                          "refused", NULL, NULL},
     CLI_END};
 static const cli_optdef mesh_opts[] = {
-    CLI_TEXT("usage: supermat mesh [--mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf\n"
+    CLI_TEXT("usage: supermat mesh [--model official | --mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine]\n"
+             "       IN.gltf OUT.gltf\n"
              "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]\n"
              "       [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]\n"
              "\n"
@@ -913,6 +921,11 @@ static int mesh_opt_value(supermat_cli_mesh_opts &o, int id, const char *v) {
     std::string w = v ? v : "";
     char *end = nullptr;
     switch (id) {
+    case MESH_O_MODEL:
+        if (w == "official") o.official = 1;
+        else if (w == "default") o.official = 0;
+        else return cli_usage_error("mesh", "--model: official or default, not '%s' (model files: --mv-model, --albedo-refine, --rm-refine)", v), -1;
+        break;
     case MESH_O_MV: o.mv_path = v; break;
     case MESH_O_ALBEDO_REFINE: o.bc_path = v; break;
     case MESH_O_RM_REFINE: o.rm_path = v; break;
@@ -968,6 +981,11 @@ static int mesh_opt_value(supermat_cli_mesh_opts &o, int id, const char *v) {
 /* the checks across options, once all are in: 0, or 2 after a usage message */
 static int mesh_opts_check(const supermat_cli_mesh_opts &o) {
     int no_refine = o.no_refine;
+    if (o.official && (o.passthrough || o.mv_path || o.bc_path || o.rm_path || o.refine)) {
+        std::fprintf(stderr, "supermat mesh: --model official names all three networks: not with %s\n",
+                     o.passthrough ? "--passthrough" : o.refine ? "--refine" : "--mv-model, --albedo-refine or --rm-refine");
+        return 2;
+    }
     if (no_refine && (o.passthrough || o.bc_path || o.rm_path || o.refine)) {
         std::fprintf(stderr, "supermat mesh: --no-refine takes --mv-model alone (no --refine, --albedo-refine, --rm-refine or --passthrough)\n");
         return 2;
@@ -977,7 +995,7 @@ static int mesh_opts_check(const supermat_cli_mesh_opts &o) {
                      o.passthrough ? "--passthrough" : "--albedo-refine or --rm-refine (name both files instead)");
         return 2;
     }
-    if (!o.passthrough && !o.refine && !o.bc_path && !o.rm_path) no_refine = 1; /* no refine flag: the view model alone */
+    if (!o.passthrough && !o.refine && !o.bc_path && !o.rm_path && !o.official) no_refine = 1; /* no refine flag: the view model alone */
     if (o.keep_observed && (o.passthrough || no_refine)) {
         std::fprintf(stderr, "supermat mesh: --keep-observed keeps the seen texels out of the refinement: not with %s\n",
                      o.passthrough ? "--passthrough" : "no refine network (--refine, --albedo-refine or --rm-refine)");
@@ -1037,9 +1055,18 @@ static int run_mesh(const supermat_cli_mesh_opts &opt, const char *in, const cha
         std::fprintf(stderr, "supermat mesh: '%s' exists and was not written by this run: --force replaces it, --skip-existing keeps it\n", out);
         return 1;
     }
-    static char default_path[4096];
+    static char default_path[4096], official_path[3][4096];
     static std::string default_mv, default_bc, default_rm;
-    if (!passthrough && (!mv_path || refine)) {
+    if (opt.official) { /* the official networks from the model folder (cli/model.c says where and why not) */
+        static const char *const names[3] = {"official-mv", "official-refine-albedo", "official-refine-rm"};
+        for (int k = 0; k < (opt.no_refine ? 1 : 3); k++)
+            if (!supermat_cli_named_model(names[k], official_path[k], sizeof official_path[k])) return 1;
+        mv_path = official_path[0];
+        if (!opt.no_refine) { bc_path = official_path[1]; rm_path = official_path[2]; }
+        if (isatty(STDERR_FILENO))
+            std::fprintf(stderr, "models (--model official): %s%s%s%s%s\n", mv_path, opt.no_refine ? ", no refinement" : ", refined by ",
+                         opt.no_refine ? "" : bc_path, opt.no_refine ? "" : " and ", opt.no_refine ? "" : rm_path);
+    } else if (!passthrough && (!mv_path || refine)) {
         /* the mesh defaults beside the default model: with no --mv-model its SuperMatMV where it is (else the
            default single-view model, view by view); with --refine the two UV-refine networks where they are */
         const char *from = nullptr;
@@ -1698,6 +1725,31 @@ extern "C" int supermat_cli_default_model(char *path, size_t cap, const char **f
     std::strcpy(path, env);
     *from = "$SUPERMAT_MODEL";
     return 1;
+}
+/* standalone: the named models from $SUPERMAT_MODEL_DIR only */
+extern "C" int supermat_cli_named_model(const char *name, char *path, size_t cap) {
+    static const char *const names[3][2] = {{"official-mv", "supermat_mv_official.safetensors"},
+                                            {"official-refine-albedo", "supermat_refine_albedo_official.safetensors"},
+                                            {"official-refine-rm", "supermat_refine_rm_official.safetensors"}};
+    const char *dir = std::getenv("SUPERMAT_MODEL_DIR");
+    for (int k = 0; k < 3; k++) {
+        if (std::strcmp(name, names[k][0])) continue;
+        if (!dir || !dir[0]) {
+            std::fprintf(stderr, "supermat mesh: --model official: this standalone build finds the official networks only in "
+                                 "$SUPERMAT_MODEL_DIR, which is not set; or use `supermat mesh`\n");
+            return 0;
+        }
+        std::string p = std::string(dir) + "/" + names[k][1];
+        if (access(p.c_str(), R_OK) != 0 || p.size() >= cap) {
+            std::fprintf(stderr, "supermat mesh: --model official: %s is not there ($SUPERMAT_MODEL_DIR); `supermat download official` "
+                                 "downloads and converts the official networks\n", p.c_str());
+            return 0;
+        }
+        std::strcpy(path, p.c_str());
+        return 1;
+    }
+    std::fprintf(stderr, "supermat mesh: '%s' is not a model name\n", name);
+    return 0;
 }
 int main(int argc, char **argv) { return supermat_cli_mesh(argc, argv); }
 #endif

@@ -47,6 +47,18 @@ static char *cli_model_dir(const char **from) {
     return d;
 }
 
+/* the names --model (and `supermat info`) take besides files: each a file of the model folder. `official` is
+   the single-view network, and the multi-view one for `supermat views` (and `supermat mesh`, cli/mesh.cpp) */
+typedef struct cli_named_model {
+    const char *name, *file, *what;
+} cli_named_model;
+#define CLI_NNAMED 4
+static const cli_named_model cli_named_models[CLI_NNAMED] = {
+    {"official", CLI_OFFICIAL_SV, "the official single-view network"},
+    {"official-mv", CLI_OFFICIAL_MV, "the official multi-view network (SuperMatMV)"},
+    {"official-refine-albedo", CLI_OFFICIAL_BC, "the official UV-refine network, albedo"},
+    {"official-refine-rm", CLI_OFFICIAL_RM, "the official UV-refine network, roughness / metallic"}};
+
 typedef struct cli_model_ref {
     char path[CLI_PATH_CAP];
     const char *from; /* "--model", "$SUPERMAT_MODEL", "installed", ... */
@@ -127,6 +139,45 @@ static void cli_print_default_model_help(void) {
             printf("  none of them exists\n");
     }
     printf("`supermat info` without a FILE shows the default model.\n");
+    {
+        const char *from = NULL;
+        char *dir = cli_model_dir(&from);
+        int k;
+        printf("\nNAMED MODELS\n"
+               "--model also takes a name: `default` (the default model above) or one of the files that\n"
+               "`supermat download official` writes into the model folder:\n");
+        for (k = 0; k < CLI_NNAMED; k++) printf("  %-24s %s (%s)\n", cli_named_models[k].name, cli_named_models[k].file, cli_named_models[k].what);
+        printf("(`official` is the multi-view one for `supermat views`; a file of such a name: ./official).\n"
+               "The model folder: $SUPERMAT_MODEL_DIR when set, else $XDG_DATA_HOME/supermat, else\n"
+               "~/.local/share/supermat. Here: %s%s%s%s\n", dir ? dir : "none (HOME is not set)", from ? " (" : "", from ? from : "", from ? ")" : "");
+        free(dir);
+    }
+}
+
+/* named model k's file in the model folder: CLI_OK and *ref when it is there, else a message and CLI_FAIL */
+static int cli_named_path(int k, cli_model_ref *ref) {
+    const char *from = NULL;
+    char *dir = cli_model_dir(&from), *p;
+    const cli_named_model *m = &cli_named_models[k];
+    if (!dir) { cli_error("--model %s: no model folder: neither SUPERMAT_MODEL_DIR nor HOME is set", m->name); return CLI_FAIL; }
+    p = cli_join(dir, m->file, "");
+    if (!p || strlen(p) >= sizeof ref->path) {
+        cli_error(p ? "--model %s: the path is longer than %d bytes" : "out of memory", m->name, CLI_PATH_CAP - 1);
+        free(p); free(dir);
+        return CLI_FAIL;
+    }
+    if (!cli_is_file(p)) {
+        cli_error("--model %s (%s): %s is not there (the model folder %s, from %s).\n"
+                  "  `supermat download official` downloads and converts the official networks into it; or set\n"
+                  "  SUPERMAT_MODEL_DIR to a folder that has them", m->name, m->what, p, dir, from);
+        free(p); free(dir);
+        return CLI_FAIL;
+    }
+    strcpy(ref->path, p);
+    ref->from = m->what;
+    free(p);
+    free(dir);
+    return CLI_OK;
 }
 
 /* The model file a command runs: --model's (given) when there is one; else, when allow_default, the
@@ -139,6 +190,15 @@ static int cli_model_path(const char *cmd, const char *given, int allow_default,
     int n, i;
     ref->path[0] = 0;
     ref->from = NULL;
+    if (given && !strcmp(given, "default")) { /* the name of what no --model runs */
+        if (!allow_default) return cli_usage_error(cmd, "--model default: `supermat %s` has no default model; give a file or a name (official...)", cmd);
+        given = NULL;
+    }
+    if (given) { /* a name: official, official-mv, ... */
+        int k;
+        for (k = 0; k < CLI_NNAMED; k++)
+            if (!strcmp(given, cli_named_models[k].name)) return cli_named_path(!strcmp(cmd, "views") && k == 0 ? 1 : k, ref);
+    }
     if (given) {
         if (strlen(given) >= sizeof ref->path) { cli_error("--model: the path is longer than %d bytes", CLI_PATH_CAP - 1); return CLI_FAIL; }
         strcpy(ref->path, given);
@@ -174,9 +234,63 @@ static int cli_model_path(const char *cmd, const char *given, int allow_default,
     return CLI_FAIL;
 }
 
+/* `supermat info` without FILE: the models this tool finds, and where. Each line: what, the file, whether it
+   is there (its size). */
+static void cli_print_models(void) {
+    char places[3][CLI_PATH_CAP], *dir;
+    const char *what[3], *env = getenv("SUPERMAT_MODEL"), *from = NULL, *used = NULL, *used_from = NULL;
+    int n = cli_default_places(places, what), i, k;
+    struct stat st;
+    printf("models\n");
+    if (env && env[0]) { used = env; used_from = "$SUPERMAT_MODEL"; }
+    for (i = 0; !used && i < n; i++)
+        if (cli_is_file(places[i])) { used = places[i]; used_from = what[i]; }
+    if (used) {
+        const char *slash = strrchr(used, '/');
+        static const char *const mesh[3][2] = {{"mesh view model", "supermat_mv_default.safetensors"},
+                                               {"mesh refine albedo", "supermat_refine_albedo_default.safetensors"},
+                                               {"mesh refine r/m", "supermat_refine_rm_default.safetensors"}};
+        printf("  %-24s %s (%s)%s\n", "default", used, used_from, cli_is_file(used) ? "" : ": not there");
+        for (k = 0; k < 3; k++) { /* the mesh defaults: beside the default model (cli/mesh.cpp) */
+            char p[CLI_PATH_CAP];
+            int len = snprintf(p, sizeof p, "%.*s%s", slash ? (int)(slash - used + 1) : 0, used, mesh[k][1]);
+            if (len > 0 && (size_t)len < sizeof p) printf("  %-24s %s%s\n", mesh[k][0], p, cli_is_file(p) ? "" : ": not there");
+        }
+    } else
+        printf("  %-24s none found (`supermat image --help`, DEFAULT MODEL, says where it is looked for)\n", "default");
+    dir = cli_model_dir(&from);
+    if (!dir) { printf("  model folder: none (neither SUPERMAT_MODEL_DIR nor HOME is set)\n"); return; }
+    printf("  %-24s %s (%s)%s\n", "model folder", dir, from, stat(dir, &st) == 0 && S_ISDIR(st.st_mode) ? "" : ": does not exist yet");
+    for (k = 0; k < CLI_NNAMED; k++) {
+        char *p = cli_join(dir, cli_named_models[k].file, "");
+        if (!p) break;
+        if (stat(p, &st) == 0 && S_ISREG(st.st_mode))
+            printf("  %-24s %s (%.1f MiB)\n", cli_named_models[k].name, p, cli_mib((double)st.st_size));
+        else
+            printf("  %-24s %s: not downloaded (`supermat download official`)\n", cli_named_models[k].name, p);
+        free(p);
+    }
+    free(dir);
+}
+
 /* For cli/mesh.cpp (another translation unit): the default model's path, as `supermat image` finds
    it without --model; 0 after cli_model_path's message when there is none. */
 int supermat_cli_default_model(char *path, size_t cap, const char **from);
+/* For cli/mesh.cpp: the file of a named model (name as --model takes it: official-mv, ...); 0 after a
+   message when it is not there */
+int supermat_cli_named_model(const char *name, char *path, size_t cap);
+int supermat_cli_named_model(const char *name, char *path, size_t cap) {
+    cli_model_ref ref;
+    int k;
+    for (k = 0; k < CLI_NNAMED; k++)
+        if (!strcmp(name, cli_named_models[k].name)) break;
+    if (k == CLI_NNAMED) { cli_error("'%s' is not a model name", name); return 0; }
+    if (cli_named_path(k, &ref) != CLI_OK) return 0;
+    if (strlen(ref.path) >= cap) { cli_error("the path of %s is longer than %d bytes", name, (int)cap - 1); return 0; }
+    strcpy(path, ref.path);
+    return 1;
+}
+
 int supermat_cli_default_model(char *path, size_t cap, const char **from) {
     cli_model_ref ref;
     if (cli_model_path("mesh", NULL, 1, &ref) != CLI_OK) return 0;

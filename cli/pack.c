@@ -21,7 +21,7 @@ static const cli_optdef cli_opts_pack[] = {
              "written to a temporary file, then renamed.\n"
              "\n"
              "options:\n"),
-    {CLI_PACK_MODEL, "--model", "FILE", "the model file (default: the default model, see `supermat image --help`)", NULL, NULL},
+    {CLI_PACK_MODEL, "--model", "FILE|NAME", "the model file, or a name as `supermat image` takes (default: the default\nmodel, see `supermat image --help`)", NULL, NULL},
     {CLI_PACK_OUT, "--out", "FILE", "the pre-packed file to write (required)", NULL, NULL},
     {CLI_O_WEIGHTS, "--weights", "W", "default | f32 | f16 | bf16 | int8: the storage of the GEMM weights (default: as\nthe file stores them)", NULL, NULL},
     {CLI_O_CONV, "--conv", "C", "direct | winograd-f2 | winograd-f4: the 3x3 convolutions (default direct; the\nWinograd weights are stored transformed, in f32: 16/9 or 4x their size)", NULL, NULL},

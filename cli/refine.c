@@ -37,7 +37,9 @@ static const cli_optdef cli_opts_refine[] = {
     {CLI_O_DETAIL, "--detail", "off", "as `supermat image --detail`, off only: a UV map has no picture to keep detail from", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "off", "as `supermat image --chroma`, off only: a UV map has no picture to take colour from", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
-    {CLI_REFINE_MODEL, "--model", "FILE", "a uv-refine model file made by `supermat convert` (required)", NULL, NULL},
+    {CLI_REFINE_MODEL, "--model", "FILE|NAME", "a uv-refine model file made by `supermat convert`, or\n"
+                                                 "official-refine-albedo / official-refine-rm (`supermat download official`)\n"
+                                                 "(required)", NULL, NULL},
     {CLI_REFINE_MAP, "--map", "FILE", "the partial UV map (required)", NULL, NULL},
     {CLI_REFINE_MASK, "--mask", "FILE", "the mask: where the map was observed (required)", NULL, NULL},
     {CLI_REFINE_POSITION, "--position", "FILE", "the position map (required)", NULL, NULL},

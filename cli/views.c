@@ -222,7 +222,8 @@ static const cli_optdef cli_opts_views[] = {
     {CLI_O_DETAIL, "--detail", "F|off", "each view's albedo keeps that view's detail, as `supermat image --detail`\n(default: the model's; off for\nthe official and default models)", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "W|off", "each view's albedo takes that view's colour, as `supermat image --chroma`\n(default: the model's; off for the official and default models)", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
-    {CLI_VIEWS_MODEL, "--model", "FILE", "a supermat-mv model file made by `supermat convert` (required)", NULL, NULL},
+    {CLI_VIEWS_MODEL, "--model", "FILE|NAME", "a supermat-mv model file made by `supermat convert`, or official (the\n"
+                                                "official SuperMatMV, `supermat download official`) (required)", NULL, NULL},
     {CLI_VIEWS_CAMERAS, "--cameras", "FILE", "the meta.json with the views' cameras (required)", NULL, NULL},
     {CLI_VIEWS_OUT, "--out", "DIR", "the output folder, created if missing (required)", NULL, NULL},
     {CLI_VIEWS_OUTPUTS, "--outputs", "LIST", CLI_HELP_OUTPUTS, NULL, NULL},
