@@ -367,11 +367,48 @@ done:
     return ret;
 }
 
+/* the --weights names, by supermat_dtype (F32 .. I8) */
+static const char *cli_dl_wname(int w) {
+    static const char *const n[] = {"as stored", "f32", "f16", "bf16", "int8"};
+    return w >= 0 && w <= 4 ? n[w] : "?";
+}
+
+/* What a converted file holds: its GEMM weights' storage (SUPERMAT_DTYPE_F32 .. I8: a pre-packed file's
+   supermat.packed.weights, else the dtype of the first attention query weight) and whether it is
+   pre-packed. CLI_OK, or CLI_FAIL with the message. */
+static int cli_dl_file_weights(const char *path, int *weights, int *packed) {
+    unsigned char *file = NULL;
+    size_t size = 0;
+    char v[32];
+    int n = 0, i, ret = CLI_FAIL;
+    supermat_error e;
+    *weights = 0;
+    *packed = 0;
+    if (cli_read_file(path, &file, &size)) return CLI_FAIL;
+    if (supermat_safetensors_count(file, size, size, &n, &e) != SUPERMAT_SUCCESS) n = -1;
+    else if (supermat_safetensors_metadata(file, size, "supermat.packed", v, sizeof v) == 0 && !strcmp(v, "1")) {
+        *packed = 1;
+        if (supermat_safetensors_metadata(file, size, "supermat.packed.weights", v, sizeof v) == 0) *weights = atoi(v);
+    } else
+        for (i = 0; i < n; i++) {
+            supermat_tensor_info ti;
+            size_t l;
+            if (supermat_safetensors_tensor(file, size, size, i, &ti, &e) != SUPERMAT_SUCCESS) break;
+            l = strlen(ti.name);
+            if (l > 12 && !strcmp(ti.name + l - 12, ".to_q.weight")) { *weights = (int)ti.dtype; break; }
+        }
+    if (*weights < SUPERMAT_DTYPE_F32 || *weights > SUPERMAT_DTYPE_I8)
+        cli_error("download: '%s' exists and is not a model file whose weights can be told: remove it, and run the command again", path);
+    else ret = CLI_OK;
+    cli_free_file(file);
+    return ret;
+}
+
 /* `supermat download`: its options and --help */
-enum { CLI_DL_DIR = 1, CLI_DL_REV_SM, CLI_DL_REV_BASE, CLI_DL_KEEP, CLI_DL_DRY };
+enum { CLI_DL_DIR = 1, CLI_DL_REV_SM, CLI_DL_REV_BASE, CLI_DL_WEIGHTS, CLI_DL_PACK, CLI_DL_KEEP, CLI_DL_DRY };
 static const cli_optdef cli_opts_download[] = {
-    CLI_TEXT("usage: supermat download official [--dir DIR] [--revision-supermat REV] [--revision-base REV] [--keep]\n"
-             "                                  [--dry-run]\n"
+    CLI_TEXT("usage: supermat download official [--dir DIR] [--revision-supermat REV] [--revision-base REV]\n"
+             "                                  [--weights f32|f16|bf16|int8] [--pack] [--keep] [--dry-run]\n"
              "       supermat download sha256 FILE...\n"
              "\n"
              "Downloads the official SuperMat networks and converts them: the checkpoints supermat.pth,\n"
@@ -405,6 +442,14 @@ static const cli_optdef cli_opts_download[] = {
                                  "~/.local/share/supermat)", NULL, NULL},
     {CLI_DL_REV_SM, "--revision-supermat", "REV", "the revision of " CLI_DL_SUPERMAT_REPO " (default, pinned:\n" CLI_DL_SUPERMAT_REV ")", NULL, NULL},
     {CLI_DL_REV_BASE, "--revision-base", "REV", "the revision of " CLI_DL_BASE_REPO " (default, pinned:\n" CLI_DL_BASE_REV ")", NULL, NULL},
+    {CLI_DL_WEIGHTS, "--weights", "W", "f32 | f16 | bf16 | int8: the weights' storage in the converted files (default\n"
+                                       "f16: measured on the full-size official architecture, f16 halves the model,\n"
+                                       "1812 MiB held instead of 3606, with maps 61-63 dB from f32's (max abs 0.02) and\n"
+                                       "no speed change; bf16 gives 44 dB, int8 a quarter (971 MiB) at 37-38 dB;\n"
+                                       "docs/levers.md). A converted file already there with other weights is refused:\n"
+                                       "remove it or ask for its weights", "--precision --dtype", NULL},
+    {CLI_DL_PACK, "--pack", NULL, "write each converted file pre-packed for this CPU (`supermat pack`: created in\n"
+                                  "milliseconds, its panels shared by processes; load it on this kind of CPU)", NULL, NULL},
     {CLI_DL_KEEP, "--keep", NULL, "keep the downloaded files after the conversions", NULL, NULL},
     {CLI_DL_DRY, "--dry-run", NULL, "print the plan (asks the server for the sizes) and stop", NULL, NULL},
     CLI_END};
@@ -423,7 +468,7 @@ static int cli_download(int argc, char **argv) {
     cli_dl D;
     char *dir = NULL, *config = NULL, *outs[4] = {NULL, NULL, NULL, NULL};
     long long size[CLI_DL_NFILES], part[CLI_DL_NFILES], total = 0, todo = 0, conv = 0, unknown = 0;
-    int need[CLI_DL_NFILES], conv_need[4], m, f, k, keep = 0, dry = 0, nneed = 0, nconv = 0, ndone, ret = CLI_FAIL;
+    int need[CLI_DL_NFILES], conv_need[4], m, f, k, keep = 0, dry = 0, pack = 0, weights = SUPERMAT_DTYPE_F16, nneed = 0, nconv = 0, ndone, ret = CLI_FAIL;
     char sdig[CLI_DL_NFILES][65];
     const char *want_sha[CLI_DL_NFILES], *dsrc[CLI_DL_NFILES];
     cli_argp P;
@@ -452,6 +497,14 @@ static int cli_download(int argc, char **argv) {
         case CLI_DL_DIR: dirarg = v; break;
         case CLI_DL_REV_SM: D.rev[0] = v; break;
         case CLI_DL_REV_BASE: D.rev[1] = v; break;
+        case CLI_DL_WEIGHTS:
+            if (!strcmp(v, "f32")) weights = SUPERMAT_DTYPE_F32;
+            else if (!strcmp(v, "f16")) weights = SUPERMAT_DTYPE_F16;
+            else if (!strcmp(v, "bf16")) weights = SUPERMAT_DTYPE_BF16;
+            else if (!strcmp(v, "int8") || !strcmp(v, "i8")) weights = SUPERMAT_DTYPE_I8;
+            else return cli_usage_error(cmd, "--weights: '%s' is not f32, f16, bf16 or int8", v);
+            break;
+        case CLI_DL_PACK: pack = 1; break;
         case CLI_DL_KEEP: keep = 1; break;
         case CLI_DL_DRY: dry = 1; break;
         default: break;
@@ -486,7 +539,20 @@ static int cli_download(int argc, char **argv) {
     memset(need, 0, sizeof need);
     for (k = 0; k < 4; k++) {
         conv_need[k] = cli_dl_fsize(outs[k]) < 0;
-        if (!conv_need[k]) continue;
+        if (!conv_need[k]) { /* kept: made with the weights and packing asked for, or refused */
+            int w, pk;
+            if (cli_dl_file_weights(outs[k], &w, &pk) != CLI_OK) goto done;
+            if (w != weights) {
+                cli_error("download: '%s' exists with %s weights, not the %s asked for: remove it or pass --weights %s", outs[k], cli_dl_wname(w),
+                          cli_dl_wname(weights), cli_dl_wname(w));
+                goto done;
+            }
+            if (pk != pack) {
+                cli_error("download: '%s' exists %s: remove it or %s --pack", outs[k], pk ? "pre-packed" : "not pre-packed", pk ? "pass" : "leave out");
+                goto done;
+            }
+            continue;
+        }
         nconv++;
         need[cli_dl_nets[k].ckpt] = 1;
         for (f = 0; f < CLI_DL_NFILES; f++) if (cli_dl_files[f].repo == 1) need[f] = 1;
@@ -496,7 +562,8 @@ static int cli_download(int argc, char **argv) {
         ret = CLI_OK;
         goto done;
     }
-    printf("supermat download official: %d of the 4 official networks into %s%s%s%s\n", nconv, dir, dirfrom ? " (" : "", dirfrom ? dirfrom : "", dirfrom ? ")" : "");
+    printf("supermat download official: %d of the 4 official networks into %s%s%s%s, %s weights%s\n", nconv, dir, dirfrom ? " (" : "",
+           dirfrom ? dirfrom : "", dirfrom ? ")" : "", cli_dl_wname(weights), pack ? ", pre-packed for this CPU" : "");
     printf("  %s, revision %s%s\n  %s, revision %s%s\n  from %s; downloads in %s%s\n", D.repo[0], D.rev[0],
            strcmp(D.rev[0], CLI_DL_SUPERMAT_REV) ? "" : " (pinned)", D.repo[1], D.rev[1], strcmp(D.rev[1], CLI_DL_BASE_REV) ? "" : " (pinned)",
            D.endpoint, D.dldir, keep ? " (kept)" : " (deleted after the conversions)");
@@ -547,8 +614,9 @@ static int cli_download(int argc, char **argv) {
         free(fin);
         free(pp);
     }
-    for (k = 0; k < 4; k++) /* a converted file: about its checkpoint (stored as is) plus the VAE */
+    for (k = 0; k < 4; k++) /* a converted file: about its checkpoint plus the VAE, in f32; f16 / bf16 half, int8 about 0.3 */
         if (conv_need[k]) conv += (size[cli_dl_nets[k].ckpt] > 0 ? size[cli_dl_nets[k].ckpt] : 0) + (size[6] > 0 ? size[6] : 0);
+    conv = weights == SUPERMAT_DTYPE_F32 ? conv : weights == SUPERMAT_DTYPE_I8 ? conv * 3 / 10 : conv / 2;
     printf("to download: %d file%s, %.1f MiB%s (of %.1f MiB needed); the converted files: about %.1f MiB\n", nneed, nneed == 1 ? "" : "s",
            cli_mib((double)todo), unknown ? " and files of unannounced size" : "", cli_mib((double)total), cli_mib((double)conv));
     if (dry) { printf("--dry-run: nothing downloaded\n"); ret = CLI_OK; goto done; }
@@ -566,9 +634,10 @@ static int cli_download(int argc, char **argv) {
     if (statvfs(D.dldir, &vfs) == 0) {
         double avail = (double)vfs.f_bavail * (double)vfs.f_frsize;
         printf("free space in %s: %.1f MiB\n", D.dldir, cli_mib(avail));
-        if ((double)(todo + conv) > avail) {
+        long long conv_room = pack ? 2 * conv : conv; /* --pack: the plain file and its pre-packed form, one network at a time */
+        if ((double)(todo + conv_room) > avail) {
             cli_error("download: not enough room in '%s': %.1f MiB free, %.1f MiB needed (%.1f to download, about %.1f for the converted files)",
-                      D.dldir, cli_mib(avail), cli_mib((double)(todo + conv)), cli_mib((double)todo), cli_mib((double)conv));
+                      D.dldir, cli_mib(avail), cli_mib((double)(todo + conv_room)), cli_mib((double)todo), cli_mib((double)conv_room));
             goto done;
         }
     }
@@ -581,30 +650,54 @@ static int cli_download(int argc, char **argv) {
         if (cli_dl_get(&D, f, config, size[f], want_sha[f], dsrc[f], ndone, nneed) != CLI_OK) goto done;
     }
 
-    /* the conversions, in-process (sm_convert writes OUT.tmp and renames it) */
+    /* the conversions, in-process (sm_convert writes OUT.tmp and renames it); --pack: into the download
+       folder, then pre-packed into OUT (a temporary file renamed) and the plain file removed */
     for (k = 0, ndone = 0; k < 4; k++) {
         sm_convert_desc d;
-        char err[1024], *ck;
+        char err[1024], *ck, *plain;
         double t0 = cli_now();
         int r;
         if (!conv_need[k]) continue;
         ndone++;
         ck = cli_dl_local(&D, cli_dl_nets[k].ckpt, 0);
-        if (!ck) { cli_error("out of memory"); goto done; }
-        printf("converting %d/%d: %s -> %s (--kind %s)\n", ndone, nconv, cli_dl_files[cli_dl_nets[k].ckpt].path, outs[k], cli_dl_nets[k].kind);
+        plain = pack ? cli_join(D.dldir, cli_dl_nets[k].out, ".unpacked") : NULL;
+        if (!ck || (pack && !plain)) { free(ck); cli_error("out of memory"); goto done; }
+        printf("converting %d/%d: %s -> %s (--kind %s, %s weights%s)\n", ndone, nconv, cli_dl_files[cli_dl_nets[k].ckpt].path, outs[k],
+               cli_dl_nets[k].kind, cli_dl_wname(weights), pack ? ", pre-packed" : "");
         fflush(stdout);
         memset(&d, 0, sizeof d);
         d.kind = cli_dl_nets[k].kind;
         d.checkpoint = ck;
         d.base_dir = D.local[1];
-        d.output = outs[k];
+        d.output = pack ? plain : outs[k];
+        d.dtype = (supermat_dtype)weights;
         d.progress = D.tty;
         r = sm_convert(&d, err, sizeof err);
         free(ck);
         if (r != 0) {
             cli_error("download: converting %s: %s [%s]; the downloads are kept: run the command again", cli_dl_nets[k].out, err[0] ? err : "failed",
                       supermat_result_string((supermat_result)r));
+            free(plain);
             goto done;
+        }
+        if (pack) { /* `supermat pack` with its defaults: the weights as stored, direct convolutions, f32 compute */
+            unsigned char *file = NULL;
+            size_t fsize = 0;
+            supermat_model_desc md;
+            supermat_error e;
+            cli_out o;
+            if (cli_read_file(plain, &file, &fsize)) { free(plain); goto done; }
+            if (cli_out_open(&o, outs[k]) != CLI_OK) { cli_free_file(file); free(plain); goto done; }
+            memset(&md, 0, sizeof md);
+            md.data = file;
+            md.size = fsize;
+            r = supermat_model_write_packed(&md, cli_pack_write, &o, NULL, &e);
+            if (r != SUPERMAT_SUCCESS && r != SUPERMAT_ERROR_IO) cli_lib_error("download: pre-packing", (supermat_result)r, &e);
+            r = cli_out_close(&o, r == SUPERMAT_SUCCESS || r == SUPERMAT_ERROR_IO); /* a failed write: cli_out_close says why */
+            cli_free_file(file);
+            unlink(plain);
+            free(plain);
+            if (r != CLI_OK) goto done;
         }
         printf("wrote %s (%.1f MiB in %.1f s)\n", outs[k], cli_mib((double)cli_dl_fsize(outs[k])), cli_now() - t0);
     }

@@ -276,6 +276,81 @@ absent "$T/m2/official-download"
 for o in $OUTS; do check "without --keep: $o.safetensors" [ -s "$T/m2/$o.safetensors" ]; done
 check "without --keep: the same single-view file as with it" cmp -s "$M/supermat_official.safetensors" "$T/m2/supermat_official.safetensors"
 
+# ---- --weights: the storage of the converted files (default f16); a file made with others is refused ----
+run info "$M/supermat_official.safetensors"
+check "the default weights: f16 (info's dtypes)" grep -Eq "^dtypes .* F16: " "$T/out"
+check "the default weights: the plan says f16" grep -q "^supermat download official: 4 of the 4 official networks into .*, f16 weights$" "$T/out1"
+: >"$LOG"
+for w in f32 int8; do
+    dl "$T/w_$w" HF_TOKEN=$TOKEN -- --weights $w
+    check "--weights $w: exit 0" [ $RC -eq 0 ] || cat "$T/err"
+done
+run info "$T/w_f32/supermat_official.safetensors"
+check "--weights f32: info's dtypes F32 only" grep -Eq "^dtypes +F32: [0-9]+ tensors \([0-9.]+ MiB\)$" "$T/out"
+run info "$T/w_int8/supermat_mv_official.safetensors"
+check "--weights int8: info's dtypes have I8" grep -Eq "^dtypes .* I8: " "$T/out"
+: >"$LOG"
+dl "$T/w_f32" HF_TOKEN=$TOKEN -- --weights int8
+check "a file with other weights: exit 1" [ $RC -eq 1 ]
+check "a file with other weights: the message" grep -q "supermat_official.safetensors' exists with f32 weights, not the int8 asked for: remove it or pass --weights f32" "$T/err"
+check "a file with other weights: no request" [ ! -s "$LOG" ]
+dl "$T/w_f32" HF_TOKEN=$TOKEN -- # the default, f16
+check "a file with other weights than the default: exit 1" [ $RC -eq 1 ]
+dl "$T/w_f32" HF_TOKEN=$TOKEN -- --weights f32
+check "the same weights again: nothing to do" grep -q "nothing to do" "$T/out"
+run download official --weights f8
+check "--weights f8: exit 2" [ $RC -eq 2 ]
+
+# ---- --pack: the converted files pre-packed for this CPU ------------------------------------------
+dl "$T/pk" HF_TOKEN=$TOKEN -- --pack
+check "--pack: exit 0" [ $RC -eq 0 ] || cat "$T/err"
+for o in $OUTS; do
+    run info "$T/pk/$o.safetensors"
+    check "--pack: $o is pre-packed" grep -q "^pre-packed    yes" "$T/out"
+done
+check "--pack: no plain file left" [ -z "$(find "$T/pk" -name '*.unpacked' -o -name '*.tmp')" ]
+run image --model "$T/pk/supermat_official.safetensors" --native --out "$T/pk_img" --float "$SPHERE"
+check "--pack: supermat image runs on the pre-packed single-view file" [ $RC -eq 0 ]
+run image --model "$M/supermat_official.safetensors" --native --out "$T/plain_img" --float "$SPHERE"
+check "--pack: the same albedo as the plain file" cmp -s "$T/pk_img/sphere_64_albedo.pfm" "$T/plain_img/sphere_64_albedo.pfm"
+dl "$T/pk" HF_TOKEN=$TOKEN --
+check "pre-packed files, no --pack: exit 1" [ $RC -eq 1 ]
+check "pre-packed files, no --pack: the message" grep -q "exists pre-packed: remove it or pass --pack" "$T/err"
+
+# ---- the converted files are the official networks ----------------------------------------------
+# --weights f32 converts the served checkpoints into the bytes `supermat convert` writes from them and the
+# tiny base (the same tensors, tokens and metadata); and they hold the tensors (names, dtypes, shapes, bytes)
+# and metadata of the convert_tiny, convert_tiny_mv and convert_tiny_uv fixtures but the work size (those
+# record none: --work-size native), fixtures which the golden tests (ctest -L golden) compare with the
+# official pipeline's maps: the goldens cover the networks this command writes.
+same_but_work_size() { # same_but_work_size A B: one header but pipeline.work_size, the same tensor bytes
+    python3 - "$1" "$2" <<'PY'
+import json, struct, sys
+def load(p):
+    with open(p, "rb") as f:
+        b = f.read()
+    n = struct.unpack("<Q", b[:8])[0]
+    h = json.loads(b[8:8 + n])
+    h["__metadata__"].pop("pipeline.work_size", None)
+    return h, b[8 + n:]
+sys.exit(0 if load(sys.argv[1]) == load(sys.argv[2]) else 1)
+PY
+}
+ln -s "$TINY/uv_refine_bc.pth" "$T/uv_refine_rm.pth"
+for tri in supermat_official:supermat:"$TINY/supermat.pth" supermat_mv_official:supermat-mv:"$TINY/supermat_mv.pth" \
+    supermat_refine_albedo_official:uv-refine:"$TINY/uv_refine_bc.pth" supermat_refine_rm_official:uv-refine:"$T/uv_refine_rm.pth"; do
+    name=${tri%%:*}
+    rest=${tri#*:}
+    kind=${rest%%:*}
+    ck=${rest#*:}
+    run convert --kind "$kind" --weights f32 --unet "$ck" --base "$TINY/base" --out "$T/ref_$name.safetensors"
+    check "$name: supermat convert of the checkpoint exits 0" [ $RC -eq 0 ]
+    check "$name: the downloaded and converted file is supermat convert's" cmp -s "$T/ref_$name.safetensors" "$T/w_f32/$name.safetensors"
+    run convert --kind "$kind" --unet "$ck" --base "$TINY/base" --work-size native --out "$T/fix_$name.safetensors"
+    check "$name: the golden tests' fixture (convert_tiny's command) exits 0" [ $RC -eq 0 ]
+    check "$name: the golden tests' fixture's tensors and metadata but the work size" same_but_work_size "$T/fix_$name.safetensors" "$T/w_f32/$name.safetensors"
+done
+
 run download official --dir "$T/x" --revision-base 'a/b'
 check "a bad revision: exit 2" [ $RC -eq 2 ]
 run download nonsense
