@@ -283,7 +283,8 @@ static char *cli_dl_local(const cli_dl *D, int f, int part) {
     return cli_join(D->local[cli_dl_files[f].repo], cli_dl_files[f].path, part ? ".part" : "");
 }
 
-/* GET file f into NAME.part (resumed), size and digest (want_sha from dsrc, or NULL) checked, renamed to NAME */
+/* GET file f into NAME.part (resumed), size and digest (want_sha from dsrc, or NULL) checked, renamed to NAME;
+   the line that says so is ended by the caller ("done, SIZE in S s" printed here) */
 static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want, const char *want_sha, const char *dsrc, int i, int n) {
     char *url = cli_dl_url(D, f), *part = cli_dl_local(D, f, 1), *fin = cli_dl_local(D, f, 0), wout[256], s1[32], s2[32];
     char *argv[24];
@@ -357,7 +358,7 @@ static int cli_dl_get(const cli_dl *D, int f, const char *config, long long want
     if (rename(part, fin) != 0) { cli_error("download: cannot rename '%s' to '%s': %s", part, fin, strerror(errno)); goto done; }
     {
         double dt = cli_now() - t0;
-        printf("[%d/%d] %s/%s: done, %s in %.1f s\n", i, n, D->repo[x->repo], x->path, cli_dl_sz(have, s1), dt);
+        printf("[%d/%d] %s/%s: done, %s in %.1f s", i, n, D->repo[x->repo], x->path, cli_dl_sz(have, s1), dt);
     }
     ret = CLI_OK;
 done:
@@ -619,6 +620,8 @@ static int cli_download(int argc, char **argv) {
     conv = weights == SUPERMAT_DTYPE_F32 ? conv : weights == SUPERMAT_DTYPE_I8 ? conv * 3 / 10 : conv / 2;
     printf("to download: %d file%s, %.1f MiB%s (of %.1f MiB needed); the converted files: about %.1f MiB\n", nneed, nneed == 1 ? "" : "s",
            cli_mib((double)todo), unknown ? " and files of unannounced size" : "", cli_mib((double)total), cli_mib((double)conv));
+    printf("time: about %.1f GB to download (%.0f min at 100 Mbit/s; the log says the time left at the rate measured), then %d conversion%s\n",
+           (double)todo / 1e9, (double)todo * 8.0 / 100e6 / 60.0, nconv, nconv == 1 ? "" : "s");
     if (dry) { printf("--dry-run: nothing downloaded\n"); ret = CLI_OK; goto done; }
 
     /* the folders, writable, with room */
@@ -642,12 +645,26 @@ static int cli_download(int argc, char **argv) {
         }
     }
 
-    /* the downloads */
+    /* the downloads, and the time left at the rate measured so far */
     ndone = 0;
-    for (f = 0; f < CLI_DL_NFILES; f++) {
-        if (need[f] != 1) continue;
-        ndone++;
-        if (cli_dl_get(&D, f, config, size[f], want_sha[f], dsrc[f], ndone, nneed) != CLI_OK) goto done;
+    {
+        long long got = 0;
+        double secs = 0.0;
+        for (f = 0; f < CLI_DL_NFILES; f++) {
+            double t0 = cli_now();
+            if (need[f] != 1) continue;
+            ndone++;
+            if (cli_dl_get(&D, f, config, size[f], want_sha[f], dsrc[f], ndone, nneed) != CLI_OK) goto done;
+            secs += cli_now() - t0;
+            if (size[f] > 0) got += size[f] - (part[f] > 0 && part[f] <= size[f] ? part[f] : 0);
+            if (ndone < nneed && got > 0 && secs > 0.0) {
+                double left = (double)(todo - got) / ((double)got / secs);
+                if (left < 0.0) left = 0.0;
+                printf("; %.1f MiB/s so far: at this rate about %.*f min left\n", cli_mib((double)got / secs), left < 600.0 ? 1 : 0, left / 60.0);
+            } else
+                printf("\n");
+            fflush(stdout);
+        }
     }
 
     /* the conversions, in-process (sm_convert writes OUT.tmp and renames it); --pack: into the download

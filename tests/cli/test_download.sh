@@ -231,6 +231,8 @@ for o in $OUTS; do absent "$M/$o.safetensors"; done
 check "the plan states the size to download" grep -q "^to download: 13 files, .* MiB" "$T/out"
 check "the plan: the server's digest of a checkpoint" grep -q "^      sha256 $(sha "$TINY/supermat_mv.pth") (the server's X-Linked-Etag)" "$T/out"
 check "the plan: no digest for a JSON file" [ "$(grep -c "^      no digest known" "$T/out")" -eq 7 ]
+check "the plan: the time at 100 Mbit/s" grep -Eq "^time: about 0\.[0-9] GB to download \([0-9]+ min at 100 Mbit/s; " "$T/out"
+check "the log: the time left at the rate measured" grep -Eq "^\[1/13\] oyiya/SuperMat/supermat.pth: done, 13.3 MiB in [0-9.]+ s; [0-9.]+ MiB/s so far: at this rate about [0-9.]+ min left$" "$T/out"
 cp "$T/out" "$T/out1"
 dl "$M" HF_TOKEN=$TOKEN -- --keep
 check "the resumed run: exit 0" [ $RC -eq 0 ] || cat "$T/err"
