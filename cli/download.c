@@ -448,7 +448,7 @@ static const cli_optdef cli_opts_download[] = {
                                        "1812 MiB held instead of 3606, with maps 61-63 dB from f32's (max abs 0.02) and\n"
                                        "no speed change; bf16 gives 44 dB, int8 a quarter (971 MiB) at 37-38 dB;\n"
                                        "docs/levers.md). A converted file already there with other weights is refused:\n"
-                                       "remove it or ask for its weights", "--precision --dtype", NULL},
+                                       "remove it or ask for its weights", NULL, NULL},
     {CLI_DL_PACK, "--pack", NULL, "write each converted file pre-packed for this CPU (`supermat pack`: created in\n"
                                   "milliseconds, its panels shared by processes; load it on this kind of CPU)", NULL, NULL},
     {CLI_DL_KEEP, "--keep", NULL, "keep the downloaded files after the conversions", NULL, NULL},
