@@ -19,9 +19,16 @@
 # the bytes' digest, and a download with one byte changed, exit 1 with both digests named and the .part
 # removed, and the next run downloads the file clean and succeeds; a download whose connection drops
 # half-way exits 1, and the next run resumes it (a Range request), checks each digest and converts the four
-# networks (`supermat info` names each kind); HF_TOKEN reached the server and was never on curl's command
-# line (a curl wrapper first in PATH records its arguments); a second run sends no request; without --keep
-# the downloads are deleted.
+# networks (`supermat info` names each kind); the plan says the digests, the volume and its minutes at
+# 100 Mbit/s, the log each file's digest check and the time left at the measured rate; HF_TOKEN reached the
+# server and was never on curl's command line (a curl wrapper first in PATH records its arguments); a
+# second run sends no request; without --keep the downloads are deleted. --weights: f16 by default, f32 and
+# int8 as asked (info's dtypes); a converted file with other weights or packing is refused (exit 1, no
+# request). --pack: the four files pre-packed, `supermat image` runs the single-view one (the plain file's
+# albedo). The converted files are the official networks: with --weights f32 they are byte for byte what
+# `supermat convert` writes from the served checkpoints and the tiny base, and they hold the tensors and
+# metadata, all but pipeline.work_size, of the convert_tiny / convert_tiny_mv / convert_tiny_uv fixtures
+# (those record none: --work-size native), so the official goldens (ctest -L golden) cover them.
 # Needs curl and python3 (the test is skipped without them).
 set -eu
 # shellcheck source=tests/cli/lib.sh
