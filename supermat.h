@@ -103,7 +103,8 @@
  *   SUPERMAT_STATIC                   make every function static (private copy per translation unit;
  *                                     marked unused for gcc/clang: no warning for the ones a file skips)
  *   SUPERMAT_API                      decoration for public functions (default extern / static)
- *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (supply your own parallel-for)
+ *   SUPERMAT_NO_PTHREADS              leave out the built-in thread pool (pthreads, or Win32 threads on
+ *                                     Windows: supply your own parallel-for)
  *   SUPERMAT_NO_AVX2                  leave out the x86-64 AVX2/FMA/F16C kernels (scalar only; also
  *                                     leaves out AVX-512)
  *   SUPERMAT_NO_AVX512                leave out the AVX-512F GEMM micro-kernel (the rest stays AVX2;
@@ -126,8 +127,9 @@
  * THREADS
  *   A model is immutable and can be shared by any number of sessions on any threads. A session is used
  *   by one thread at a time. Work is spread through a caller's blocking parallel-for hook; without one,
- *   a small built-in pthreads pool is created per session (threads = 0 means all cores the process may
- *   use: affinity and cgroup quota, see supermat_default_threads; 1 means none).
+ *   a small built-in pool is created per session (pthreads; Win32 threads, SRW lock and condition
+ *   variables on Windows, MSVC and MinGW alike; threads = 0 means all cores the process may use:
+ *   affinity, cgroup quota or job-object CPU rate, see supermat_default_threads; 1 means none).
  *   Work is split over outputs and every sum runs in a fixed order, so results are bit-identical for
  *   any thread count.
  *
@@ -591,7 +593,7 @@ SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, s
 SUPERMAT_API double supermat_srgb_to_linear(double v);
 SUPERMAT_API double supermat_linear_to_srgb(double v);
 
-/* ---- built-in thread pool (absent with SUPERMAT_NO_PTHREADS) ---------------------------------- */
+/* ---- built-in thread pool (pthreads or Win32; absent with SUPERMAT_NO_PTHREADS) ---------------- */
 typedef struct supermat_pool supermat_pool;
 /* threads = 0: all cores. Fills *hook with the pool's parallel-for. */
 SUPERMAT_API supermat_result supermat_pool_create(int threads, const supermat_allocator *allocator,
@@ -648,8 +650,9 @@ SUPERMAT_API int supermat_safetensors_metadata(const void *buf, size_t buf_size,
 /* The thread count that threads = 0 stands for: the online cores, fewer when the process's CPU
  * affinity mask (Linux: Cpus_allowed_list of /proc/self/status, as `taskset` sets it) or its cgroup CPU
  * quota (cgroup v2 cpu.max along the process's cgroup path, v1 cpu.cfs_quota_us / cpu.cfs_period_us,
- * rounded up: a container limited to 1.5 CPUs gets 2) allows fewer; at most 64, at least 1; 1 without
- * pthreads. */
+ * rounded up: a container limited to 1.5 CPUs gets 2) allows fewer; Windows: the process affinity mask
+ * (its processor group) and a hard CPU-rate cap of its job object, rounded up the same way; at most 64, at
+ * least 1; 1 without the built-in threads (SUPERMAT_NO_PTHREADS). */
 SUPERMAT_API int supermat_default_threads(void);
 /* 1 when this implementation was compiled with optimisation (GCC and Clang define __OPTIMIZE__ at -O1 and
  * above), 0 when without (-O0, a build type left empty: about 10x slower), -1 where the compiler does not
@@ -674,7 +677,7 @@ SUPERMAT_API void supermat_session_flops(const supermat_session *session, superm
    were skipped); zeros before the first run. */
 SUPERMAT_API void supermat_session_last_flops(const supermat_session *session, supermat_flops *out);
 /* The threads a session created with this desc runs on: threading.max_threads when a caller's hook is
- * given, else `threads` (0: supermat_default_threads()), at most 64; 1 without pthreads. What
+ * given, else `threads` (0: supermat_default_threads()), at most 64; 1 without the built-in threads. What
  * supermat_session_memory plans the per-thread scratch for (`supermat info` prints it). */
 SUPERMAT_API int supermat_session_desc_threads(const supermat_session_desc *desc);
 
@@ -787,6 +790,31 @@ SUPERMAT_API void supermat_bench_conv_destroy(supermat_bench_conv *bench);
 #else
 #define SUPERMAT__HAS_PTHREADS 0
 #endif
+/* Windows (MSVC, MinGW-w64): the pool on Win32 threads, an SRW lock and condition variables (Vista and
+   later); <windows.h> without its min / max macros and rarely used parts, unless the includer asked */
+#if !defined(SUPERMAT_NO_PTHREADS) && !SUPERMAT__HAS_PTHREADS && defined(_WIN32)
+#define SUPERMAT__HAS_WINTHREADS 1
+#ifndef WIN32_LEAN_AND_MEAN
+#define WIN32_LEAN_AND_MEAN
+#define SUPERMAT__UNDEF_LEAN
+#endif
+#ifndef NOMINMAX
+#define NOMINMAX
+#define SUPERMAT__UNDEF_NOMINMAX
+#endif
+#include <windows.h>
+#ifdef SUPERMAT__UNDEF_LEAN
+#undef WIN32_LEAN_AND_MEAN
+#undef SUPERMAT__UNDEF_LEAN
+#endif
+#ifdef SUPERMAT__UNDEF_NOMINMAX
+#undef NOMINMAX
+#undef SUPERMAT__UNDEF_NOMINMAX
+#endif
+#else
+#define SUPERMAT__HAS_WINTHREADS 0
+#endif
+#define SUPERMAT__HAS_THREADS (SUPERMAT__HAS_PTHREADS || SUPERMAT__HAS_WINTHREADS)
 
 #define SUPERMAT__MIN(a, b) ((a) < (b) ? (a) : (b))
 #define SUPERMAT__MAX(a, b) ((a) > (b) ? (a) : (b))
@@ -893,6 +921,31 @@ static int supermat__cpu_count(void) {
         }
     }
 #endif
+#elif SUPERMAT__HAS_WINTHREADS
+    {
+        SYSTEM_INFO si;
+        DWORD_PTR pm = 0, sm = 0;
+        int total, k;
+        GetSystemInfo(&si);
+        total = (int)si.dwNumberOfProcessors;
+        n = total > 0 ? total : 1;
+        if (GetProcessAffinityMask(GetCurrentProcess(), &pm, &sm) && pm) { /* the process's processor group */
+            for (k = 0; pm; pm &= pm - 1) k++;
+            if (k < n) n = k;
+        }
+#ifdef JOB_OBJECT_CPU_RATE_CONTROL_HARD_CAP
+        {   /* a job object's hard cap: CpuRate cycles per 10000 of all processors' */
+            JOBOBJECT_CPU_RATE_CONTROL_INFORMATION ci;
+            memset(&ci, 0, sizeof ci);
+            if (QueryInformationJobObject(NULL, JobObjectCpuRateControlInformation, &ci, sizeof ci, NULL) &&
+                (ci.ControlFlags & JOB_OBJECT_CPU_RATE_CONTROL_ENABLE) && (ci.ControlFlags & JOB_OBJECT_CPU_RATE_CONTROL_HARD_CAP) &&
+                !(ci.ControlFlags & JOB_OBJECT_CPU_RATE_CONTROL_WEIGHT_BASED) && ci.CpuRate > 0) {
+                k = (int)(((unsigned long long)ci.CpuRate * (unsigned)total + 9999u) / 10000u);
+                if (k >= 1 && k < n) n = k;
+            }
+        }
+#endif
+    }
 #endif
     return (int)SUPERMAT__MIN(n, 64);
 }
@@ -2401,14 +2454,41 @@ static void supermat__gemm_task(void *user, int index, int thread) {
     }
 }
 
-/* >>threads : a small pthreads pool behind the parallel-for hook */
+/* >>threads : a small pool behind the parallel-for hook: pthreads, or Win32 threads with an SRW lock and
+   condition variables; one pool code over the few calls below */
 #if SUPERMAT__HAS_PTHREADS
+typedef pthread_mutex_t supermat__mutex;
+typedef pthread_cond_t supermat__cond;
+typedef pthread_t supermat__thread;
+#define supermat__mutex_init(m) pthread_mutex_init(m, NULL)
+#define supermat__mutex_destroy(m) pthread_mutex_destroy(m)
+#define supermat__lock(m) pthread_mutex_lock(m)
+#define supermat__unlock(m) pthread_mutex_unlock(m)
+#define supermat__cond_init(c) pthread_cond_init(c, NULL)
+#define supermat__cond_destroy(c) pthread_cond_destroy(c)
+#define supermat__cond_wait(c, m) pthread_cond_wait(c, m)
+#define supermat__cond_broadcast(c) pthread_cond_broadcast(c)
+#elif SUPERMAT__HAS_WINTHREADS
+typedef SRWLOCK supermat__mutex;
+typedef CONDITION_VARIABLE supermat__cond;
+typedef HANDLE supermat__thread;
+#define supermat__mutex_init(m) InitializeSRWLock(m)
+#define supermat__mutex_destroy(m) ((void)(m)) /* an SRW lock holds no resources */
+#define supermat__lock(m) AcquireSRWLockExclusive(m)
+#define supermat__unlock(m) ReleaseSRWLockExclusive(m)
+#define supermat__cond_init(c) InitializeConditionVariable(c)
+#define supermat__cond_destroy(c) ((void)(c))
+#define supermat__cond_wait(c, m) SleepConditionVariableSRW(c, m, INFINITE, 0)
+#define supermat__cond_broadcast(c) WakeAllConditionVariable(c)
+#endif
+
+#if SUPERMAT__HAS_THREADS
 struct supermat_pool {
     supermat_allocator alloc;
-    pthread_t *threads;
+    supermat__thread *threads;
     int nthreads;            /* workers, not counting the caller */
-    pthread_mutex_t mu;
-    pthread_cond_t cv_work, cv_done;
+    supermat__mutex mu;
+    supermat__cond cv_work, cv_done;
     supermat_task_fn task;
     void *task_user;
     int count, next, done, generation, quit;
@@ -2418,31 +2498,44 @@ struct supermat_pool {
 static void supermat__pool_work(supermat_pool *p, int thread) {
     for (;;) {
         int i;
-        pthread_mutex_lock(&p->mu);
+        supermat__lock(&p->mu);
         i = p->next < p->count ? p->next++ : -1;
-        pthread_mutex_unlock(&p->mu);
+        supermat__unlock(&p->mu);
         if (i < 0) return;
         p->task(p->task_user, i, thread);
-        pthread_mutex_lock(&p->mu);
-        if (++p->done == p->count) pthread_cond_broadcast(&p->cv_done);
-        pthread_mutex_unlock(&p->mu);
+        supermat__lock(&p->mu);
+        if (++p->done == p->count) supermat__cond_broadcast(&p->cv_done);
+        supermat__unlock(&p->mu);
     }
 }
 
 typedef struct supermat__pool_arg { supermat_pool *p; int id; } supermat__pool_arg;
 
-static void *supermat__pool_main(void *arg) {
-    supermat_pool *p = ((supermat__pool_arg *)arg)->p;
-    int id = ((supermat__pool_arg *)arg)->id, seen = 0;
+/* a worker: waits for each new generation of work until the pool quits */
+static void supermat__pool_loop(supermat__pool_arg *arg) {
+    supermat_pool *p = arg->p;
+    int id = arg->id, seen = 0;
     for (;;) {
-        pthread_mutex_lock(&p->mu);
-        while (!p->quit && p->generation == seen) pthread_cond_wait(&p->cv_work, &p->mu);
-        if (p->quit) { pthread_mutex_unlock(&p->mu); return NULL; }
+        supermat__lock(&p->mu);
+        while (!p->quit && p->generation == seen) supermat__cond_wait(&p->cv_work, &p->mu);
+        if (p->quit) { supermat__unlock(&p->mu); return; }
         seen = p->generation;
-        pthread_mutex_unlock(&p->mu);
+        supermat__unlock(&p->mu);
         supermat__pool_work(p, id);
     }
 }
+#if SUPERMAT__HAS_PTHREADS
+static void *supermat__pool_main(void *arg) { supermat__pool_loop((supermat__pool_arg *)arg); return NULL; }
+static int supermat__thread_start(supermat__thread *t, supermat__pool_arg *arg) { return pthread_create(t, NULL, supermat__pool_main, arg) == 0; }
+static void supermat__thread_join(supermat__thread t) { pthread_join(t, NULL); }
+#else
+static DWORD WINAPI supermat__pool_main(LPVOID arg) { supermat__pool_loop((supermat__pool_arg *)arg); return 0; }
+static int supermat__thread_start(supermat__thread *t, supermat__pool_arg *arg) {
+    *t = CreateThread(NULL, 0, supermat__pool_main, arg, 0, NULL);
+    return *t != NULL;
+}
+static void supermat__thread_join(supermat__thread t) { WaitForSingleObject(t, INFINITE); CloseHandle(t); }
+#endif
 
 static void supermat__pool_for(void *user, int count, supermat_task_fn task, void *task_user) {
     supermat_pool *p = (supermat_pool *)user;
@@ -2452,15 +2545,15 @@ static void supermat__pool_for(void *user, int count, supermat_task_fn task, voi
         for (i = 0; i < count; i++) task(task_user, i, 0);
         return;
     }
-    pthread_mutex_lock(&p->mu);
+    supermat__lock(&p->mu);
     p->task = task; p->task_user = task_user; p->count = count; p->next = 0; p->done = 0; p->generation++;
-    pthread_cond_broadcast(&p->cv_work);
-    pthread_mutex_unlock(&p->mu);
+    supermat__cond_broadcast(&p->cv_work);
+    supermat__unlock(&p->mu);
     supermat__pool_work(p, 0);
-    pthread_mutex_lock(&p->mu);
-    while (p->done < p->count) pthread_cond_wait(&p->cv_done, &p->mu);
+    supermat__lock(&p->mu);
+    while (p->done < p->count) supermat__cond_wait(&p->cv_done, &p->mu);
     p->count = 0;
-    pthread_mutex_unlock(&p->mu);
+    supermat__unlock(&p->mu);
 }
 
 SUPERMAT__DEF supermat_result supermat_pool_create(int threads, const supermat_allocator *allocator, supermat_pool **out,
@@ -2479,14 +2572,14 @@ SUPERMAT__DEF supermat_result supermat_pool_create(int threads, const supermat_a
     p->alloc = a;
     p->cap = threads;
     args = (supermat__pool_arg *)(p + 1);
-    p->threads = (pthread_t *)supermat__alloc(&a, sizeof(pthread_t) * (size_t)threads);
+    p->threads = (supermat__thread *)supermat__alloc(&a, sizeof(supermat__thread) * (size_t)threads);
     if (!p->threads) { supermat__free(&a, p, sizeof *p); return SUPERMAT_ERROR_OUT_OF_MEMORY; }
-    pthread_mutex_init(&p->mu, NULL);
-    pthread_cond_init(&p->cv_work, NULL);
-    pthread_cond_init(&p->cv_done, NULL);
+    supermat__mutex_init(&p->mu);
+    supermat__cond_init(&p->cv_work);
+    supermat__cond_init(&p->cv_done);
     for (i = 1; i < threads; i++) {
         args[i].p = p; args[i].id = i;
-        if (pthread_create(&p->threads[p->nthreads], NULL, supermat__pool_main, &args[i]) != 0) break;
+        if (!supermat__thread_start(&p->threads[p->nthreads], &args[i])) break;
         p->nthreads++;
     }
     hook->parallel_for = supermat__pool_for;
@@ -2500,17 +2593,17 @@ SUPERMAT__DEF void supermat_pool_destroy(supermat_pool *p) {
     int i, n;
     supermat_allocator a;
     if (!p) return;
-    pthread_mutex_lock(&p->mu);
+    supermat__lock(&p->mu);
     p->quit = 1;
-    pthread_cond_broadcast(&p->cv_work);
-    pthread_mutex_unlock(&p->mu);
-    for (i = 0; i < p->nthreads; i++) pthread_join(p->threads[i], NULL);
-    pthread_mutex_destroy(&p->mu);
-    pthread_cond_destroy(&p->cv_work);
-    pthread_cond_destroy(&p->cv_done);
+    supermat__cond_broadcast(&p->cv_work);
+    supermat__unlock(&p->mu);
+    for (i = 0; i < p->nthreads; i++) supermat__thread_join(p->threads[i]);
+    supermat__mutex_destroy(&p->mu);
+    supermat__cond_destroy(&p->cv_work);
+    supermat__cond_destroy(&p->cv_done);
     a = p->alloc;
     n = p->cap;
-    supermat__free(&a, p->threads, sizeof(pthread_t) * (size_t)n);
+    supermat__free(&a, p->threads, sizeof(supermat__thread) * (size_t)n);
     supermat__free(&a, p, sizeof *p + sizeof(supermat__pool_arg) * (size_t)n);
 }
 #endif
@@ -5852,7 +5945,7 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
 
 static int supermat__threads_for(const supermat_session_desc *d) {
     if (d->threading.parallel_for) return d->threading.max_threads;
-#if SUPERMAT__HAS_PTHREADS
+#if SUPERMAT__HAS_THREADS
     if (d->threads == 0) return supermat__cpu_count();
     return SUPERMAT__MIN(d->threads, 64);
 #else
@@ -5904,7 +5997,7 @@ SUPERMAT__DEF void supermat_session_destroy(supermat_session *S) {
     if (!S) return;
     a = S->alloc;
     threads = S->thr.parallel_for ? S->thr.max_threads : 1;
-#if SUPERMAT__HAS_PTHREADS
+#if SUPERMAT__HAS_THREADS
     if (S->pool) supermat_pool_destroy(S->pool);
 #endif
     supermat__free(&a, S->arena, S->arena_size);
@@ -5939,7 +6032,7 @@ SUPERMAT__DEF supermat_result supermat_session_create(const supermat_session_des
     S->outputs = desc->outputs ? desc->outputs : (unsigned)SUPERMAT_OUTPUT_ALL;
     supermat__session_options(S, desc);
     if (desc->threading.parallel_for) S->thr = desc->threading;
-#if SUPERMAT__HAS_PTHREADS
+#if SUPERMAT__HAS_THREADS
     else if (supermat__threads_for(desc) > 1) {
         r = supermat_pool_create(supermat__threads_for(desc), &a, &S->pool, &S->thr);
         if (r) { supermat__free(&a, S, sizeof *S); return supermat__fail(err, r, NULL, "could not create the thread pool"); }

@@ -15,6 +15,14 @@ if [ ${#need[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq "${need[@]}" >/dev/null
 fi
+# the Windows build of the library (ctest mingw): MinGW-w64 and wine64, without their recommends
+need=()
+for p in gcc-mingw-w64-x86-64 wine64; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+if [ ${#need[@]} -gt 0 ]; then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -qq
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq --no-install-recommends "${need[@]}" >/dev/null
+fi
 # node + the Khronos glTF-Validator (npm) check every glTF `supermat mesh` writes (ctest uv_gltf_corpus)
 if ! command -v npm >/dev/null 2>&1; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
@@ -69,7 +77,7 @@ run_build() {
 echo "== gcc, Release, -Werror"
 # UV tests on explicitly: `bash scripts/demo.sh` configures the same build/ folder with them off
 run_build "gcc" build "" \
-  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DSUPERMAT_WERROR=ON -DSUPERMAT_UV_TESTS=ON -DSUPERMAT_NEON_TESTS=ON -DSUPERMAT_MINGW_TESTS=ON
 
 echo "== clang, Release, -Werror"
 run_build "clang" build-clang "" \
