@@ -149,7 +149,7 @@ static void cli_print_default_model_help(void) {
         for (k = 0; k < CLI_NNAMED; k++) printf("  %-24s %s (%s)\n", cli_named_models[k].name, cli_named_models[k].file, cli_named_models[k].what);
         printf("(`official` is the multi-view one for `supermat views`; a file of such a name: ./official).\n"
                "The model folder: $SUPERMAT_MODEL_DIR when set, else $XDG_DATA_HOME/supermat, else\n"
-               "~/.local/share/supermat. Here: %s%s%s%s\n", dir ? dir : "none (HOME is not set)", from ? " (" : "", from ? from : "", from ? ")" : "");
+               "~/.local/share/supermat.\nHere:\n  %s%s%s%s\n", dir ? dir : "none (HOME is not set)", from ? " (" : "", from ? from : "", from ? ")" : "");
         free(dir);
     }
 }

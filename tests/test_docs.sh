@@ -5,7 +5,8 @@
 #   - docs/cli.md below its marker equals the tool's help texts (scripts/gen_cli_md.sh);
 #   - every line of the ```sh blocks of README.md and docs/cli.md runs as shown (exit 0), each file's lines
 #     in order in a fresh folder holding the files they name (the tiny test models standing in for the
-#     default ones, through $SUPERMAT_MODEL); the two set-up commands are the only lines not run;
+#     default ones, through $SUPERMAT_MODEL, and for the official ones in $SUPERMAT_MODEL_DIR, where the
+#     download lines find their work done); the two set-up commands are the only lines not run;
 #   - README.md's ```c block compiles warning-free as C99 and runs on the tiny model.
 # usage: test_docs.sh SUPERMAT SRC DATA TINY TINY_MV TINY_UV
 set -uo pipefail
@@ -57,6 +58,16 @@ sandbox() {   # a fresh folder with the files the documented commands name
   "$SM" convert --from "$TINY_MV" --work-size 64 --out "$d/models/supermat_mv_default.safetensors" >/dev/null 2>&1
   cp "$DATA/img/sphere_64.png" "$d/photo.png"
   cp "$DATA/img/sphere_64.png" "$d/library/a.png"; cp "$DATA/img/ring_48x72.png" "$d/library/sub/b.png"
+  # the model folder as `supermat download official` leaves it (f16, its default): the tiny official-format
+  # networks under the official files' names, so that the download lines find their work done (no request:
+  # HF_ENDPOINT below leads nowhere) and --model official runs (the download itself: ctest cli_download)
+  mkdir -p "$d/official"
+  for k in supermat:supermat.pth:supermat_official supermat-mv:supermat_mv.pth:supermat_mv_official \
+           uv-refine:uv_refine_bc.pth:supermat_refine_albedo_official uv-refine:uv_refine_bc.pth:supermat_refine_rm_official; do
+    IFS=: read -r kind ckpt name <<<"$k"
+    "$SM" convert --kind "$kind" --unet "$DATA/tiny/$ckpt" --base "$DATA/tiny/base" --work-size 64 --weights f16 \
+      --out "$d/official/$name.safetensors" >/dev/null 2>&1
+  done
   for p in supermat supermat_mv uv_refine_bc; do ln -s "$DATA/tiny/$p.pth" "$d/$p.pth"; done
   ln -s "$DATA/tiny/base" "$d/stable-diffusion-2-1"
   cp -r "$DATA/img/mv" "$d/views"; cp -r "$DATA/img/uv" "$d/uv"
@@ -79,6 +90,7 @@ run_doc() {   # FILE: every line of its ```sh blocks, in order, in its own sandb
     esac
     : > "$T/log"
     check "$(basename "$f"): $cmd" env -C "$d" PATH="$T/bin:$PATH" SUPERMAT_MODEL="$d/models/supermat_default.safetensors" \
+      SUPERMAT_MODEL_DIR="$d/official" HF_ENDPOINT=http://127.0.0.1:9 \
       timeout 900 bash -c "$cmd >'$T/log' 2>&1" || true
     [ "$ok" = 1 ] || sed 's/^/     | /' "$T/log" | tail -15
   done < <(blocks "$f" sh)

@@ -35,13 +35,13 @@ for m in albedo roughness metallic; do
     check "image --model official: ${m} as with the file" cmp -s "$T/by_path/sphere_64_$m.png" "$T/by_name/sphere_64_$m.png"
 done
 # the folder from XDG_DATA_HOME, then HOME, when SUPERMAT_MODEL_DIR is not set
-mkdir -p "$T/xdg/supermat" "$T/home/.local/share/supermat"
+mkdir -p "$T/xdg/supermat" "$T/hm/.local/share/supermat"
 cp "$MODEL" "$T/xdg/supermat/supermat_official.safetensors"
-cp "$MODEL" "$T/home/.local/share/supermat/supermat_official.safetensors"
+cp "$MODEL" "$T/hm/.local/share/supermat/supermat_official.safetensors"
 run_env -u SUPERMAT_MODEL_DIR XDG_DATA_HOME="$T/xdg" HOME="$T/none" -- image --model official --out "$T/by_xdg" "$SPHERE"
 check "image --model official from \$XDG_DATA_HOME/supermat: exit 0" [ $RC -eq 0 ]
 check "image --model official from \$XDG_DATA_HOME/supermat: the same albedo" cmp -s "$T/by_path/sphere_64_albedo.png" "$T/by_xdg/sphere_64_albedo.png"
-run_env -u SUPERMAT_MODEL_DIR -u XDG_DATA_HOME HOME="$T/home" -- image --model official --out "$T/by_home" "$SPHERE"
+run_env -u SUPERMAT_MODEL_DIR -u XDG_DATA_HOME HOME="$T/hm" -- image --model official --out "$T/by_home" "$SPHERE"
 check "image --model official from ~/.local/share/supermat: exit 0" [ $RC -eq 0 ]
 check "image --model official from ~/.local/share/supermat: the same albedo" cmp -s "$T/by_path/sphere_64_albedo.png" "$T/by_home/sphere_64_albedo.png"
 # SUPERMAT_MODEL_DIR wins over XDG_DATA_HOME: an empty folder there is not skipped
