@@ -110,6 +110,9 @@
  *   SUPERMAT_NO_AVX512                leave out the AVX-512F GEMM micro-kernel (the rest stays AVX2;
  *                                     also leaves out int8 compute, which needs AVX512_VNNI or AVX-VNNI)
  *   SUPERMAT_NO_AVXVNNI               leave out int8 compute on AVX-VNNI (the AVX2 kernel)
+ *                                     (the x86-64 kernels build with gcc, clang, MinGW-w64, clang-cl and
+ *                                     MSVC x64 without /arch flags, chosen at run time by CPUID / XGETBV;
+ *                                     AMX on Linux only)
  *   SUPERMAT_ASSERT(x)                internal assertions (default: none)
  *   SUPERMAT_NO_MADVISE               Linux: do not ask for transparent huge pages on the default
  *                                     allocator's big blocks (weights, arenas)
@@ -740,37 +743,102 @@ SUPERMAT_API void supermat_bench_conv_destroy(supermat_bench_conv *bench);
 #define SUPERMAT_ASSERT(x) ((void)0)
 #endif
 
-#if !defined(SUPERMAT_NO_AVX2) && (defined(__x86_64__) || defined(_M_X64)) && (defined(__GNUC__) || defined(__clang__))
+/* x86-64 SIMD. Each kernel has one source; only these macros differ by compiler. gcc and clang (MinGW-w64
+   and clang-cl too) compile each kernel for its ISA with a target attribute and read the CPU through
+   <cpuid.h>; MSVC (cl.exe) needs no attribute to use any intrinsic and has __cpuidex / _xgetbv in
+   <intrin.h>. SUPERMAT__FORCE_MSVC_PATHS (tests only: tests/test_msvc.sh) takes the MSVC branch with
+   clang-cl or gcc, whose -m flags then enable the ISAs as MSVC does without them. */
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(SUPERMAT__FORCE_MSVC_PATHS)
+#define SUPERMAT__GNU_SIMD 1
+#else
+#define SUPERMAT__GNU_SIMD 0
+#endif
+#if !defined(SUPERMAT_NO_AVX2) && (defined(__x86_64__) || defined(_M_X64)) && !defined(_M_ARM64EC) && \
+    (SUPERMAT__GNU_SIMD || defined(_MSC_VER) || defined(SUPERMAT__FORCE_MSVC_PATHS))
 #define SUPERMAT__HAS_AVX2 1
 #include <immintrin.h>
+#if SUPERMAT__GNU_SIMD
 #include <cpuid.h>
+#if defined(_MSC_VER) && defined(__clang__)
+/* clang-cl: its immintrin.h (clang 14 at least) declares only the ISAs of the /arch or -m flags; the rest
+   for the target attributes */
+#include <smmintrin.h>
+#include <avxintrin.h>
+#include <avx2intrin.h>
+#include <f16cintrin.h>
+#include <fmaintrin.h>
+#include <avx512fintrin.h>
+#include <avx512bwintrin.h>
+#include <avx512vnniintrin.h>
+#include <avx512bf16intrin.h>
+#if __clang_major__ >= 12
+#include <avxvnniintrin.h>
+#endif
+#endif
 #define SUPERMAT__AVX2 __attribute__((target("avx2,fma,f16c")))
+#else
+#include <intrin.h> /* __cpuidex, _xgetbv */
+#define SUPERMAT__AVX2
+#endif
 #else
 #define SUPERMAT__HAS_AVX2 0
 #endif
 #if SUPERMAT__HAS_AVX2 && !defined(SUPERMAT_NO_AVX512)
 #define SUPERMAT__HAS_AVX512 1
+#if SUPERMAT__GNU_SIMD
 #define SUPERMAT__AVX512 __attribute__((target("avx512f,avx2,fma,f16c")))
 #define SUPERMAT__AVX512BF16 __attribute__((target("avx512f,avx512bf16,avx2,fma,f16c")))
 #define SUPERMAT__AVX512VNNI __attribute__((target("avx512f,avx512bw,avx512vnni,avx2,fma,f16c")))
 #else
+#define SUPERMAT__AVX512
+#define SUPERMAT__AVX512BF16
+#define SUPERMAT__AVX512VNNI
+#endif
+#else
 #define SUPERMAT__HAS_AVX512 0
 #endif
-/* AVX-VNNI (the 256-bit, VEX-encoded vpdpbusd of Alder Lake and later) needs gcc >= 11 / clang >= 12 */
+/* AVX-VNNI (the 256-bit, VEX-encoded vpdpbusd of Alder Lake and later) needs gcc >= 11 / clang >= 12 (MSVC:
+   _mm256_dpbusd_avx_epi32, recent Visual Studio; SUPERMAT_NO_AVXVNNI for an older one) */
 #if SUPERMAT__HAS_AVX512 && !defined(SUPERMAT_NO_AVXVNNI) && \
-    ((defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && defined(__GNUC__) && __GNUC__ >= 11))
+    (!SUPERMAT__GNU_SIMD || (defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && defined(__GNUC__) && __GNUC__ >= 11))
 #define SUPERMAT__HAS_AVXVNNI 1
+#if SUPERMAT__GNU_SIMD
 #define SUPERMAT__AVXVNNI __attribute__((target("avxvnni,avx2,fma,f16c")))
+#else
+#define SUPERMAT__AVXVNNI
+#endif
 #else
 #define SUPERMAT__HAS_AVXVNNI 0
 #endif
-/* AMX needs gcc >= 11 / clang >= 12 for the intrinsics, and Linux to grant the tile state */
-#if SUPERMAT__HAS_AVX512 && !defined(SUPERMAT_NO_AMX) && defined(__linux__) && defined(__x86_64__) && \
+/* AMX needs gcc >= 11 / clang >= 12 for the intrinsics, and Linux to grant the tile state. Off on Windows:
+   there the OS would have to enable XTILECFG / XTILEDATA in XCR0 (bits 17-18, read with _xgetbv), as
+   Windows 11 does where the CPU has AMX, and the kernels would need the tile intrinsics without target
+   attributes; not built or tested here, so Windows runs bf16 compute on vdpbf16ps */
+#if SUPERMAT__HAS_AVX512 && SUPERMAT__GNU_SIMD && !defined(SUPERMAT_NO_AMX) && defined(__linux__) && defined(__x86_64__) && \
     ((defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && defined(__GNUC__) && __GNUC__ >= 11))
 #define SUPERMAT__HAS_AMX 1
 #define SUPERMAT__AMX __attribute__((target("amx-tile,amx-bf16,avx512f,avx512bf16,avx2,fma,f16c")))
 #else
 #define SUPERMAT__HAS_AMX 0
+#endif
+/* spellings the kernels need: forced / prevented inlining; __m512bh from / to __m512i, a cast between GCC
+   vectors with gcc and clang, nothing with MSVC, whose headers make it a typedef of __m512i (clang-cl on
+   the MSVC branch: an implicit conversion between integer vectors of one size) */
+#if defined(_MSC_VER) && !SUPERMAT__GNU_SIMD
+#define SUPERMAT__FORCEINLINE __forceinline
+#define SUPERMAT__NOINLINE __declspec(noinline)
+#define SUPERMAT__BH512(v) (v)
+#define SUPERMAT__BH512_BITS(v) (v)
+#else
+#if defined(__GNUC__) || defined(__clang__)
+#define SUPERMAT__FORCEINLINE __attribute__((always_inline)) inline
+#define SUPERMAT__NOINLINE __attribute__((noinline))
+#else
+#define SUPERMAT__FORCEINLINE inline
+#define SUPERMAT__NOINLINE
+#endif
+#define SUPERMAT__BH512(v) ((__m512bh)(v))
+#define SUPERMAT__BH512_BITS(v) ((__m512i)(v))
 #endif
 #if !defined(SUPERMAT_NO_NEON) && defined(__aarch64__) && (defined(__GNUC__) || defined(__clang__))
 #define SUPERMAT__HAS_NEON 1
@@ -1389,19 +1457,43 @@ SUPERMAT__DEF int supermat_safetensors_metadata(const void *buf, size_t buf_size
 }
 
 /* >>cpu */
+#if SUPERMAT__HAS_AVX2
+/* CPUID leaf / sub-leaf into r = eax, ebx, ecx, edx; 0 where the CPU has no such leaf. XCR0 (XGETBV 0): which
+   register state the OS saves (bits 1-2 XMM / YMM, 5-7 AVX-512, 17-18 AMX tiles) */
+static int supermat__cpuid(unsigned leaf, unsigned sub, unsigned r[4]) {
+#if SUPERMAT__GNU_SIMD
+    return __get_cpuid_count(leaf, sub, &r[0], &r[1], &r[2], &r[3]);
+#else
+    int v[4];
+    __cpuidex(v, 0, 0);
+    if ((unsigned)v[0] < leaf) return 0;
+    __cpuidex(v, (int)leaf, (int)sub);
+    r[0] = (unsigned)v[0]; r[1] = (unsigned)v[1]; r[2] = (unsigned)v[2]; r[3] = (unsigned)v[3];
+    return 1;
+#endif
+}
+static unsigned supermat__xcr0(void) {
+#if SUPERMAT__GNU_SIMD
+    unsigned lo, hi;
+    __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+    (void)hi;
+    return lo;
+#else
+    return (unsigned)_xgetbv(0);
+#endif
+}
+#endif
+
 static int supermat__cpu_has_avx2(void) {
 #if SUPERMAT__HAS_AVX2
     static int cached = -1;
-    unsigned a, b, c, d;
+    unsigned r[4];
     int ok = 0;
     if (cached >= 0) return cached;
-    if (__get_cpuid(1, &a, &b, &c, &d)) {
+    if (supermat__cpuid(1, 0, r)) {
+        unsigned c = r[2];
         int osxsave = (c >> 27) & 1, avx = (c >> 28) & 1, fma = (c >> 12) & 1, f16c = (c >> 29) & 1;
-        if (osxsave && avx && fma && f16c) {
-            unsigned lo, hi;
-            __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
-            if ((lo & 6) == 6 && __get_cpuid_count(7, 0, &a, &b, &c, &d)) ok = (b >> 5) & 1;
-        }
+        if (osxsave && avx && fma && f16c && (supermat__xcr0() & 6) == 6 && supermat__cpuid(7, 0, r)) ok = (r[1] >> 5) & 1;
     }
     cached = ok;
     return ok;
@@ -1413,14 +1505,11 @@ static int supermat__cpu_has_avx2(void) {
 static int supermat__cpu_has_avx512(void) {
 #if SUPERMAT__HAS_AVX512
     static int cached = -1;
-    unsigned a, b, c, d;
+    unsigned r[4];
     int ok = 0;
     if (cached >= 0) return cached;
-    if (supermat__cpu_has_avx2() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 16) & 1)) {
-        unsigned lo, hi;
-        __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
-        ok = (lo & 0xE6) == 0xE6; /* XMM, YMM, opmask, ZMM_Hi256, Hi16_ZMM state enabled */
-    }
+    if (supermat__cpu_has_avx2() && supermat__cpuid(7, 0, r) && ((r[1] >> 16) & 1))
+        ok = (supermat__xcr0() & 0xE6) == 0xE6; /* XMM, YMM, opmask, ZMM_Hi256, Hi16_ZMM state enabled */
     cached = ok;
     return ok;
 #else
@@ -1430,8 +1519,8 @@ static int supermat__cpu_has_avx512(void) {
 
 static int supermat__cpu_has_avx512_bf16(void) {
 #if SUPERMAT__HAS_AVX512
-    unsigned a, b, c, d;
-    return supermat__cpu_has_avx512() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 5) & 1);
+    unsigned r[4];
+    return supermat__cpu_has_avx512() && supermat__cpuid(7, 1, r) && ((r[0] >> 5) & 1);
 #else
     return 0;
 #endif
@@ -1439,8 +1528,8 @@ static int supermat__cpu_has_avx512_bf16(void) {
 
 static int supermat__cpu_has_avx512_vnni(void) {
 #if SUPERMAT__HAS_AVX512
-    unsigned a, b, c, d;
-    return supermat__cpu_has_avx512() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((b >> 30) & 1) && ((c >> 11) & 1);
+    unsigned r[4];
+    return supermat__cpu_has_avx512() && supermat__cpuid(7, 0, r) && ((r[1] >> 30) & 1) && ((r[2] >> 11) & 1);
 #else
     return 0;
 #endif
@@ -1448,8 +1537,8 @@ static int supermat__cpu_has_avx512_vnni(void) {
 
 static int supermat__cpu_has_avx_vnni(void) {
 #if SUPERMAT__HAS_AVXVNNI
-    unsigned a, b, c, d;
-    return supermat__cpu_has_avx2() && __get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 4) & 1);
+    unsigned r[4];
+    return supermat__cpu_has_avx2() && supermat__cpuid(7, 1, r) && ((r[0] >> 4) & 1);
 #else
     return 0;
 #endif
@@ -1463,18 +1552,14 @@ long syscall(long number, ...); /* <unistd.h> declares it only outside strict C9
 static int supermat__cpu_has_amx_bf16(void) {
 #if SUPERMAT__HAS_AMX
     static int cached = -1;
-    unsigned a, b, c, d;
+    unsigned r[4];
     int ok = 0;
     if (cached >= 0) return cached;
-    if (supermat__cpu_has_avx512_bf16() && __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 24) & 1) && ((d >> 22) & 1)) {
-        unsigned lo, hi;
-        /* Linux hands out the 8 KB tile state on request (arch_prctl ARCH_REQ_XCOMP_PERM = 0x1023,
-           XFEATURE_XTILEDATA = 18; syscall 158 on x86-64); XCR0 bits 17-18 say the OS manages it */
-        if (syscall(158, 0x1023L, 18L) == 0) {
-            __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
-            ok = (lo & 0x60000u) == 0x60000u;
-        }
-    }
+    /* Linux hands out the 8 KB tile state on request (arch_prctl ARCH_REQ_XCOMP_PERM = 0x1023,
+       XFEATURE_XTILEDATA = 18; syscall 158 on x86-64); XCR0 bits 17-18 say the OS manages it */
+    if (supermat__cpu_has_avx512_bf16() && supermat__cpuid(7, 0, r) && ((r[3] >> 24) & 1) && ((r[3] >> 22) & 1) &&
+        syscall(158, 0x1023L, 18L) == 0)
+        ok = (supermat__xcr0() & 0x60000u) == 0x60000u;
     cached = ok;
     return ok;
 #else
@@ -1753,7 +1838,7 @@ SUPERMAT__AVX2 static void supermat__widen_avx2(const void *src, int fmt, const 
 #define SUPERMAT__MR512 12
 /* the accumulators of the 512-bit kernels: C (accumulate) or bias + R on the first K block; rows past mr
    are never stored, so they start at 0 */
-SUPERMAT__AVX512 static __attribute__((always_inline)) inline void supermat__acc512_init(__m512 *acc, int mr, __mmask16 mask, const float *c, size_t ldc,
+SUPERMAT__AVX512 static SUPERMAT__FORCEINLINE void supermat__acc512_init(__m512 *acc, int mr, __mmask16 mask, const float *c, size_t ldc,
                                                                                        const float *bias, const float *r, size_t ldr, int accumulate) {
     int i;
     for (i = 0; i < SUPERMAT__MR512; i++) {
@@ -1848,8 +1933,8 @@ SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *con
     for (i = 0; i < SUPERMAT__MR512; i++) ap[i] = a[i];
     supermat__acc512_init(acc, mr, mask, c, ldc, bias, r, ldr, accumulate);
     for (k = 0; k < kc2; k++) {
-        __m512bh bv = (__m512bh)_mm512_loadu_si512((const void *)(b + (size_t)k * 32));
-        for (i = 0; i < SUPERMAT__MR512; i++) acc[i] = _mm512_dpbf16_ps(acc[i], (__m512bh)_mm512_set1_epi32((int)ap[i][k]), bv);
+        __m512bh bv = SUPERMAT__BH512(_mm512_loadu_si512((const void *)(b + (size_t)k * 32)));
+        for (i = 0; i < SUPERMAT__MR512; i++) acc[i] = _mm512_dpbf16_ps(acc[i], SUPERMAT__BH512(_mm512_set1_epi32((int)ap[i][k])), bv);
     }
     for (i = 0; i < mr; i++) _mm512_mask_storeu_ps(c + (size_t)i * ldc, mask, acc[i]);
 }
@@ -1859,7 +1944,7 @@ SUPERMAT__AVX512BF16 static void supermat__ukr_bf16(int kc2, const uint32_t *con
    panel is whole). Per output element the same vdpbf16ps chain as supermat__ukr_bf16: the same bits. */
 #define SUPERMAT__UKR2BF_ROW(i)                                                      \
     do {                                                                             \
-        __m512bh a_ = (__m512bh)_mm512_set1_epi32((int)ap[i][k]);                    \
+        __m512bh a_ = SUPERMAT__BH512(_mm512_set1_epi32((int)ap[i][k]));                    \
         acc0[i] = _mm512_dpbf16_ps(acc0[i], a_, bv0);                                \
         acc1[i] = _mm512_dpbf16_ps(acc1[i], a_, bv1);                                \
     } while (0)
@@ -1873,8 +1958,8 @@ SUPERMAT__AVX512BF16 static void supermat__ukr2_bf16(int kc2, const uint32_t *co
     supermat__acc512_init(acc0, mr, (__mmask16)0xFFFF, c, ldc, bias, r, ldr, accumulate);
     supermat__acc512_init(acc1, mr, mask1, c + 16, ldc, bias ? bias + 16 : NULL, r ? r + 16 : NULL, ldr, accumulate);
     for (k = 0; k < kc2; k++) {
-        __m512bh bv0 = (__m512bh)_mm512_loadu_si512((const void *)(b0 + (size_t)k * 32));
-        __m512bh bv1 = (__m512bh)_mm512_loadu_si512((const void *)(b1 + (size_t)k * 32));
+        __m512bh bv0 = SUPERMAT__BH512(_mm512_loadu_si512((const void *)(b0 + (size_t)k * 32)));
+        __m512bh bv1 = SUPERMAT__BH512(_mm512_loadu_si512((const void *)(b1 + (size_t)k * 32)));
         SUPERMAT__UKR2BF_ROW(0); SUPERMAT__UKR2BF_ROW(1); SUPERMAT__UKR2BF_ROW(2); SUPERMAT__UKR2BF_ROW(3);
         SUPERMAT__UKR2BF_ROW(4); SUPERMAT__UKR2BF_ROW(5); SUPERMAT__UKR2BF_ROW(6); SUPERMAT__UKR2BF_ROW(7);
         SUPERMAT__UKR2BF_ROW(8); SUPERMAT__UKR2BF_ROW(9); SUPERMAT__UKR2BF_ROW(10); SUPERMAT__UKR2BF_ROW(11);
@@ -1889,7 +1974,7 @@ SUPERMAT__AVX512BF16 static void supermat__ukr2_bf16(int kc2, const uint32_t *co
 SUPERMAT__AVX512BF16 static void supermat__to_bf16_pairs(const float *x, int n, uint32_t *out) {
     int i = 0;
     for (; i + 32 <= n; i += 32)
-        _mm512_storeu_si512((void *)(out + i / 2), (__m512i)_mm512_cvtne2ps_pbh(_mm512_loadu_ps(x + i + 16), _mm512_loadu_ps(x + i)));
+        _mm512_storeu_si512((void *)(out + i / 2), SUPERMAT__BH512_BITS(_mm512_cvtne2ps_pbh(_mm512_loadu_ps(x + i + 16), _mm512_loadu_ps(x + i))));
     for (; i < n; i += 2) {
         uint32_t lo = supermat__f32_to_bf16(x[i]), hi = i + 1 < n ? supermat__f32_to_bf16(x[i + 1]) : 0;
         out[i / 2] = lo | hi << 16;
@@ -1928,7 +2013,7 @@ SUPERMAT__AVX512VNNI static void supermat__quant_row_u8(const float *x, int kc, 
 static uint32_t supermat__ld32(const unsigned char *p) { uint32_t v; memcpy(&v, p, 4); return v; }
 /* the int32 sums of one 64-row chunk, a function of their own: inlined beside the 12 float32 accumulators,
    gcc 12 copied every sum to another register on every step */
-SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
+SUPERMAT__AVX512VNNI static SUPERMAT__NOINLINE void supermat__i8_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
                                                                               __m512i *out) {
     __m512i s0 = _mm512_setzero_si512(), s1 = s0, s2 = s0, s3 = s0, s4 = s0, s5 = s0, s6 = s0, s7 = s0, s8 = s0, s9 = s0, s10 = s0, s11 = s0;
     int q;
@@ -1976,7 +2061,7 @@ SUPERMAT__AVX512VNNI static void supermat__ukr_i8(int kc4, const unsigned char *
         s = _mm512_dpbusd_epi32(s, a_, bv0);                                             \
         t = _mm512_dpbusd_epi32(t, a_, bv1);                                             \
     } while (0)
-SUPERMAT__AVX512VNNI static __attribute__((noinline)) void supermat__i8_chunk2(int q0, int q1, const unsigned char *const *a, const signed char *b0,
+SUPERMAT__AVX512VNNI static SUPERMAT__NOINLINE void supermat__i8_chunk2(int q0, int q1, const unsigned char *const *a, const signed char *b0,
                                                                                const signed char *b1, __m512i *out) {
     __m512i s0 = _mm512_setzero_si512(), s1 = s0, s2 = s0, s3 = s0, s4 = s0, s5 = s0, s6 = s0, s7 = s0, s8 = s0, s9 = s0, s10 = s0, s11 = s0;
     __m512i t0 = s0, t1 = s0, t2 = s0, t3 = s0, t4 = s0, t5 = s0, t6 = s0, t7 = s0, t8 = s0, t9 = s0, t10 = s0, t11 = s0;
@@ -2063,7 +2148,7 @@ SUPERMAT__AVXVNNI static void supermat__quant_row_u8_avx2(const float *x, int kc
    bits). The int32 sums of one 64-row chunk are a function of their own: inlined beside the 12 float32
    accumulators, gcc 12 moved every sum through memory on every step (the AVX-VNNI path ran 0.68x as fast) */
 #define SUPERMAT__MRVNNI 6
-SUPERMAT__AVXVNNI static __attribute__((noinline)) void supermat__i8avx_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
+SUPERMAT__AVXVNNI static SUPERMAT__NOINLINE void supermat__i8avx_chunk(int q0, int q1, const unsigned char *const *a, const signed char *b,
                                                                            __m256i *out) {
     __m256i s00 = _mm256_setzero_si256(), s01 = s00, s10 = s00, s11 = s00, s20 = s00, s21 = s00;
     __m256i s30 = s00, s31 = s00, s40 = s00, s41 = s00, s50 = s00, s51 = s00;
@@ -2804,11 +2889,7 @@ typedef struct supermat__wino_job {
     int avx2, avx512;
 } supermat__wino_job;
 
-#if defined(__GNUC__) || defined(__clang__)
-#define SUPERMAT__WINO_INLINE __attribute__((always_inline)) inline
-#else
-#define SUPERMAT__WINO_INLINE inline
-#endif
+#define SUPERMAT__WINO_INLINE SUPERMAT__FORCEINLINE
 /* 1-D transforms on 8 channels at once: o[k*os][j] from s[k*ss][j], k along the transformed axis */
 #define SUPERMAT__WINO_BT(o, os, s, ss) for (j = 0; j < 8; j++) { \
     if (m == 4) { \

@@ -21,8 +21,9 @@
  * belongs to the batch: an item's outputs are replaced until the journal says it is done.
  *
  * One model load per process; one session, reused while pictures keep their size. --jobs J forks J
- * workers after the model load (they share its memory pages), each on every J-th item with threads / J
- * threads, all appending to the one journal. --merge writes DIR/journal.jsonl from the shards' journals
+ * workers after the model load (they share its memory pages; on Windows, which has no fork, they are J threads
+ * sharing the one model, each with its own session), each on every J-th item with threads / J threads, all
+ * appending to the one journal. --merge writes DIR/journal.jsonl from the shards' journals
  * (the last record per item) and, given the inputs, says which items are missing.
  * Exit status: 0 when every item is done, 1 when some failed (or are missing), 2 usage. */
 
@@ -31,8 +32,10 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
+#if !defined(_WIN32)
 #include <sys/file.h>
 #include <sys/wait.h>
+#endif
 #ifdef __linux__
 #include <sys/prctl.h>
 #endif
@@ -464,7 +467,7 @@ static void cli_item_outputs(const cli_batch_ctx *B, FILE *f, const cli_bitem *i
 static int cli_journal_append(const cli_batch_ctx *B, int fd, const char *jpath, const cli_bitem *it, int done, double secs, const char *error) {
     char *buf = NULL;
     size_t len = 0, off = 0;
-    FILE *f = open_memstream(&buf, &len);
+    FILE *f = cli_memstream_open(&buf, &len);
     int rc = CLI_OK;
     if (!f) { cli_error("out of memory"); return CLI_FAIL; }
     fputs("{\"item\":", f);
@@ -478,7 +481,7 @@ static int cli_journal_append(const cli_batch_ctx *B, int fd, const char *jpath,
     if (error) cli_json_string(f, error);
     else fputs("null", f);
     fputs("}\n", f);
-    if (fclose(f) != 0 || !buf) { free(buf); cli_error("out of memory"); return CLI_FAIL; }
+    if (cli_memstream_close(f, &buf, &len) != 0 || !buf) { free(buf); cli_error("out of memory"); return CLI_FAIL; }
     while (off < len) {
         ssize_t w = write(fd, buf + off, len - off);
         if (w < 0 && errno == EINTR) continue;
@@ -499,8 +502,8 @@ static const cli_optdef cli_opts_batch_run[] = {
     {CLI_BATCH_OUT, "--out", "DIR", "the output folder (required)", NULL, NULL},
     {CLI_BATCH_SHARD, "--shard", "I/N", "only the items I, I+N, I+2N, ... (0-based) of the list sorted by output name:\n"
                                         "N processes or machines, one shard each, share the work (journal per shard)", NULL, NULL},
-    {CLI_BATCH_JOBS, "--jobs", "J", "J worker processes (forked after the model load: one copy of the weights),\n"
-                                    "each on every J-th item, with threads / J threads (default 1)", NULL, NULL},
+    {CLI_BATCH_JOBS, "--jobs", "J", "J worker processes (forked after the model load: one copy of the weights;\n"
+                                    "threads on Windows), each on every J-th item, with threads / J threads (default 1)", NULL, NULL},
     {CLI_BATCH_RETRY, "--retry-failed", NULL, "run the items the journal says failed again", NULL, NULL},
     {CLI_BATCH_FAIL_FAST, "--fail-fast", NULL, "stop at the first failed item (default: go on, exit 1 at the end)", NULL, NULL},
     {CLI_BATCH_JSON, "--json", "FILE", "a summary: items, done, failed, skipped, seconds, journal", NULL, NULL},
@@ -708,6 +711,115 @@ static int cli_batch_mesh_item(const cli_batch_ctx *B, const supermat_cli_mesh_o
 #endif
 }
 
+/* --jobs: one worker's share of the items left to run (the r-th of them, in key order, when r % nworkers == w),
+   each item's record appended to the journal after its outputs are in place. With several workers the items'
+   status is left as it was (the journal is read again after them). */
+typedef struct cli_bwork {
+    cli_batch_ctx *B;
+    supermat_cli_mesh_opts *mopts;
+    cli_blist *L;
+    cli_image_ctx X; /* this worker's own: its session (the model is shared) */
+    const char *out_dir, *jpath;
+    int fd, shard_i, shard_n, retry, fail_fast, nworkers, w;
+    size_t mine, ran_done, ran_failed;
+    int rc;          /* CLI_FAIL: the journal failed, or --fail-fast stopped at a failed item */
+} cli_bwork;
+
+static void cli_batch_worker(cli_bwork *W) {
+    cli_blist *L = W->L;
+    size_t run_i = 0, pos = 0, k;
+    W->rc = CLI_OK;
+#ifdef SUPERMAT_CLI_MESH
+    if (W->B->mesh_mode) supermat_cli_mesh_keep_models(1); /* each process loads the models once */
+#endif
+    for (k = 0; k < L->n && W->rc == CLI_OK; k++) {
+        cli_bitem *it = &L->v[k];
+        char prefix[64], *dir;
+        double s0;
+        int r;
+        if ((int)(k % (size_t)W->shard_n) != W->shard_i) continue;
+        pos++;
+        if (it->status == 1 || (it->status == 2 && !W->retry)) continue;
+        if ((int)(run_i++ % (size_t)W->nworkers) != W->w) continue;
+        snprintf(prefix, sizeof prefix, "[%zu/%zu] ", pos, W->mine);
+        W->X.prefix = prefix;
+        W->X.outputs = it->outputs;
+        W->X.want_float = it->want_float;
+        dir = it->sub[0] ? cli_join(W->out_dir, it->sub, "") : cli_strdup(W->out_dir);
+        s0 = cli_now();
+        cli_last_error[0] = 0;
+        if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
+        else if ((r = cli_mkdirs_below(W->out_dir, it->sub)) == CLI_OK) {
+            if (!W->B->mesh_mode) r = cli_image_one(&W->X, it->input, dir, it->stem);
+            else r = cli_batch_mesh_item(W->B, W->mopts, it, dir);
+        }
+        free(dir);
+        if (r == CLI_SKIPPED) r = CLI_OK;
+        if (cli_journal_append(W->B, W->fd, W->jpath, it, r == CLI_OK, cli_now() - s0, r == CLI_OK ? NULL : cli_last_error) != CLI_OK) {
+            W->rc = CLI_FAIL;
+            break;
+        }
+        fprintf(stderr, "%s%s %.2f s %s%s\n", prefix, it->key, cli_now() - s0, r == CLI_OK ? "done" : "FAILED: ", r == CLI_OK ? "" : cli_last_error);
+        if (r == CLI_OK) { if (W->nworkers == 1) it->status = 1; W->ran_done++; }
+        else {
+            if (W->nworkers == 1) it->status = 2;
+            W->ran_failed++;
+            if (W->fail_fast) { fprintf(stderr, "batch: stopped at the first failed item (--fail-fast)\n"); W->rc = CLI_FAIL; }
+        }
+    }
+    cli_image_ctx_release(&W->X);
+#ifdef SUPERMAT_CLI_MESH
+    if (W->B->mesh_mode) supermat_cli_mesh_keep_models(0);
+#endif
+}
+
+#if defined(_WIN32)
+/* --jobs on Windows: the workers are threads of this process (no fork there): one model in memory, each
+   worker its own session; killing the batch ends them all at once, as on Linux */
+static DWORD WINAPI cli_batch_thread(LPVOID p) {
+    cli_batch_worker((cli_bwork *)p);
+    return 0;
+}
+static int cli_batch_workers_run(cli_bwork *W, int n) {
+    HANDLE *th = (HANDLE *)calloc((size_t)n, sizeof *th);
+    int w, rc = CLI_OK;
+    if (!th) { cli_error("out of memory"); return CLI_FAIL; }
+    for (w = 0; w < n; w++)
+        if (!(th[w] = CreateThread(NULL, 0, cli_batch_thread, &W[w], 0, NULL))) { cli_error("cannot start a worker (error %lu)", (unsigned long)GetLastError()); rc = CLI_FAIL; break; }
+    for (w = 0; w < n; w++)
+        if (th[w]) { WaitForSingleObject(th[w], INFINITE); CloseHandle(th[w]); }
+    free(th);
+    return rc;
+}
+#else
+/* --jobs: the workers are processes forked after the model load (they share its pages); a killed batch
+   takes them along (Linux: PR_SET_PDEATHSIG) */
+static int cli_batch_workers_run(cli_bwork *W, int n) {
+    pid_t *pids = (pid_t *)calloc((size_t)n, sizeof *pids);
+    int w, rc = CLI_OK;
+    if (!pids) { cli_error("out of memory"); return CLI_FAIL; }
+    fflush(stdout); fflush(stderr);
+    for (w = 0; w < n; w++) {
+        pid_t p = fork();
+        if (p < 0) { cli_error("cannot start a worker: %s", strerror(errno)); rc = CLI_FAIL; break; }
+        if (p > 0) { pids[w] = p; continue; }
+#ifdef __linux__
+        prctl(PR_SET_PDEATHSIG, SIGKILL); /* a killed batch takes its workers along */
+#endif
+        cli_batch_worker(&W[w]);
+        _exit(W[w].rc == CLI_OK && !W[w].ran_failed ? 0 : 1);
+    }
+    for (w = 0; w < n; w++) {
+        int st;
+        if (pids[w] <= 0) continue;
+        while (waitpid(pids[w], &st, 0) < 0 && errno == EINTR) {}
+        if (!WIFEXITED(st) || (WEXITSTATUS(st) != 0 && WEXITSTATUS(st) != 1)) { cli_error("worker %d ended abnormally", w); rc = CLI_FAIL; }
+    }
+    free(pids);
+    return rc;
+}
+#endif
+
 static int cli_batch(int argc, char **argv) {
     const char *cmd = "batch", *v, *model_arg = NULL, *model_path = NULL, *out_dir = NULL, *json_path = NULL;
     unsigned outputs = SUPERMAT_OUTPUT_ALL;
@@ -898,78 +1010,24 @@ static int cli_batch(int argc, char **argv) {
 
     if (rc == CLI_OK && left) {
         int nworkers = jobs < (int)left ? jobs : (int)left, w;
-        pid_t *pids = NULL;
         int threads_total = threads > 0 ? threads : supermat_default_threads();
-        if (nworkers > 1) {
-            pids = (pid_t *)calloc((size_t)nworkers, sizeof *pids);
-            if (!pids) { cli_error("out of memory"); rc = CLI_FAIL; nworkers = 0; }
-            fflush(stdout); fflush(stderr);
+        cli_bwork *W = (cli_bwork *)calloc((size_t)(nworkers > 0 ? nworkers : 1), sizeof *W);
+        if (!W) { cli_error("out of memory"); rc = CLI_FAIL; nworkers = 0; }
+        for (w = 0; w < nworkers; w++) {
+            W[w].B = &B; W[w].mopts = mopts; W[w].L = &L; W[w].X = X;
+            W[w].out_dir = out_dir; W[w].jpath = jpath; W[w].fd = fd;
+            W[w].shard_i = shard_i; W[w].shard_n = shard_n; W[w].retry = retry; W[w].fail_fast = fail_fast;
+            W[w].nworkers = nworkers; W[w].w = w; W[w].mine = mine;
+            W[w].X.outputs = outputs; W[w].X.want_float = want_float; W[w].X.tty = tty && nworkers == 1;
+            W[w].X.threads = nworkers > 1 ? (threads_total / nworkers > 0 ? threads_total / nworkers : 1) : threads;
         }
-        for (w = 0; w < nworkers && rc == CLI_OK; w++) {
-            size_t run_i = 0, pos = 0;
-            int wrc = CLI_OK;
-            if (nworkers > 1) {
-                pid_t p = fork();
-                if (p < 0) { cli_error("cannot start a worker: %s", strerror(errno)); rc = CLI_FAIL; break; }
-                if (p > 0) { pids[w] = p; continue; }
-#ifdef __linux__
-                prctl(PR_SET_PDEATHSIG, SIGKILL); /* a killed batch takes its workers along */
-#endif
-            }
-#ifdef SUPERMAT_CLI_MESH
-            if (B.mesh_mode) supermat_cli_mesh_keep_models(1); /* each process loads the models once */
-#endif
-            X.outputs = outputs; X.want_float = want_float; X.tty = tty && nworkers == 1;
-            X.threads = nworkers > 1 ? (threads_total / nworkers > 0 ? threads_total / nworkers : 1) : threads;
-            for (k = 0; k < L.n && wrc == CLI_OK; k++) {
-                cli_bitem *it = &L.v[k];
-                char prefix[64], *dir;
-                double s0;
-                int r;
-                if ((int)(k % (size_t)shard_n) != shard_i) continue;
-                pos++;
-                if (it->status == 1 || (it->status == 2 && !retry)) continue;
-                if ((int)(run_i++ % (size_t)nworkers) != w) continue;
-                snprintf(prefix, sizeof prefix, "[%zu/%zu] ", pos, mine);
-                X.prefix = prefix;
-                X.outputs = it->outputs;
-                X.want_float = it->want_float;
-                dir = it->sub[0] ? cli_join(out_dir, it->sub, "") : cli_strdup(out_dir);
-                s0 = cli_now();
-                cli_last_error[0] = 0;
-                if (!dir) { cli_error("out of memory"); r = CLI_FAIL; }
-                else if ((r = cli_mkdirs_below(out_dir, it->sub)) == CLI_OK) {
-                    if (!B.mesh_mode) r = cli_image_one(&X, it->input, dir, it->stem);
-                    else r = cli_batch_mesh_item(&B, mopts, it, dir);
-                }
-                free(dir);
-                if (r == CLI_SKIPPED) r = CLI_OK;
-                if (cli_journal_append(&B, fd, jpath, it, r == CLI_OK, cli_now() - s0, r == CLI_OK ? NULL : cli_last_error) != CLI_OK) {
-                    wrc = CLI_FAIL;
-                    break;
-                }
-                fprintf(stderr, "%s%s %.2f s %s%s\n", prefix, it->key, cli_now() - s0, r == CLI_OK ? "done" : "FAILED: ", r == CLI_OK ? "" : cli_last_error);
-                if (r == CLI_OK) { it->status = 1; ran_done++; }
-                else {
-                    it->status = 2; ran_failed++;
-                    if (fail_fast) { fprintf(stderr, "batch: stopped at the first failed item (--fail-fast)\n"); wrc = CLI_FAIL; }
-                }
-            }
-            cli_image_ctx_release(&X);
-#ifdef SUPERMAT_CLI_MESH
-            if (B.mesh_mode) supermat_cli_mesh_keep_models(0);
-#endif
-            if (nworkers > 1) _exit(wrc == CLI_OK && !ran_failed ? 0 : 1);
-            if (wrc != CLI_OK && !ran_failed) rc = CLI_FAIL; /* the journal itself failed */
-        }
-        if (pids) {
-            for (w = 0; w < nworkers; w++) {
-                int st;
-                if (pids[w] <= 0) continue;
-                while (waitpid(pids[w], &st, 0) < 0 && errno == EINTR) {}
-                if (!WIFEXITED(st) || (WEXITSTATUS(st) != 0 && WEXITSTATUS(st) != 1)) { cli_error("worker %d ended abnormally", w); rc = CLI_FAIL; }
-            }
-            free(pids);
+        if (nworkers == 1) {
+            cli_batch_worker(&W[0]);
+            ran_done = W[0].ran_done;
+            ran_failed = W[0].ran_failed;
+            if (W[0].rc != CLI_OK && !ran_failed) rc = CLI_FAIL; /* the journal itself failed */
+        } else if (nworkers > 1) {
+            if (cli_batch_workers_run(W, nworkers) != CLI_OK) rc = CLI_FAIL;
             /* the workers' records: read the journal again */
             for (k = 0; k < L.n; k++) L.v[k].status = 0;
             int jr = cli_journal_read(jpath, cli_journal_status, &L);
@@ -986,6 +1044,7 @@ static int cli_batch(int argc, char **argv) {
                 ran_failed = f;
             }
         }
+        free(W);
     }
     if (fd >= 0) close(fd);
     {

@@ -3,8 +3,8 @@
  * <HF_ENDPOINT>/<repo>/resolve/<revision>/<path>, then the four conversions.
  * Part of the `supermat` CLI: included by cli/main.c (one translation unit), not compiled alone.
  *
- * HTTP is the `curl` program (Linux, macOS and Windows 10+ ship it), started with posix_spawnp (no shell,
- * the argument vector built here): `-f -L --retry 3 -C -` into NAME.part, renamed to NAME only when its size
+ * HTTP is the `curl` program (Linux, macOS and Windows 10+ ship it), started with posix_spawnp, or CreateProcessW on
+ * Windows (platform.c: cli_spawn_piped; no shell, the argument vector built here): `-f -L --retry 3 -C -` into NAME.part, renamed to NAME only when its size
  * is the Content-Length the server announced (a HEAD request, `curl -sIL`) and its SHA-256 (cli/sha256.c)
  * the one known for it: the table below for the pinned revisions, else the digest the hub announces for
  * LFS files (X-Linked-Etag). HF_TOKEN goes to curl in a config read from its stdin (`-K -`), never on its
@@ -13,12 +13,10 @@
 
 /* >>download */
 #include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
+#if !defined(_WIN32)
 #include <sys/statvfs.h>
-#include <sys/wait.h>
 #include <strings.h>
-extern char **environ;
+#endif
 
 #define CLI_DL_SUPERMAT_REPO "oyiya/SuperMat"
 #define CLI_DL_SUPERMAT_REV "91ffb8edaf259a1e5bbcbcd53b702ad44d70b709" /* the revision a downstream project pins */
@@ -76,64 +74,12 @@ typedef struct cli_dl {
    collected into out (cap bytes at most, NUL-terminated). Returns curl's exit status, 128 + a signal, or
    -1 when curl could not be started (said here). */
 static int cli_dl_curl(char **argv, const char *config, char *out, size_t cap) {
-    int in[2], po[2], st = 0, r;
-    size_t n = 0;
-    pid_t pid;
-    posix_spawn_file_actions_t fa;
-    struct sigaction ign, old;
-    if (pipe(in) != 0) { cli_error("download: pipe: %s", strerror(errno)); return -1; }
-    if (pipe(po) != 0) { cli_error("download: pipe: %s", strerror(errno)); close(in[0]); close(in[1]); return -1; }
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, in[0], 0);
-    posix_spawn_file_actions_adddup2(&fa, po[1], 1);
-    posix_spawn_file_actions_addclose(&fa, in[0]);
-    posix_spawn_file_actions_addclose(&fa, in[1]);
-    posix_spawn_file_actions_addclose(&fa, po[0]);
-    posix_spawn_file_actions_addclose(&fa, po[1]);
-    fflush(stdout);
-    fflush(stderr);
-    r = posix_spawnp(&pid, "curl", &fa, NULL, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    close(in[0]);
-    close(po[1]);
-    if (r != 0) {
-        close(in[1]);
-        close(po[0]);
-        if (r == ENOENT) cli_error("download: the curl program is needed and was not found in PATH (Debian: apt install curl)");
-        else cli_error("download: cannot start curl: %s", strerror(r));
-        return -1;
+    int r = cli_spawn_piped(argv, config, out, cap); /* platform.c: posix_spawnp, or CreateProcessW on Windows */
+    if (r < 0) {
+        if (errno == ENOENT) cli_error("download: the curl program is needed and was not found in PATH (Debian: apt install curl)");
+        else cli_error("download: cannot start curl: %s", strerror(errno));
     }
-    memset(&ign, 0, sizeof ign);
-    ign.sa_handler = SIG_IGN;
-    sigaction(SIGPIPE, &ign, &old); /* a curl that exits before reading its config must not kill us */
-    if (config && *config) {
-        size_t len = strlen(config), w = 0;
-        while (w < len) {
-            ssize_t k = write(in[1], config + w, len - w);
-            if (k < 0 && errno == EINTR) continue;
-            if (k <= 0) break;
-            w += (size_t)k;
-        }
-    }
-    close(in[1]);
-    for (;;) {
-        char tmp[4096];
-        ssize_t k = read(po[0], tmp, sizeof tmp);
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) break;
-        if (out && n + 1 < cap) {
-            size_t c = (size_t)k < cap - 1 - n ? (size_t)k : cap - 1 - n;
-            memcpy(out + n, tmp, c);
-            n += c;
-        }
-    }
-    if (out && cap) out[n] = 0;
-    close(po[0]);
-    sigaction(SIGPIPE, &old, NULL);
-    while (waitpid(pid, &st, 0) < 0)
-        if (errno != EINTR) { cli_error("download: waitpid: %s", strerror(errno)); return -1; }
-    if (WIFEXITED(st)) return WEXITSTATUS(st);
-    return 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+    return r;
 }
 
 /* curl's config on stdin: the token as a header (quoted, \ and " escaped), or nothing */

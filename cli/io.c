@@ -8,8 +8,10 @@ static struct { void *p; size_t n; } cli_maps[8];
 static void cli_free_file(void *p) {
     int i;
     if (!p) return;
+    cli_lock(1);
     for (i = 0; i < 8; i++)
-        if (cli_maps[i].p == p) { munmap(p, cli_maps[i].n); cli_maps[i].p = NULL; return; }
+        if (cli_maps[i].p == p) { munmap(p, cli_maps[i].n); cli_maps[i].p = NULL; cli_lock(0); return; }
+    cli_lock(0);
     free(p);
 }
 
@@ -36,16 +38,19 @@ static int cli_read_file(const char *path, unsigned char **data, size_t *size) {
     n = (size_t)st.st_size;
     if (n >= ((size_t)1 << 20)) {
         int i;
+        cli_lock(1);
         for (i = 0; i < 8 && cli_maps[i].p; i++) {}
         if (i < 8) {
-            void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
+            void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0); /* Windows: CreateFileMappingW (win32.h) */
             if (m != MAP_FAILED) {
                 cli_maps[i].p = m; cli_maps[i].n = n;
+                cli_lock(0);
                 close(fd);
                 *data = (unsigned char *)m; *size = n;
                 return CLI_OK;
             }
         }
+        cli_lock(0);
     }
     buf = (unsigned char *)malloc(n ? n : 1);
     if (!buf) { cli_error("out of memory reading '%s' (%.1f MiB)", path, cli_mib((double)n)); close(fd); return CLI_FAIL; }
@@ -282,10 +287,10 @@ static int cli_out_folder_ok(const char *path) {
 }
 
 /* The folders whose leftovers of dead runs were removed (smio_clean_stale), once per folder and process */
-typedef struct cli_dir_id { dev_t dev; ino_t ino; } cli_dir_id;
+typedef struct cli_dir_id { unsigned long long dev, ino; } cli_dir_id; /* wide enough for Windows' 64-bit file index */
 static cli_dir_id *cli_cleaned;
 static size_t cli_ncleaned, cli_capcleaned;
-static void cli_clean_once(int dirfd) {
+static void cli_clean_once_locked(int dirfd) {
     struct stat st;
     size_t i;
     if (fstat(dirfd, &st) != 0) return;
@@ -302,6 +307,11 @@ static void cli_clean_once(int dirfd) {
     cli_cleaned[cli_ncleaned].ino = st.st_ino;
     cli_ncleaned++;
     smio_clean_stale(dirfd);
+}
+static void cli_clean_once(int dirfd) {
+    cli_lock(1);
+    cli_clean_once_locked(dirfd);
+    cli_lock(0);
 }
 
 /* Output files are written to a new temporary file beside PATH (smio_tmp_create: a unique name created
@@ -429,7 +439,7 @@ static int cli_report_allowed(const char *path) {
 static FILE *cli_mem_open(cli_mem *m, const char *path) {
     memset(m, 0, sizeof *m);
     if (cli_report_allowed(path) != CLI_OK) return NULL;
-    m->f = open_memstream(&m->buf, &m->len);
+    m->f = cli_memstream_open(&m->buf, &m->len);
     if (!m->f) cli_error("out of memory");
     return m->f;
 }
@@ -438,7 +448,7 @@ static FILE *cli_mem_open(cli_mem *m, const char *path) {
 static int cli_mem_commit(cli_mem *m, const char *path, int ok, int closed) {
     int rc = CLI_FAIL;
     cli_out o;
-    if (!closed && m->f && fclose(m->f) != 0) ok = 0;
+    if (!closed && m->f && cli_memstream_close(m->f, &m->buf, &m->len) != 0) ok = 0;
     m->f = NULL;
     if (ok && m->buf && cli_out_open(&o, path) == CLI_OK) {
         cli_out_write(&o, m->buf, m->len);

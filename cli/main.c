@@ -16,10 +16,12 @@
  * with stb_image / stb_image_write (Debian: libstb-dev).
  *
  * Build:  gcc -std=c99 -O2 -I. -Iconvert cli/main.c convert/sm_convert.c -o supermat -lm -lpthread
+ *         Windows (MinGW-w64): x86_64-w64-mingw32-gcc -std=c99 -O2 -static -I. -Iconvert cli/main.c convert/sm_convert.c
+ *                              -o supermat.exe -lm -lshell32 -lpsapi -lpthread   (tests/test_mingw_cli.sh)
  *         (CMake adds libwebp, zlib and cli/mesh.cpp with tinygltf when it finds them)
  *
  * Files (cli/; each opens with what it holds, sections inside are marked with >>name):
- *   platform.c   >>platform    includes, stb, timing, small helpers
+ *   platform.c   >>platform    includes, stb, timing, small helpers, what differs by OS (win32.h: Windows)
  *   args.c       >>args        the tool's own --help, the value parsers (--weights, --kernel, sizes ...);
  *                              opt_table.h: the option tables each command parses and prints its help from
  *   io.c         >>files       the shared I/O module every command writes through: reading a whole file,
@@ -81,6 +83,7 @@ static const cli_optdef cli_help_main[] = {
 int main(int argc, char **argv) {
     const char *c;
     cli_global_opts g;
+    cli_platform_args(&argc, &argv); /* UTF-8 on every platform */
     /* the global options, for every command (before a "--", anywhere after the command name): fixed here,
        before the command runs */
     if (cli_global_parse(&argc, argv, &g) != CLI_OK) return CLI_USAGE;

@@ -26,12 +26,18 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
-#include <sys/mman.h>
 #include <sys/types.h>
+#if !defined(_WIN32)
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
 #include <unistd.h>
-#include "smio.h"
+extern char **environ;
+#endif
+#include "smio.h" /* on Windows it brings win32.h: the POSIX calls below over the wide Win32 API */
 
 /* stb: their warnings are not ours */
 #if defined(__GNUC__) || defined(__clang__)
@@ -112,15 +118,149 @@ static const char *cli_stbi_reason(void) {
 #define CLI_USAGE 2
 
 static double cli_now(void) {
+#if defined(_WIN32)
+    LARGE_INTEGER t, f;
+    QueryPerformanceCounter(&t);
+    QueryPerformanceFrequency(&f);
+    return (double)t.QuadPart / (double)f.QuadPart;
+#else
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+#endif
+}
+
+/* a process-wide lock around io.c's few shared tables: `batch --jobs` runs its workers as threads on Windows
+   (as processes elsewhere, where this does nothing) */
+static void cli_lock(int on) {
+#if defined(_WIN32)
+    smw_locked(on);
+#else
+    (void)on;
+#endif
+}
+
+/* Runs the program argv[0] (looked up in PATH; no shell: the argument vector as given) with `input` (or
+   nothing) written to its stdin and its stdout collected into out (cap bytes at most, NUL-terminated); its
+   stderr is ours. Returns its exit status, 128 + a signal, or -1 when it could not be run (errno; ENOENT:
+   not found). POSIX: posix_spawnp and pipes; Windows: CreateProcessW and pipes (win32.h). */
+static int cli_spawn_piped(char **argv, const char *input, char *out, size_t cap) {
+#if defined(_WIN32)
+    return smw_spawn_piped(argv, input, out, cap);
+#else
+    int in[2], po[2], st = 0, r;
+    size_t n = 0;
+    pid_t pid;
+    posix_spawn_file_actions_t fa;
+    struct sigaction ign, old;
+    if (pipe(in) != 0) return -1;
+    if (pipe(po) != 0) { r = errno; close(in[0]); close(in[1]); errno = r; return -1; }
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, in[0], 0);
+    posix_spawn_file_actions_adddup2(&fa, po[1], 1);
+    posix_spawn_file_actions_addclose(&fa, in[0]);
+    posix_spawn_file_actions_addclose(&fa, in[1]);
+    posix_spawn_file_actions_addclose(&fa, po[0]);
+    posix_spawn_file_actions_addclose(&fa, po[1]);
+    fflush(stdout);
+    fflush(stderr);
+    r = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(in[0]);
+    close(po[1]);
+    if (r != 0) {
+        close(in[1]);
+        close(po[0]);
+        errno = r;
+        return -1;
+    }
+    memset(&ign, 0, sizeof ign);
+    ign.sa_handler = SIG_IGN;
+    sigaction(SIGPIPE, &ign, &old); /* a program that exits before reading its input must not kill us */
+    if (input && *input) {
+        size_t len = strlen(input), w = 0;
+        while (w < len) {
+            ssize_t k = write(in[1], input + w, len - w);
+            if (k < 0 && errno == EINTR) continue;
+            if (k <= 0) break;
+            w += (size_t)k;
+        }
+    }
+    close(in[1]);
+    for (;;) {
+        char tmp[4096];
+        ssize_t k = read(po[0], tmp, sizeof tmp);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        if (out && n + 1 < cap) {
+            size_t c = (size_t)k < cap - 1 - n ? (size_t)k : cap - 1 - n;
+            memcpy(out + n, tmp, c);
+            n += c;
+        }
+    }
+    if (out && cap) out[n] = 0;
+    close(po[0]);
+    sigaction(SIGPIPE, &old, NULL);
+    while (waitpid(pid, &st, 0) < 0)
+        if (errno != EINTR) return -1;
+    if (WIFEXITED(st)) return WEXITSTATUS(st);
+    return 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+#endif
+}
+
+/* main()'s arguments in UTF-8: on Windows from GetCommandLineW (argv is in the ANSI code page there) */
+static void cli_platform_args(int *argc, char ***argv) {
+#if defined(_WIN32)
+    smw_args(argc, argv);
+#else
+    (void)argc; (void)argv;
+#endif
+}
+
+/* A stream whose bytes end up in memory (open_memstream): cli_memstream_close gives them, malloc'ed (*buf,
+   *len), and closes it; -1 when a write failed or memory ran out. Windows has no open_memstream: a temporary
+   file deleted on close ("D"), read back. */
+static FILE *cli_memstream_open(char **buf, size_t *len) {
+#if defined(_WIN32)
+    wchar_t dir[MAX_PATH + 1], name[MAX_PATH + 16];
+    *buf = NULL; *len = 0;
+    if (!GetTempPathW(MAX_PATH + 1, dir) || !GetTempFileNameW(dir, L"smm", 0, name)) return NULL;
+    return _wfopen(name, L"w+bD");
+#else
+    return open_memstream(buf, len);
+#endif
+}
+static int cli_memstream_close(FILE *f, char **buf, size_t *len) {
+#if defined(_WIN32)
+    long long n;
+    int bad = fflush(f) != 0 || ferror(f) || _fseeki64(f, 0, SEEK_END) != 0 || (n = _ftelli64(f)) < 0 || _fseeki64(f, 0, SEEK_SET) != 0;
+    *buf = NULL; *len = 0;
+    if (!bad && (*buf = (char *)malloc((size_t)n + 1)) != NULL && fread(*buf, 1, (size_t)n, f) == (size_t)n) {
+        (*buf)[n] = 0;
+        *len = (size_t)n;
+    } else {
+        free(*buf);
+        *buf = NULL;
+        bad = 1;
+    }
+    return fclose(f) != 0 || bad ? -1 : 0;
+#else
+    (void)buf; (void)len;
+    return fclose(f) != 0 ? -1 : 0;
+#endif
 }
 
 static double cli_mib(double bytes) { return bytes / (1024.0 * 1024.0); }
 
 static void cli_error(const char *fmt, ...) CLI_PRINTF(1, 2);
-static char cli_last_error[4096]; /* the last message cli_error printed (a batch journals it) */
+#if defined(_WIN32) && (defined(__GNUC__) || defined(__clang__))
+#define CLI_THREAD_LOCAL __thread /* batch --jobs: worker threads on Windows (processes elsewhere) */
+#elif defined(_WIN32) && defined(_MSC_VER)
+#define CLI_THREAD_LOCAL __declspec(thread)
+#else
+#define CLI_THREAD_LOCAL
+#endif
+static CLI_THREAD_LOCAL char cli_last_error[4096]; /* the last message cli_error printed (a batch journals it) */
 static int cli_quiet;             /* keep messages in cli_last_error only (the fuzz harnesses) */
 static void cli_error(const char *fmt, ...) {
     va_list ap;

@@ -1,5 +1,5 @@
 /* cli/smio.h - the one I/O layer under every file the `supermat` CLI touches (io.c and batch.c, C;
- * mesh.cpp, C++). POSIX; static functions only, included where used. docs/security.md states what it
+ * mesh.cpp, C++). POSIX (on Windows through cli/win32.h); static functions only, included where used. docs/security.md states what it
  * promises; tests/test_hostile.sh checks it.
  *
  * Reading
@@ -43,6 +43,9 @@
 #include <sys/types.h>
 #include <time.h>
 #include <unistd.h>
+#if defined(_WIN32)
+#include "win32.h" /* the calls below over the Win32 wide API (UTF-8 paths; reparse points are links) */
+#endif
 
 #ifndef O_CLOEXEC
 #define O_CLOEXEC 0

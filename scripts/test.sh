@@ -15,9 +15,10 @@ if [ ${#need[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 install -y -qq "${need[@]}" >/dev/null
 fi
-# the Windows build of the library (ctest mingw): MinGW-w64 and wine64, without their recommends
+# the Windows build of the library (ctest mingw): MinGW-w64 and wine64; Blender's Cycles renders the independent
+# evaluation set (ctest eval_cycles renders a sphere with it); both without their recommends
 need=()
-for p in gcc-mingw-w64-x86-64 wine64; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
+for p in gcc-mingw-w64-x86-64 wine64 blender; do dpkg -s "$p" >/dev/null 2>&1 || need+=("$p"); done
 if [ ${#need[@]} -gt 0 ]; then
   SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
   $SUDO apt-get update -qq

@@ -4,6 +4,8 @@
 For each asset (FILE.gltf, or FILE.gltf#NODE for one node's subtree):
   1. supermat_tools.litbake makes the input: its lit appearance in its own UV space under a held-out environment
      map (--env-bake), the true albedo / roughness / metallic textures and the chart mask at the same texels;
+     with --cycles-world W the lit texture is Blender Cycles' bake under Blender's world map W instead
+     (supermat_tools.cycles_render --bake: an independent renderer, with shadows and interreflection);
   2. each predictor bakes it:
        lit          the lit texture itself as albedo, roughness 0.5, metallic 0 (the passthrough baseline
                     of the issue; no rendering, no network)
@@ -99,6 +101,13 @@ def main():
                                                        "(e.g. \"--weight cos --edge-reject 2\", \"--work-size native\")")
     ap.add_argument("--views", type=int, default=4, help="relighting views per asset (default 4)")
     ap.add_argument("--relight-size", type=int, default=256, help="relighting view size (default 256)")
+    ap.add_argument("--cycles-world", default="",
+                    help="the lit texture from Blender's Cycles instead (an independent renderer: shadows, "
+                         "interreflection; supermat_tools.cycles_render --bake) under this Blender world map "
+                         "(city, courtyard, forest, interior, night, studio, sunrise, sunset); the truth and "
+                         "mask stay litbake's")
+    ap.add_argument("--cycles-samples", type=int, default=32, help="Cycles samples a texel (default 32)")
+    ap.add_argument("--blender", default="blender")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=0)
     ap.add_argument("--supermat", default=SUPERMAT)
@@ -147,6 +156,18 @@ def main():
         if r.returncode != 0:
             sys.exit(f"error: litbake {asset}: {r.stderr.strip()}")
         print(r.stdout.strip(), f"({time.time() - t0:.1f} s)", file=sys.stderr)
+        if args.cycles_world:
+            t0 = time.time()
+            me = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cycles_render.py")
+            cmd = [args.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", me, "--",
+                   "--gltf", path, "--bake", os.path.join(lb, name + "_lit_baseColor.png"),
+                   "--mask", os.path.join(lb, name + "_mask.png"), "--size", str(args.size),
+                   "--samples", str(args.cycles_samples), "--world", args.cycles_world,
+                   "--seed", str(args.seed), "--threads", str(args.threads)]
+            r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+            if r.returncode != 0:
+                sys.exit(f"error: the Cycles bake of {asset} failed (exit {r.returncode}):\n{r.stdout[-2000:]}")
+            print(f"Cycles lit bake of {name} under {args.cycles_world} ({time.time() - t0:.1f} s)", file=sys.stderr)
         mask = read8(os.path.join(lb, name + "_mask.png"), "L") > 0
         truth = dict(albedo=read8(os.path.join(lb, name + "_truth_albedo.png"), "RGB"),
                      rough=read8(os.path.join(lb, name + "_truth_roughness.png"), "L"),

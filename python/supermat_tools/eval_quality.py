@@ -729,6 +729,13 @@ def evaluate(args, meshes, work):
                                 args.image_args.split())
         t_pred[name] = (time.time() - t0) / len(inputs)
         print(f"predicted with {name} ({t_pred[name]:.1f} s a view)", file=sys.stderr)
+        if args.curves:                     # the same maps through calibration curves (eval_cycles --fit)
+            from supermat_tools.eval_cycles import apply_curve
+            with open(args.curves) as f:
+                c = json.load(f)[args.curves_name or name]
+            preds[name + "+curves"] = {s: dict(m, roughness=apply_curve(m["roughness"], c["roughness"]),
+                                                 metallic=apply_curve(m["metallic"], c["metallic"]))
+                                       for s, m in preds[name].items()}
     for kind in args.baselines:
         preds[kind] = {s: baseline(kind, v["rgba8"], v["gt"], stats) for s, v in views.items()}
     lever_files = run_levers(args, inputs, work) if args.levers else []
@@ -827,6 +834,9 @@ def main():
     ap.add_argument("--supermat", default=SUPERMAT)
     ap.add_argument("--work", help="folder for the inputs and predicted maps (default: a temporary one)")
     ap.add_argument("--threads", type=int, default=0, help="supermat threads (default 0 = all cores)")
+    ap.add_argument("--curves", default="", help="also each model's maps through the roughness / metallic "
+                    "calibration curves of this JSON file (supermat_tools.eval_cycles --fit), as NAME+curves")
+    ap.add_argument("--curves-name", default="", help="the curves' entry in --curves (default: the model's NAME)")
     ap.add_argument("--image-args", default="", help="more `supermat image` options for --model runs, e.g. "
                     "\"--detail off --chroma off\" (the network's maps alone) or \"--work-size 128\" (after --native)")
     ap.add_argument("--json", help="write the results here")

