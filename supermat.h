@@ -36,6 +36,7 @@
  *   supermat_session_memory               what a session would allocate, without allocating
  *   supermat_run                          one picture (or SuperMatMV's views, or a UV map) -> maps
  *   supermat_detail / _memory             the detail step alone, on an albedo made elsewhere (UV bakes)
+ *   supermat_parse_curve                  a calibration curve from its text (model files, command lines)
  *   supermat_srgb_to_linear / _linear_to_srgb  the sRGB transfer every step of both headers uses
  *   supermat_result_string                the name of a result code
  *   supermat_pool_create / _destroy       the built-in thread pool, to share between sessions
@@ -78,6 +79,8 @@
  *                           detail (picture x low-pass(albedo) / low-pass(picture)); for small networks
  *   session_desc.chroma_weight  not a speed lever and not official: the albedo takes the picture's
  *                           chromaticity at the network's luminance; for small networks
+ *   session_desc.roughness_knots  not a speed lever and not official: the roughness map through a
+ *                           monotone calibration curve; for networks whose roughness is too narrow
  *
  * WHAT IT DOES NOT DO
  *   - No file I/O, no image decoding: give it pixels; it resamples them to the model's work size (the
@@ -178,8 +181,10 @@
  *   pipeline.chroma_weight, the detail and colour steps (session_desc.detail_sigma / chroma_weight;
  *   the default model records 1/64 and 1, an official conversion neither); pipeline.bake_detail_sigma
  *   (supermat / supermat-mv), the detail step supermat_uv.h's bake applies to textures baked from this
- *   model's views (supermat_uv_bake_desc.detail_sigma; the multi-view default records 1/32). So the
- *   shortest program runs the model as it was measured, and `supermat image` / `mesh` set nothing more.
+ *   model's views (supermat_uv_bake_desc.detail_sigma; the multi-view default records 1/32);
+ *   pipeline.roughness_curve (supermat / supermat-mv), the calibration curve a run puts the roughness map
+ *   through (session_desc.roughness_knots; a comma list as supermat_parse_curve reads it). So the shortest
+ *   program runs the model as it was measured, and `supermat image` / `mesh` set nothing more.
  *
  * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
  *   A model file in which the GEMM weights are already the runtime's packed panels (16 columns per
@@ -371,6 +376,9 @@ typedef struct supermat_model_desc {
     uint32_t _end_canary;
 } supermat_model_desc;
 
+/* the most knots a calibration curve has (pipeline.roughness_curve, session_desc.roughness_knots) */
+#define SUPERMAT_CURVE_MAX_KNOTS 33
+
 typedef struct supermat_model_info {
     supermat_model_kind kind;
     supermat_kernel kernel;        /* the kernel set chosen */
@@ -396,6 +404,8 @@ typedef struct supermat_model_info {
     float chroma_weight;           /* pipeline.chroma_weight: 0 = no colour step */
     float bake_detail_sigma;       /* pipeline.bake_detail_sigma: supermat_uv.h's detail step for textures baked
                                       from this model's views; 0 = none */
+    int roughness_knots;           /* pipeline.roughness_curve: its knots (session_desc.roughness_knots); 0 = none */
+    float roughness_curve[SUPERMAT_CURVE_MAX_KNOTS];
 } supermat_model_info;
 
 typedef struct supermat_model supermat_model;
@@ -493,8 +503,22 @@ typedef struct supermat_session_desc {
        1. At most 1; 0 = the model's (supermat_model_info.chroma_weight: the default model's file
        records 1, an official one none); SUPERMAT_OFF (negative) = off. */
     float chroma_weight;
+    /* supermat / supermat-mv, not in the official computation: the roughness map r (in [0, 1]) through a
+       calibration curve, per pixel of alpha > 0 (every pixel without alpha), after the network and the
+       resampling: the piecewise-linear curve through (i / (n - 1), roughness_curve[i]), i = 0 .. n - 1.
+       The n knots are in [0, 1] and non-decreasing (a rougher prediction never comes out smoother), n from 2
+       to SUPERMAT_CURVE_MAX_KNOTS; the session keeps a copy. For a network whose roughness is right in
+       order but too narrow (the small default model's: docs/quality.md; fitted with
+       `python3 -m supermat_tools.eval_cycles --fit` on renders of known materials). roughness_knots 0 = the
+       model's (supermat_model_info.roughness_knots / roughness_curve: the default model's file records one,
+       an official one none); SUPERMAT_CURVE_OFF = none. */
+    int roughness_knots;
+    const float *roughness_curve;
     uint32_t _end_canary;
 } supermat_session_desc;
+
+/* session_desc.roughness_knots: no curve, whatever the model file records */
+#define SUPERMAT_CURVE_OFF (-1)
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
 SUPERMAT_API supermat_result supermat_session_memory(const supermat_session_desc *desc, size_t *bytes,
@@ -591,6 +615,11 @@ typedef struct supermat_detail_desc {
    is checked as by supermat_detail, its pixels are not read. */
 SUPERMAT_API supermat_result supermat_detail_memory(const supermat_detail_desc *desc, size_t *bytes, supermat_error *err);
 SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, supermat_error *err);
+/* A calibration curve as text (metadata pipeline.roughness_curve, the tool's --roughness-curve): 2 to
+   SUPERMAT_CURVE_MAX_KNOTS numbers separated by commas (spaces around them allowed), each in [0, 1], each
+   >= the one before. *count gets the number (knots: room for SUPERMAT_CURVE_MAX_KNOTS); else
+   INVALID_ARGUMENT with what is wrong. */
+SUPERMAT_API supermat_result supermat_parse_curve(const char *text, float *knots, int *count, supermat_error *err);
 /* The sRGB transfer (IEC 61966-2-1) the steps above and supermat_uv.h use: the value clamped to [0, 1] first
    (NaN -> 0), in double. */
 SUPERMAT_API double supermat_srgb_to_linear(double v);
@@ -3758,12 +3787,68 @@ static void *supermat__mem(supermat__loader *L, size_t bytes) {
 static int supermat__meta_str(supermat__loader *L, const char *key, char *buf, size_t cap, int required) {
     int v = L->meta >= 0 ? supermat_json_find(L->js, L->toks, L->meta, key) : -1;
     if (v < 0 || supermat_json_string(L->js, &L->toks[v], buf, cap) < 0) {
-        if (required && !L->r) L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata key '%s' is missing or not a string (convert the model with `supermat convert`)", key);
+        /* an optional key may be absent, never unreadable: a value that is no string or too long fails */
+        if (v >= 0 && !L->r)
+            L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata key '%s' is not a string of at most %d bytes", key, (int)cap - 1);
+        else if (required && !L->r)
+            L->r = supermat__fail(L->err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata key '%s' is missing or not a string (convert the model with `supermat convert`)", key);
         buf[0] = 0;
         return -1;
     }
     return 0;
 }
+/* >>curve: the roughness calibration curve (session_desc.roughness_knots, pipeline.roughness_curve) */
+/* 0 when n knots make a curve, else -1 and why */
+static int supermat__curve_ok(const float *k, int n, char *why, size_t cap) {
+    int i;
+    if (n < 2 || n > SUPERMAT_CURVE_MAX_KNOTS) { snprintf(why, cap, "%d knot%s: from 2 to %d", n, n == 1 ? "" : "s", SUPERMAT_CURVE_MAX_KNOTS); return -1; }
+    for (i = 0; i < n; i++) {
+        if (!(k[i] >= 0.0f && k[i] <= 1.0f)) { snprintf(why, cap, "knot %d is %g: each in [0, 1]", i + 1, (double)k[i]); return -1; }
+        if (i && k[i] < k[i - 1]) { snprintf(why, cap, "knot %d (%g) is below knot %d (%g): the curve never falls", i + 1, (double)k[i], i, (double)k[i - 1]); return -1; }
+    }
+    return 0;
+}
+static int supermat__curve_read(const char *text, float *k, int *count, char *why, size_t cap) {
+    const char *p = text;
+    int n = 0;
+    *count = 0;
+    for (;;) {
+        char *end;
+        double v;
+        while (*p == ' ') p++;
+        if (n == SUPERMAT_CURVE_MAX_KNOTS) { snprintf(why, cap, "more than %d knots", SUPERMAT_CURVE_MAX_KNOTS); return -1; }
+        v = strtod(p, &end);
+        if (end == p) { snprintf(why, cap, "knot %d is not a number", n + 1); return -1; }
+        k[n++] = (float)v;
+        p = end;
+        while (*p == ' ') p++;
+        if (!*p) break;
+        if (*p != ',') { snprintf(why, cap, "'%c' after knot %d: numbers separated by commas", *p, n); return -1; }
+        p++;
+    }
+    if (supermat__curve_ok(k, n, why, cap)) return -1;
+    *count = n;
+    return 0;
+}
+SUPERMAT__DEF supermat_result supermat_parse_curve(const char *text, float *knots, int *count, supermat_error *err) {
+    char why[160];
+    if (count) *count = 0;
+    if (!text || !knots || !count) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "supermat_parse_curve: text, knots and count must not be NULL");
+    if (supermat__curve_read(text, knots, count, why, sizeof why)) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "curve '%.64s': %s", text, why);
+    supermat__ok(err);
+    return SUPERMAT_SUCCESS;
+}
+/* the curve through (i / (n - 1), k[i]) at x, x clamped to [0, 1] */
+static float supermat__curve_at(const float *k, int n, float x) {
+    float t;
+    int i;
+    x = x > 0.0f ? (x < 1.0f ? x : 1.0f) : 0.0f; /* NaN -> 0 */
+    t = x * (float)(n - 1);
+    i = (int)t;
+    if (i > n - 2) i = n - 2;
+    return k[i] + (k[i + 1] - k[i]) * (t - (float)i);
+}
+
 static double supermat__meta_num(supermat__loader *L, const char *key, double lo, double hi, double def, int required) {
     char buf[64], *end;
     double x;
@@ -4780,6 +4865,16 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
         m->info.chroma_weight = (float)supermat__meta_num(&L, "pipeline.chroma_weight", 0, 1, 0, 0);
         m->info.bake_detail_sigma = (float)supermat__meta_num(&L, "pipeline.bake_detail_sigma", 0, 1, 0, 0);
         if (L.r) goto done;
+        {
+            char cv[1024], why[160];
+            if (!supermat__meta_str(&L, "pipeline.roughness_curve", cv, sizeof cv, 0)) {
+                if (m->info.kind == SUPERMAT_KIND_UV_REFINE) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata pipeline.roughness_curve on a uv-refine model, which makes no roughness map"); goto done; }
+                if (supermat__curve_read(cv, m->info.roughness_curve, &m->info.roughness_knots, why, sizeof why)) {
+                    L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.roughness_curve' = '%.64s': %s", cv, why);
+                    goto done;
+                }
+            } else if (L.r) goto done;
+        }
         if (ws != floor(ws) || ((int)ws % 8) || (ws > 0 && ws < 8)) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.work_size' = %g: 0 or a multiple of 8 up to 16384", ws); goto done; }
         m->info.work_size = (int)ws;
         if (m->info.kind == SUPERMAT_KIND_UV_REFINE && (m->info.detail_sigma > 0.0f || m->info.chroma_weight > 0.0f || m->info.bake_detail_sigma > 0.0f)) {
@@ -5450,6 +5545,8 @@ struct supermat_session {
     int mv_att, mv_stride;
     float detail;               /* detail_sigma */
     float chroma;               /* chroma_weight */
+    int rough_n;                /* the roughness curve's knots (0 = none) */
+    float rough[SUPERMAT_CURVE_MAX_KNOTS];
 };
 
 /* the network's size along one axis of `len` pixels: `work` (0 = the model's work size, else the picture's;
@@ -5471,6 +5568,9 @@ static void supermat__session_options(supermat_session *S, const supermat_sessio
     S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
     S->detail = supermat__step_value(d->detail_sigma, d->model->info.detail_sigma);
     S->chroma = supermat__step_value(d->chroma_weight, d->model->info.chroma_weight);
+    S->rough_n = 0;
+    if (d->roughness_knots > 0) { S->rough_n = d->roughness_knots; memcpy(S->rough, d->roughness_curve, sizeof(float) * (size_t)S->rough_n); }
+    else if (d->roughness_knots == 0 && d->model->info.roughness_knots > 0) { S->rough_n = d->model->info.roughness_knots; memcpy(S->rough, d->model->info.roughness_curve, sizeof S->rough); }
 }
 
 static int supermat__views(const supermat_session_desc *d) {
@@ -5714,6 +5814,7 @@ static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;
 static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 SUPERMAT__DEF double supermat_srgb_to_linear(double v) { return supermat__lin(v); }
 SUPERMAT__DEF double supermat_linear_to_srgb(double v) { return supermat__srgb(v); }
+
 
 /* The detail and colour steps, a row of pixels a task. Linear light of the picture: an 8-bit picture's
    256 values from a table (the same doubles supermat__lin gives for them), a float picture's through
@@ -5967,6 +6068,16 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         if (S->chroma > 0.0f && supermat__live(X)) /* chroma_weight: the picture's colour */
             for (i = 0; i < V; i++) supermat__chroma(X, supermat__view_in(rd, i), S->chroma, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, lut);
     }
+    if (S->rough_n > 0 && !uv && m->branches > 1 && dec[1].d && supermat__live(X)) /* the roughness curve: channel 1 of the second branch */
+        for (i = 0; i < V; i++) {
+            const supermat_image *in = supermat__view_in(rd, i);
+            float *px = dec[1].d + (size_t)i * S->h * S->w * 3;
+            int x, y;
+            for (y = 0; y < S->h; y++)
+                for (x = 0; x < S->w; x++, px += 3)
+                    if (in->channels < 4 || supermat__px(in, x, y, 3) > 0.0f)
+                        px[1] = 2.0f * supermat__curve_at(S->rough, S->rough_n, px[1] / 2.0f + 0.5f) - 1.0f;
+        }
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -6020,6 +6131,16 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight %g: at most 1 (0 = the model's, SUPERMAT_OFF = off)", (double)d->chroma_weight);
         if (d->chroma_weight > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight: a UV-refine model has no input picture to take colour from");
+        if (d->roughness_knots < SUPERMAT_CURVE_OFF)
+            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_knots %d: 0 (the model's curve), SUPERMAT_CURVE_OFF or 2 to %d knots", d->roughness_knots, SUPERMAT_CURVE_MAX_KNOTS);
+        if (d->roughness_knots > 0) {
+            char why[160];
+            if (d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
+                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_curve: a UV-refine model makes no roughness map");
+            if (!d->roughness_curve) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_knots %d but roughness_curve is NULL", d->roughness_knots);
+            if (supermat__curve_ok(d->roughness_curve, d->roughness_knots, why, sizeof why))
+                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_curve: %s", why);
+        }
     }
     return SUPERMAT_SUCCESS;
 }

@@ -19,6 +19,14 @@
      (the multi-view default beside DEFAULT_MODEL 1/32, the default and the tiny model none, the tiny model
      with the key added 1/32, 1, 0); out of [0, 1] or not a number MALFORMED_FILE naming the key; a value
      > 0 on a uv-refine file MALFORMED_FILE, 0 accepted.
+   - pipeline.roughness_curve / session_desc.roughness_knots: the default model records a 9-knot curve, the
+     tiny model none; a run puts the roughness through it: against the float64 curve of the same run with
+     SUPERMAT_CURVE_OFF within 1e-6 on every pixel of alpha > 0, unchanged where alpha is 0, albedo and
+     metallic bit-identical; the model's curve given explicitly is bit-identical to 0; a caller's curve
+     (constant 0.3, identity) does what it says; on the tiny multi-view model with the curve added, every
+     view. Malformed curves in the file (too few / many knots, falling, out of [0, 1], NaN, not numbers,
+     not a string, longer than the reader takes, on a uv-refine file) are MALFORMED_FILE naming the key;
+     in a session desc INVALID_ARGUMENT; supermat_parse_curve reads what the file reader reads.
    usage: test_pipeline DEFAULT_MODEL TINY_MODEL [TINY_UV_MODEL]
    (TINY_UV_MODEL: default tiny_uv_refine_bc.safetensors beside TINY_MODEL, as the tiny fixture writes it;
    the multi-view default: supermat_mv_default.safetensors beside DEFAULT_MODEL, skipped where absent) */
@@ -50,7 +58,7 @@ static supermat_model *create(const unsigned char *data, size_t size, supermat_c
 }
 
 /* the session fields under test */
-typedef struct fields { int ww, wh; float detail, chroma; } fields;
+typedef struct fields { int ww, wh; float detail, chroma; int rk; const float *rc; } fields; /* rk, rc: roughness_knots / curve */
 
 /* float maps of one run: albedo RGBA, roughness and metallic 1 channel (width x height of the picture) */
 typedef struct maps { float *albedo, *rough, *metal; size_t n; } maps;
@@ -87,6 +95,7 @@ static supermat_result run_f32(const supermat_model *m, const fields *p, int w, 
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = w; sd.height = h;
     sd.work_width = p->ww; sd.work_height = p->wh; sd.detail_sigma = p->detail; sd.chroma_weight = p->chroma;
+    sd.roughness_knots = p->rk; sd.roughness_curve = p->rc;
     if ((r = supermat_session_create(&sd, &s, err))) return r;
     memset(&rd, 0, sizeof rd);
     rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
@@ -114,8 +123,8 @@ static void test_info(const supermat_model *def, const supermat_model *tiny) {
 
 /* ---- 2. zero fields are the model's; SUPERMAT_OFF and another negative value are the same off ---- */
 static void test_zero_is_model(const supermat_model *def, const unsigned char *img, maps *zero) {
-    static const fields p0 = {0, 0, 0.0f, 0.0f}, pe = {256, 256, 0.015625f, 1.0f}, poff = {0, 0, SUPERMAT_OFF, SUPERMAT_OFF},
-                      pneg = {256, 256, -0.25f, -0.25f};
+    static const fields p0 = {0, 0, 0.0f, 0.0f, 0, NULL}, pe = {256, 256, 0.015625f, 1.0f, 0, NULL}, poff = {0, 0, SUPERMAT_OFF, SUPERMAT_OFF, 0, NULL},
+                      pneg = {256, 256, -0.25f, -0.25f, 0, NULL};
     maps e = maps_new(PW, PH), off = maps_new(PW, PH), neg = maps_new(PW, PH);
     supermat_error err;
     supermat_result r;
@@ -141,8 +150,8 @@ static void test_zero_is_model(const supermat_model *def, const unsigned char *i
 
 /* ---- 3. any picture size with a work size; the picture's own size needs multiples of 8 ---- */
 static void test_sizes(const supermat_model *def, const supermat_model *tiny, const unsigned char *img, const maps *odd) {
-    static const fields p0 = {0, 0, 0.0f, 0.0f}, pnat = {SUPERMAT_WORK_NATIVE, SUPERMAT_WORK_NATIVE, 0.0f, 0.0f}, p64 = {64, 64, 0.0f, 0.0f},
-                      pbad = {-2, 0, 0.0f, 0.0f};
+    static const fields p0 = {0, 0, 0.0f, 0.0f, 0, NULL}, pnat = {SUPERMAT_WORK_NATIVE, SUPERMAT_WORK_NATIVE, 0.0f, 0.0f, 0, NULL}, p64 = {64, 64, 0.0f, 0.0f, 0, NULL},
+                      pbad = {-2, 0, 0.0f, 0.0f, 0, NULL};
     static const unsigned char one[4] = {200, 120, 60, 128};
     unsigned char *big = (unsigned char *)malloc((size_t)BW * BH * 4);
     maps m1 = maps_new(1, 1), mb = maps_new(BW, BH), mt = maps_new(PW, PH);
@@ -296,7 +305,7 @@ static void test_guards(const unsigned char *tdata, size_t tsize, const unsigned
 
 /* ---- 5. a pre-packed file's options are the defaults ---- */
 static void test_prepacked(const unsigned char *ddata, size_t dsize, const unsigned char *img) {
-    static const fields p0 = {0, 0, 0.0f, 0.0f};
+    static const fields p0 = {0, 0, 0.0f, 0.0f, 0, NULL};
     supermat_model_desc md;
     supermat_model_info info;
     supermat_model *pm = NULL, *um = NULL;
@@ -550,6 +559,226 @@ static void test_bake_detail(const supermat_model *def, const supermat_model *ti
            cases, mvsize ? "; the multi-view default records 1/32" : "");
 }
 
+/* ---- pipeline.roughness_curve and session_desc.roughness_knots ---------------------------------------- */
+/* the curve through (i / (n - 1), k[i]) at x, in double */
+static double curve64(const float *k, int n, double x) {
+    double t;
+    int i;
+    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    t = x * (n - 1);
+    i = (int)t;
+    if (i > n - 2) i = n - 2;
+    return k[i] + ((double)k[i + 1] - k[i]) * (t - i);
+}
+/* `on` is `off` through the curve where alpha (RGBA img, 4th byte) > 0, and unchanged elsewhere: the worst
+   difference, and the pixels changed by more than 1e-6 */
+static double curve_err(const maps *on, const maps *off, const unsigned char *img, const float *k, int n) {
+    double worst = 0.0;
+    size_t i;
+    for (i = 0; i < on->n; i++) {
+        double want = img[i * 4 + 3] > 0 ? curve64(k, n, off->rough[i]) : off->rough[i], d = fabs(on->rough[i] - want);
+        if (d > worst) worst = d;
+    }
+    return worst;
+}
+static void test_rough_curve(const supermat_model *def, const supermat_model *tiny, const unsigned char *tdata, size_t tsize,
+                             const char *tiny_path, const char *uv_path, const unsigned char *img, const unsigned char *sq) {
+    static const char *const bad[] = {"", "0.5", "0.5,0.4", "0,x", "0,1.5", "-0.1,1", "nan,1", "0;1", "0,1,", ",0,1", "0 1"};
+    static const float c03[2] = {0.3f, 0.3f}, ident[2] = {0.0f, 1.0f}, falling[3] = {0.2f, 0.5f, 0.4f};
+    char members[1400], list[1200];
+    supermat_model_info info;
+    supermat_error err;
+    supermat_result r;
+    float k[SUPERMAT_CURVE_MAX_KNOTS];
+    int n = 0, i, cases = 0;
+    size_t p;
+    if (def) { /* the default model's curve: 9 knots, never falling, and a run goes through it */
+        fields p0 = {0, 0, 0.0f, 0.0f, 0, NULL}, poff = {0, 0, 0.0f, 0.0f, SUPERMAT_CURVE_OFF, NULL}, pex = {0, 0, 0.0f, 0.0f, 0, NULL},
+               pc = {0, 0, 0.0f, 0.0f, 2, c03}, pid = {0, 0, 0.0f, 0.0f, 2, ident};
+        maps a = maps_new(PW, PH), off = maps_new(PW, PH), ex = maps_new(PW, PH), c = maps_new(PW, PH), id = maps_new(PW, PH);
+        double e1, e2 = 0.0, e3;
+        supermat_model_get_info(def, &info);
+        TU_CHECK(info.roughness_knots == 9, "default model: %d roughness knots, want 9 (pipeline.roughness_curve)", info.roughness_knots);
+        for (i = 1; i < info.roughness_knots; i++) TU_CHECK(info.roughness_curve[i] >= info.roughness_curve[i - 1], "default model: the curve falls at knot %d", i + 1);
+        pex.rk = info.roughness_knots; pex.rc = info.roughness_curve;
+        TU_CHECK(run_f32(def, &p0, PW, PH, img, 4, &a, &err) == SUPERMAT_SUCCESS, "curve: fields 0: %s", err.message);
+        TU_CHECK(run_f32(def, &poff, PW, PH, img, 4, &off, &err) == SUPERMAT_SUCCESS, "curve: SUPERMAT_CURVE_OFF: %s", err.message);
+        TU_CHECK(run_f32(def, &pex, PW, PH, img, 4, &ex, &err) == SUPERMAT_SUCCESS, "curve: the model's curve explicit: %s", err.message);
+        TU_CHECK(run_f32(def, &pc, PW, PH, img, 4, &c, &err) == SUPERMAT_SUCCESS, "curve: constant 0.3: %s", err.message);
+        TU_CHECK(run_f32(def, &pid, PW, PH, img, 4, &id, &err) == SUPERMAT_SUCCESS, "curve: identity: %s", err.message);
+        e1 = curve_err(&a, &off, img, info.roughness_curve, info.roughness_knots);
+        TU_CHECK(e1 <= 1e-6, "the model's curve: %.3g from the float64 curve of the CURVE_OFF run (<= 1e-6)", e1);
+        TU_CHECK(memcmp(a.rough, off.rough, a.n * sizeof(float)) != 0, "the model's curve changed nothing");
+        TU_CHECK(!memcmp(a.albedo, off.albedo, a.n * 4 * sizeof(float)) && !memcmp(a.metal, off.metal, a.n * sizeof(float)),
+                 "the roughness curve changed the albedo or the metallic map");
+        TU_CHECK(maps_same(&a, &ex), "roughness_knots 0 and the model's curve given explicitly: not bit-identical");
+        e3 = curve_err(&c, &off, img, c03, 2);
+        TU_CHECK(e3 <= 1e-6, "constant 0.3 curve: %.3g from 0.3 / the network's roughness (<= 1e-6)", e3);
+        for (p = 0; p < id.n; p++) { double d = fabs(id.rough[p] - off.rough[p]); if (d > e2) e2 = d; }
+        TU_CHECK(e2 <= 1e-6, "identity curve: %.3g from the CURVE_OFF run (<= 1e-6)", e2);
+        printf("roughness curve: default model %d knots, run within %.2g of float64 (alpha > 0; alpha 0 unchanged); explicit == 0; "
+               "constant %.2g, identity %.2g\n", info.roughness_knots, e1, e3, e2);
+        maps_free(&a); maps_free(&off); maps_free(&ex); maps_free(&c); maps_free(&id);
+    }
+    if (tiny) { supermat_model_get_info(tiny, &info); TU_CHECK(info.roughness_knots == 0, "tiny model: %d roughness knots, want none", info.roughness_knots); }
+    /* the session desc's guards (the tiny model at Q x Q, its own size) */
+    if (tiny) {
+        static const struct { int knots; const float *k; const char *what; } g[] = {
+            {-2, ident, "knots -2"}, {1, ident, "1 knot"}, {SUPERMAT_CURVE_MAX_KNOTS + 1, ident, "34 knots"}, {2, NULL, "NULL curve"}, {3, falling, "a falling curve"}};
+        static const float nanc[2] = {0.0f, 0.0f};
+        float kn[2];
+        maps o = maps_new(Q, Q);
+        fields f = {0, 0, 0.0f, 0.0f, 0, NULL};
+        for (i = 0; i < (int)(sizeof g / sizeof g[0]); i++, cases++) {
+            f.rk = g[i].knots; f.rc = g[i].k;
+            r = run_f32(tiny, &f, Q, Q, sq, 4, &o, &err);
+            TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "rough"), "session with %s: %s (%s), want INVALID_ARGUMENT naming the curve",
+                     g[i].what, supermat_result_string(r), err.message);
+        }
+        memcpy(kn, nanc, sizeof kn);
+        kn[1] = (float)nan("");
+        f.rk = 2; f.rc = kn;
+        r = run_f32(tiny, &f, Q, Q, sq, 4, &o, &err);
+        TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT, "session with a NaN knot: %s (%s), want INVALID_ARGUMENT", supermat_result_string(r), err.message);
+        cases++;
+        maps_free(&o);
+    }
+    if (!tdata) return;
+    /* the file's key: what loads, what is refused */
+    for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++, cases++) {
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        size_t fn = 0;
+        unsigned char *f;
+        snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", bad[i]);
+        f = with_meta(tdata, tsize, members, &fn);
+        memset(&md, 0, sizeof md);
+        md.data = f; md.size = fn;
+        r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "pipeline.roughness_curve"),
+                 "tiny + roughness curve '%s': %s (%s), want MALFORMED_FILE naming the key", bad[i], supermat_result_string(r), err.message);
+        TU_CHECK(supermat_parse_curve(bad[i], k, &n, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && n == 0, "supermat_parse_curve('%s') accepted it", bad[i]);
+        supermat_model_destroy(m);
+        free(f);
+    }
+    { /* 34 knots; a value too long for the reader; not a string */
+        static const char *const what[3] = {"34 knots", "1100 bytes", "a number, not a string"};
+        for (i = 0, list[0] = 0; i <= SUPERMAT_CURVE_MAX_KNOTS; i++) strcat(list, i ? ",0.5" : "0.5");
+        for (i = 0; i < 3; i++, cases++) {
+            supermat_model_desc md;
+            supermat_model *m = NULL;
+            size_t fn = 0;
+            unsigned char *f;
+            if (i == 0) snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", list);
+            else if (i == 1) { memset(list, ' ', 1100); list[0] = '0'; list[1098] = ','; list[1099] = '1'; list[1100] = 0;
+                               snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", list); }
+            else snprintf(members, sizeof members, "\"pipeline.roughness_curve\":0.5");
+            f = with_meta(tdata, tsize, members, &fn);
+            memset(&md, 0, sizeof md);
+            md.data = f; md.size = fn;
+            r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
+            TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "pipeline.roughness_curve"),
+                     "tiny + roughness curve of %s: %s (%s), want MALFORMED_FILE naming the key", what[i], supermat_result_string(r), err.message);
+            supermat_model_destroy(m);
+            free(f);
+        }
+    }
+    { /* loads: spaces, 33 knots; reported as written */
+        static const struct { const char *text; int n; float first, last; } ok[] = {{"0,1", 2, 0.0f, 1.0f}, {" 0.1 , 0.2,0.2 ", 3, 0.1f, 0.2f}, {NULL, 33, 0.0f, 1.0f}};
+        for (i = 0, list[0] = 0; i < SUPERMAT_CURVE_MAX_KNOTS; i++) snprintf(list + strlen(list), sizeof list - strlen(list), "%s%.9g", i ? "," : "", i / 32.0);
+        for (i = 0; i < 3; i++, cases++) {
+            supermat_model_desc md;
+            supermat_model *m = NULL;
+            size_t fn = 0;
+            unsigned char *f;
+            const char *t = ok[i].text ? ok[i].text : list;
+            snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", t);
+            f = with_meta(tdata, tsize, members, &fn);
+            memset(&md, 0, sizeof md);
+            md.data = f; md.size = fn;
+            r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
+            memset(&info, 0, sizeof info);
+            if (m) supermat_model_get_info(m, &info);
+            TU_CHECK(r == SUPERMAT_SUCCESS && info.roughness_knots == ok[i].n && info.roughness_curve[0] == ok[i].first && info.roughness_curve[ok[i].n - 1] == ok[i].last,
+                     "tiny + roughness curve '%.40s': %s (%s), %d knots %g..%g, want %d %g..%g", t, supermat_result_string(r), err.message, info.roughness_knots,
+                     (double)info.roughness_curve[0], (double)info.roughness_curve[info.roughness_knots > 0 ? info.roughness_knots - 1 : 0], ok[i].n, (double)ok[i].first, (double)ok[i].last);
+            TU_CHECK(supermat_parse_curve(t, k, &n, &err) == SUPERMAT_SUCCESS && n == ok[i].n && !memcmp(k, info.roughness_curve, sizeof(float) * (size_t)n),
+                     "supermat_parse_curve('%.40s') reads another curve than the file reader", t);
+            supermat_model_destroy(m);
+            free(f);
+        }
+    }
+    { /* uv-refine: no roughness map */
+        size_t uvsize = 0, fn = 0;
+        unsigned char *uv = tu_load(uv_path, &uvsize), *f = NULL;
+        supermat_model_desc md;
+        supermat_model *m = NULL;
+        if (uv) f = with_meta(uv, uvsize, "\"pipeline.roughness_curve\":\"0,1\"", &fn);
+        memset(&md, 0, sizeof md);
+        md.data = f; md.size = fn;
+        r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "roughness_curve") && strstr(err.message, "uv-refine"),
+                 "uv-refine + a roughness curve: %s (%s), want MALFORMED_FILE", supermat_result_string(r), err.message);
+        supermat_model_destroy(m);
+        free(f); free(uv);
+        cases++;
+    }
+    { /* the tiny multi-view model with a curve in its file: every view goes through it */
+        char mvp[1024];
+        size_t mvsize = 0, fn = 0;
+        unsigned char *mv, *f = NULL;
+        sibling(mvp, sizeof mvp, tiny_path, "tiny_supermat_mv.safetensors");
+        if ((mv = tu_load(mvp, &mvsize)) != NULL) {
+            static const float curve[3] = {0.1f, 0.8f, 0.9f};
+            supermat_model *m = NULL, *m0 = NULL;
+            supermat_model_desc md;
+            float *rough[2][2], cams[2 * 16];
+            double worst = 0.0;
+            int pass, v, changed = 0;
+            f = with_meta(mv, mvsize, "\"pipeline.roughness_curve\":\"0.1,0.8,0.9\"", &fn);
+            memset(&md, 0, sizeof md);
+            md.data = f; md.size = fn;
+            TU_CHECK(f && supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, "tiny multi-view + curve: %s", err.message);
+            m0 = create(mv, mvsize, SUPERMAT_CONV_DIRECT, mvp);
+            for (i = 0; i < 2 * 16; i++) cams[i] = (i % 5 == 0) ? 1.0f : 0.1f * (float)(i % 7);
+            for (pass = 0; pass < 2 && m && m0; pass++) {
+                supermat_session_desc sd;
+                supermat_session *s = NULL;
+                supermat_run_desc rd;
+                supermat_image in[2], ro[2];
+                memset(&sd, 0, sizeof sd);
+                sd.model = pass ? m0 : m; sd.width = Q; sd.height = Q; sd.views = 2;
+                memset(&rd, 0, sizeof rd);
+                memset(in, 0, sizeof in); memset(ro, 0, sizeof ro);
+                for (v = 0; v < 2; v++) {
+                    rough[pass][v] = (float *)malloc(sizeof(float) * Q * Q);
+                    in[v].pixels = (void *)sq; in[v].width = Q; in[v].height = Q; in[v].channels = 4;
+                    ro[v].pixels = rough[pass][v]; ro[v].channels = 1; ro[v].format = SUPERMAT_FORMAT_F32;
+                }
+                rd.input_views = in; rd.cameras = cams; rd.roughness_views = ro;
+                r = supermat_session_create(&sd, &s, &err);
+                if (!r) r = supermat_run(s, &rd, &err);
+                TU_CHECK(r == SUPERMAT_SUCCESS, "tiny multi-view run (%s): %s", pass ? "no curve" : "curve", err.message);
+                supermat_session_destroy(s);
+            }
+            if (m && m0)
+                for (v = 0; v < 2; v++)
+                    for (p = 0; p < (size_t)Q * Q; p++) {
+                        double want = sq[p * 4 + 3] > 0 ? curve64(curve, 3, rough[1][v][p]) : rough[1][v][p], d = fabs(rough[0][v][p] - want);
+                        if (d > worst) worst = d;
+                        changed += rough[0][v][p] != rough[1][v][p];
+                    }
+            TU_CHECK(m && m0 && worst <= 1e-6 && changed > 0, "tiny multi-view + curve: %.3g from the float64 curve of the run without (<= 1e-6), %d pixels changed", worst, changed);
+            printf("roughness curve: tiny multi-view, 2 views through the file's curve within %.2g (%d pixels changed)\n", worst, changed);
+            if (m && m0) for (pass = 0; pass < 2; pass++) for (v = 0; v < 2; v++) free(rough[pass][v]);
+            supermat_model_destroy(m); supermat_model_destroy(m0);
+            free(f); free(mv);
+            cases++;
+        } else printf("(no %s: the multi-view curve not checked)\n", mvp);
+    }
+    printf("roughness curve: %d file / session / parser cases refused or read as written\n", cases);
+}
+
 int main(int argc, char **argv) {
     static unsigned char img[PW * PH * 4], sq[Q * Q * 4];
     unsigned char *ddata = NULL, *tdata = NULL;
@@ -568,6 +797,7 @@ int main(int argc, char **argv) {
     odd = maps_new(PW, PH);
     test_info(def, tiny);
     test_bake_detail(def, tiny, tdata, tsize, argv[1], uv_path);
+    test_rough_curve(def, tiny, tdata, tsize, argv[2], uv_path, img, sq);
     if (def) { test_zero_is_model(def, img, &odd); test_sizes(def, tiny, img, &odd); }
     test_guards(tdata, tsize, sq);
     test_prepacked(ddata, dsize, sq);

@@ -1,7 +1,7 @@
 /* The CI quality floor (a regression guard for the default model): runs a model on an evaluation slice
    and checks the mean masked PSNR of each map against a committed floor.
 
-   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE]]]
+   usage: test_quality MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA [CHROMA_WEIGHT [WORK_SIZE [ROUGH_CURVE]]]]
    (each `model` when absent: the session field left 0, the model file's pipeline; `off` / `native`: none)
 
    SLICE_DIR/index.txt   one stem per line (blank lines and lines starting with # are skipped)
@@ -14,8 +14,8 @@
 
    For each stem the model computes all three maps (DETAIL_SIGMA: session_desc.detail_sigma; CHROMA_WEIGHT:
    session_desc.chroma_weight; WORK_SIZE N: the network at N x N, session_desc.work_width / work_height, the
-   maps resampled back to the picture's size; all three `model`: what the quick start and `supermat image`
-   run); they are quantised to 8 bits
+   maps resampled back to the picture's size; ROUGH_CURVE off: SUPERMAT_CURVE_OFF; all four `model`: what the
+   quick start and `supermat image` run); they are quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
    >= 128 and over their channels, values in [0, 1] (v / 255), capped at 100 dB. The table lists each
@@ -166,9 +166,10 @@ int main(int argc, char **argv) {
     supermat_result r;
     float detail = 0.0f, chroma = 0.0f; /* 0: the model file's (session_desc's zero), SUPERMAT_OFF: off */
     int work = 0;                        /* 0: the model file's, SUPERMAT_WORK_NATIVE: the picture's own size */
+    int curve = 0;                       /* 0: the model file's roughness curve, SUPERMAT_CURVE_OFF: none */
 
-    if (argc < 4 || argc > 7) {
-        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA|off|model [CHROMA_WEIGHT|off|model [WORK_SIZE|native|model]]]\n", argv[0]);
+    if (argc < 4 || argc > 8) {
+        printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA|off|model [CHROMA_WEIGHT|off|model [WORK_SIZE|native|model [ROUGH_CURVE|off|model]]]]\n", argv[0]);
         return 2;
     }
     if (argc >= 5 && strcmp(argv[4], "model")) {
@@ -181,7 +182,11 @@ int main(int argc, char **argv) {
         chroma = strcmp(argv[5], "off") ? strtof(argv[5], &end) : SUPERMAT_OFF;
         if (chroma != SUPERMAT_OFF && (!end || *end || !(chroma > 0.0f && chroma <= 1.0f))) { printf("usage: CHROMA_WEIGHT '%s': off, model or a number in (0, 1]\n", argv[5]); return 2; }
     }
-    if (argc == 7 && strcmp(argv[6], "model")) {
+    if (argc == 8 && strcmp(argv[7], "model")) {
+        if (strcmp(argv[7], "off")) { printf("usage: ROUGH_CURVE '%s': off or model\n", argv[7]); return 2; }
+        curve = SUPERMAT_CURVE_OFF;
+    }
+    if (argc >= 7 && strcmp(argv[6], "model")) {
         char *end = NULL;
         long v;
         if (!strcmp(argv[6], "native")) work = SUPERMAT_WORK_NATIVE;
@@ -202,8 +207,8 @@ int main(int argc, char **argv) {
     file = tu_load(model_path, &file_size);
     TU_CHECK(file != NULL, "cannot read the model '%s'", model_path);
     if (!file) { for (s = 0; s < nstems; s++) free(stems[s]); free(stems); return tu_finish("quality"); }
-    printf("quality: model %s, slice %s, floor %s, detail_sigma %s, chroma_weight %s, work size %s (model: the file's pipeline)\n", model_path, dir,
-           floor_path, argc >= 5 ? argv[4] : "model", argc >= 6 ? argv[5] : "model", argc >= 7 ? argv[6] : "model");
+    printf("quality: model %s, slice %s, floor %s, detail_sigma %s, chroma_weight %s, work size %s, roughness curve %s (model: the file's pipeline)\n", model_path, dir,
+           floor_path, argc >= 5 ? argv[4] : "model", argc >= 6 ? argv[5] : "model", argc >= 7 ? argv[6] : "model", argc >= 8 ? argv[7] : "model");
     memset(&md, 0, sizeof md);
     md.data = file;
     md.size = file_size;
@@ -239,6 +244,7 @@ int main(int argc, char **argv) {
             memset(&sd, 0, sizeof sd);
             sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail; sd.chroma_weight = chroma;
             sd.work_width = sd.work_height = work;
+            sd.roughness_knots = curve;
             r = supermat_session_create(&sd, &sess, &err);
             TU_CHECK(r == SUPERMAT_SUCCESS, "%s: session %dx%d: %s [%s]", stems[s], w, h, err.message, supermat_result_string(r));
             if (r != SUPERMAT_SUCCESS) { sess = NULL; ok = 0; }
