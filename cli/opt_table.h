@@ -44,6 +44,7 @@ typedef struct cli_optdef {
 
 #define CLI_HELP_COL 20 /* where an option's help starts, unless a longer name in its block pushes it right (then
                            2 spaces after the longest) */
+#define CLI_HELP_NAME_MAX 22 /* a "--name VALUE" longer than this pushes nothing: its help starts on the next line */
 
 enum { CLI_ARG_END = 0, CLI_ARG_HELP = -1, CLI_ARG_ERROR = -2, CLI_ARG_OPERAND = -3 };
 
@@ -143,7 +144,7 @@ static size_t cli_opt_block_width(const cli_optdef *t, int *stop) {
             if (k > w) w = k;
         } else {
             size_t k = strlen(t->name) + (t->value ? 1 + strlen(t->value) : 0);
-            if (k > w) w = k;
+            if (k > w && k <= CLI_HELP_NAME_MAX) w = k;
         }
     }
     return w;
@@ -173,7 +174,8 @@ static void cli_help_print_table(FILE *f, const cli_optdef *t, int *col) {
         if (t->id < 0) { cli_help_print_table(f, t->more, col); continue; }
         {
             int k = fprintf(f, "  %s%s%s", t->name, t->value ? " " : "", t->value ? t->value : "");
-            fprintf(f, "%*s", *col - k, "");
+            if (k + 1 > *col) fprintf(f, "\n%*s", *col, ""); /* wider than the column: the help below it */
+            else fprintf(f, "%*s", *col - k, "");
             cli_opt_print_lines(f, t->help, *col, 0);
             if (t->alias) {
                 const char *a = t->alias;

@@ -208,11 +208,12 @@ def main():
     assets = [a for a in args.assets.split(",") if a] or list(parts.get(args.part, parts.get("all")))
     looks = [x for x in args.looks.split(",") if x]
     items = load_set(args.set, assets, looks)
-    means = truth_means(load_set(args.set, PARTS["validation"], looks))
     if args.dataset_stats:                      # the generator's statistics instead (eval_quality's baselines)
         with open(args.dataset_stats) as f:
             st = json.load(f)
         means = {"albedo": st["albedo_srgb_mean"], "roughness": st["rough_mean"], "metallic": st["metal_mean"]}
+    else:                                       # the validation part's truth (a set rendered without it: give stats)
+        means = truth_means(load_set(args.set, PARTS["validation"], looks))
     preds = {}
     for spec in args.model:
         name, _, path = spec.partition("=")
@@ -234,6 +235,8 @@ def main():
                 json.dump(fits, f, indent=1)
             print(f"{name}: curves fitted on the validation part: " +
                   "; ".join(f"{m} " + " ".join(f"{v:.3f}" for v in c) for m, c in curves.items()))
+            print(f"{name}: to record the roughness curve in the model file: supermat convert --from {path} "
+                  f"--roughness-curve {','.join(f'{v:.3f}' for v in curves['roughness'])} --out NEW.safetensors")
         if args.curves:
             c = json.load(open(args.curves))[name]
             preds[name + "+curves"] = lambda it, p=p, c=c: dict(
@@ -258,7 +261,7 @@ def main():
             name = spec.partition("=")[0]
             reliability(items, preds[name], name)
 
-    print(f"# {args.part}: {len(assets)} assets, {len(items)} pictures; dataset means "
+    print(f"# {args.part if not args.assets else 'assets ' + args.assets}: {len(assets)} assets, {len(items)} pictures; dataset means "
           f"({'--dataset-stats' if args.dataset_stats else 'validation truth'}): "
           f"roughness {means['roughness']:.3f}, metallic {means['metallic']:.3f}")
     print("| predictor | albedo | roughness | metallic | albedo (asset mean) | roughness (asset mean) | "
