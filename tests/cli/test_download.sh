@@ -19,7 +19,9 @@
 # the bytes' digest, and a download with one byte changed, exit 1 with both digests named and the .part
 # removed, and the next run downloads the file clean and succeeds; a download whose connection drops
 # half-way exits 1, and the next run resumes it (a Range request), checks each digest and converts the four
-# networks (`supermat info` names each kind); the plan says the digests, the volume and its minutes at
+# networks (`supermat info` names each kind); a conversion whose write fails half-way (a file size limit)
+# exits 1 naming the file, leaves neither it nor a temporary file, and the next run converts the same bytes
+# from the kept downloads without a request; the plan says the digests, the volume and its minutes at
 # 100 Mbit/s, the log each file's digest check and the time left at the measured rate; HF_TOKEN reached the
 # server and was never on curl's command line (a curl wrapper first in PATH records its arguments); a
 # second run sends no request; without --keep the downloads are deleted. --weights: f16 by default, f32 and
@@ -263,6 +265,24 @@ dl "$M" HF_TOKEN=$TOKEN -- --keep
 check "the second run: exit 0" [ $RC -eq 0 ]
 check "the second run: nothing to do" grep -q "nothing to do" "$T/out"
 check "the second run: no request at all" [ ! -s "$LOG" ]
+
+# ---- a conversion that fails half-way (a 4 KiB file size limit: its write fails), then the next run -----
+cp "$M/supermat_mv_official.safetensors" "$T/mv_before.safetensors"
+rm "$M/supermat_mv_official.safetensors"
+: >"$LOG"
+set +e
+(trap '' XFSZ; ulimit -f 4; exec env -u SUPERMAT_MODEL PATH="$T/bin:$PATH" HF_ENDPOINT="$EP" HF_TOKEN=$TOKEN \
+    "$BIN" download official --dir "$M" --keep --revision-supermat "$SMREV" --revision-base "$BREV") >"$T/out" 2>"$T/err"
+RC=$?
+set -e
+check "a failed conversion: exit 1" [ $RC -eq 1 ]
+check "a failed conversion: the message names the model file" grep -q "supermat_mv_official" "$T/err"
+absent "$M/supermat_mv_official.safetensors"
+check "a failed conversion: no temporary file left" [ -z "$(find "$M" -maxdepth 1 -name '*.tmp*')" ]
+check "a failed conversion: no request (the downloads were kept)" [ ! -s "$LOG" ]
+dl "$M" HF_TOKEN=$TOKEN -- --keep
+check "after a failed conversion: the next run exits 0" [ $RC -eq 0 ] || cat "$T/err"
+check "after a failed conversion: the file converted again, the same bytes" cmp -s "$M/supermat_mv_official.safetensors" "$T/mv_before.safetensors"
 
 # ---- without --keep: the downloads deleted; --dry-run downloads nothing --------------------------
 : >"$LOG"
