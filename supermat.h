@@ -135,7 +135,8 @@
  *   by one thread at a time. Work is spread through a caller's blocking parallel-for hook; without one,
  *   a small built-in pool is created per session (pthreads; Win32 threads, SRW lock and condition
  *   variables on Windows, MSVC and MinGW alike; threads = 0 means all cores the process may use:
- *   affinity, cgroup quota or job-object CPU rate, see supermat_default_threads; 1 means none).
+ *   affinity, cgroup quota or job-object CPU rate, Apple silicon's performance cores, see
+ *   supermat_default_threads; 1 means none).
  *   Work is split over outputs and every sum runs in a fixed order, so results are bit-identical for
  *   any thread count.
  *
@@ -683,8 +684,10 @@ SUPERMAT_API int supermat_safetensors_metadata(const void *buf, size_t buf_size,
  * affinity mask (Linux: Cpus_allowed_list of /proc/self/status, as `taskset` sets it) or its cgroup CPU
  * quota (cgroup v2 cpu.max along the process's cgroup path, v1 cpu.cfs_quota_us / cpu.cfs_period_us,
  * rounded up: a container limited to 1.5 CPUs gets 2) allows fewer; Windows: the process affinity mask
- * (its processor group) and a hard CPU-rate cap of its job object, rounded up the same way; at most 64, at
- * least 1; 1 without the built-in threads (SUPERMAT_NO_PTHREADS). */
+ * (its processor group) and a hard CPU-rate cap of its job object, rounded up the same way; macOS: the
+ * performance cores where the system reports them (sysctl hw.perflevel0.logicalcpu: Apple silicon, macOS 12
+ * and later), else every online core; at most 64, at least 1; 1 without the built-in threads
+ * (SUPERMAT_NO_PTHREADS). */
 SUPERMAT_API int supermat_default_threads(void);
 /* 1 when this implementation was compiled with optimisation (GCC and Clang define __OPTIMIZE__ at -O1 and
  * above), 0 when without (-O0, a build type left empty: about 10x slower), -1 where the compiler does not
@@ -884,6 +887,14 @@ SUPERMAT_API void supermat_bench_conv_destroy(supermat_bench_conv *bench);
 #define SUPERMAT__HAS_PTHREADS 1
 #include <pthread.h>
 #include <unistd.h>
+/* macOS: the default thread count asks sysctlbyname for the performance cores. SUPERMAT__TEST_SYSCTL (tests
+   only: tests/test_threads.c) compiles that query elsewhere, against the test's own sysctlbyname. */
+#if defined(__APPLE__) && !defined(SUPERMAT__TEST_SYSCTL)
+#include <sys/sysctl.h>
+#define SUPERMAT__SYSCTL 1
+#elif defined(SUPERMAT__TEST_SYSCTL)
+#define SUPERMAT__SYSCTL 1
+#endif
 #else
 #define SUPERMAT__HAS_PTHREADS 0
 #endif
@@ -972,6 +983,15 @@ static int supermat__cpu_count(void) {
 #if SUPERMAT__HAS_PTHREADS
     n = sysconf(_SC_NPROCESSORS_ONLN);
     if (n < 1) n = 1;
+#if defined(SUPERMAT__SYSCTL)
+    {   /* Apple silicon: the performance cores (hw.perflevel0, macOS 12 and later). Each parallel section ends
+           with its last task, and a task on an efficiency core takes several times as long. Intel Macs and
+           older systems have no perflevel0: all online cores. */
+        int p = 0;
+        size_t len = sizeof p;
+        if (sysctlbyname("hw.perflevel0.logicalcpu", &p, &len, NULL, 0) == 0 && len == sizeof p && p > 0 && p < n) n = p;
+    }
+#endif
 #if defined(__linux__)
     {
         char buf[4096], path[1024];
