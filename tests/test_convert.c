@@ -1306,6 +1306,7 @@ static int tc_ws_header(const void *f, size_t n, int ws, unsigned char **h, size
     sm_pipeline_edit e;
     e.work_size = ws;
     e.detail_sigma = e.chroma_weight = e.bake_detail_sigma = -1.0f;
+    e.roughness_curve = NULL;
     return sm_pipeline_header(f, n, &e, h, hs, off, err, cap);
 }
 static void test_work_size_header(void) {
@@ -1403,6 +1404,7 @@ static void test_work_size_header(void) {
    members expected, NULL = refused; tc_pe: the bake detail kept */
 #define TC_PE_HEAD "{\"__metadata__\":{"
 #define TC_PE_TAIL "},\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}"
+static const char *tc_pe_curve; /* sm_pipeline_edit.roughness_curve of the tc_peb cases (NULL: kept) */
 static void tc_peb(const char *what, const char *in, size_t pad, int ws, float det, float chr, float bake, const char *want) {
     tc_buf b;
     sm_pipeline_edit e;
@@ -1418,6 +1420,7 @@ static void tc_peb(const char *what, const char *in, size_t pad, int ws, float d
     e.detail_sigma = det;
     e.chroma_weight = chr;
     e.bake_detail_sigma = bake;
+    e.roughness_curve = tc_pe_curve;
     err[0] = 0;
     r = sm_pipeline_header(b.p, b.n, &e, &h, &hs, &off, err, sizeof err);
     if (!want) {
@@ -1504,6 +1507,23 @@ static void test_pipeline_header(void) {
     tc_peb("a uv-refine file: no bake detail step", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, kept, kept, 1.0f / 32, NULL);
     tc_peb("bake detail 1.5 refused", base, 256, 0, kept, kept, 1.5f, NULL);
     tc_peb("a bake detail NaN refused", base, 256, 0, kept, kept, (float)(0.0 * HUGE_VAL), NULL);
+    /* the roughness curve: last in the converter's order, written as the shortest text of each knot */
+#define RC "\"pipeline.roughness_curve\":\"0.1,0.5,0.9\""
+    tc_pe_curve = " 0.1, 0.50,0.9";
+    tc_peb("roughness curve added after the bake detail", FV "," KD "," WS "," DS "," CW "," BD "," UX, 256, 0, kept, kept, kept,
+           FV "," KD "," WS "," DS "," CW "," BD "," RC "," UX);
+    tc_peb("roughness curve added after the work size", base, 256, 0, kept, kept, kept, FV "," KD "," WS "," RC "," UX);
+    tc_peb("roughness curve replaced in place", FV "," KD "," WS ",\"pipeline.roughness_curve\":\"0,1\"," UX, 256, 0, kept, kept, kept,
+           FV "," KD "," WS "," RC "," UX);
+    tc_peb("a uv-refine file: no roughness curve", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, kept, kept, kept, NULL);
+    tc_pe_curve = "";
+    tc_peb("roughness curve removed", FV "," KD "," WS "," RC "," UX, 256, 0, kept, kept, kept, FV "," KD "," WS "," UX);
+    tc_pe_curve = "0.9,0.1";
+    tc_peb("a falling roughness curve refused", base, 256, 0, kept, kept, kept, NULL);
+    tc_pe_curve = "0.5";
+    tc_peb("a roughness curve of one knot refused", base, 256, 0, kept, kept, kept, NULL);
+    tc_pe_curve = NULL;
+#undef RC
 #undef FV
 #undef KD
 #undef WS
