@@ -888,7 +888,7 @@ SUPERMAT_API void supermat_bench_conv_destroy(supermat_bench_conv *bench);
 #include <pthread.h>
 #include <unistd.h>
 /* macOS: the default thread count asks sysctlbyname for the performance cores. SUPERMAT__TEST_SYSCTL (tests
-   only: tests/test_threads.c) compiles that query elsewhere, against the test's own sysctlbyname. */
+   only: tests/test_threads_sysctl.c) compiles that query elsewhere, against the test's own sysctlbyname. */
 #if defined(__APPLE__) && !defined(SUPERMAT__TEST_SYSCTL)
 #include <sys/sysctl.h>
 #define SUPERMAT__SYSCTL 1
