@@ -5670,11 +5670,11 @@ static float supermat__in_chart(const supermat_run_desc *rd, int x, int y) {
 /* Separable resampling of an n x sh x sw x c tensor to dh x dw: a triangle filter (bilinear when
    enlarging, its support widened by the factor when reducing, as PIL's BILINEAR), pixel centres
    aligned (align_corners = False). */
-static void supermat__resample_axis(const float *src, int len_in, int len_out, size_t step_in, size_t step_out, int lines,
+static void supermat__resample_axis(const float *src, int len_in, int len_out, int o0, int o1, size_t step_in, size_t step_out, int lines,
                                     size_t line_in, size_t line_out, int c, float *dst) {
     double scale = (double)len_in / len_out, support = scale > 1.0 ? scale : 1.0;
     int o, l, ch;
-    for (o = 0; o < len_out; o++) {
+    for (o = o0; o < o1; o++) {
         double center = (o + 0.5) * scale, wsum = 0.0, inv;
         int lo = (int)floor(center - support + 0.5), hi = (int)floor(center + support + 0.5), i;
         if (lo < 0) lo = 0;
@@ -5688,18 +5688,9 @@ static void supermat__resample_axis(const float *src, int len_in, int len_out, s
                     double w = 1.0 - fabs((i + 0.5 - center) / support);
                     if (w > 0.0) acc += w * src[(size_t)l * line_in + (size_t)i * step_in + ch];
                 }
-                dst[(size_t)l * line_out + (size_t)o * step_out + ch] = (float)(acc * inv);
+                dst[(size_t)l * line_out + (size_t)(o - o0) * step_out + ch] = (float)(acc * inv);
             }
     }
-}
-static void supermat__resample(supermat__ctx *X, const float *src, int sh, int sw, int c, float *dst, int dh, int dw) {
-    float *tmp = supermat__get(X, (size_t)sh * dw * c);
-    if (supermat__live(X)) {
-        /* rows: sh lines of sw -> dw; then columns: dw lines of sh -> dh */
-        supermat__resample_axis(src, sw, dw, (size_t)c, (size_t)c, sh, (size_t)sw * c, (size_t)dw * c, c, tmp);
-        supermat__resample_axis(tmp, sh, dh, (size_t)dw * c, (size_t)dw * c, dw, (size_t)c, (size_t)c, c, dst);
-    }
-    supermat__put(X, tmp);
 }
 
 /* Tile layout along one axis of `len` units: tiles of `t` starting at start[i], at least `ov` overlap. */
@@ -5782,53 +5773,214 @@ static supermat__t supermat__vae_tiled(supermat__ctx *X, const supermat_model *m
     return out;
 }
 
-/* detail_sigma (see supermat_session_desc): one box pass of half-width r over the 2 channels of g, rows
-   (dir 0) or columns (dir 1), in place through a line copy (a thread's max(w, h) x 2 floats of tmp), zero
-   outside, sums in double; a task is SUPERMAT__BOX_LINES neighbouring lines */
-#define SUPERMAT__BOX_LINES 16
-typedef struct supermat__box { float *g, *tmp; int w, h, r, dir; } supermat__box;
-static void supermat__detail_box_task(void *user, int task, int thread) {
-    const supermat__box *B = (const supermat__box *)user;
-    int w = B->w, h = B->h, r = B->r, dir = B->dir, len = dir ? h : w, lines = dir ? w : h, l, k, j;
-    int l0 = task * SUPERMAT__BOX_LINES, l1 = (task + 1) * SUPERMAT__BOX_LINES < lines ? (task + 1) * SUPERMAT__BOX_LINES : lines;
-    float *g = B->g, *tmp = B->tmp + (size_t)thread * (size_t)(w > h ? w : h) * 2 * SUPERMAT__BOX_LINES;
-    if (!dir) {
-        for (l = l0; l < l1; l++) {
-            float *d = g + (size_t)l * w * 2;
-            double a0 = 0.0, a1 = 0.0;
-            memcpy(tmp, d, sizeof(float) * 2 * (size_t)len);
-            for (k = 0; k < r && k < len; k++) { a0 += tmp[2 * k]; a1 += tmp[2 * k + 1]; }
-            for (k = 0; k < len; k++) {
-                if (k + r < len) { a0 += tmp[2 * (k + r)]; a1 += tmp[2 * (k + r) + 1]; }
-                if (k - r - 1 >= 0) { a0 -= tmp[2 * (k - r - 1)]; a1 -= tmp[2 * (k - r - 1) + 1]; }
-                d[2 * k] = (float)a0; d[2 * k + 1] = (float)a1;
-            }
-        }
+/* detail_sigma (see supermat_session_desc), the low-pass G: three box passes of half-width r along rows, then
+   columns, each a running sum in double, zero outside, over planes of SUPERMAT__DC floats a pixel (w x the
+   albedo's and w x the picture's linear light, per colour channel). Each sum runs in the same order however the
+   rows are grouped, so the streamed form (a ring of rows a stage) and the whole-plane form give the same floats. */
+#define SUPERMAT__DC 6          /* floats a pixel of the detail planes: (w A_c, w I_c) for c = 0, 1, 2 */
+#define SUPERMAT__BOX_LINES 16  /* columns a task of a column pass */
+#define SUPERMAT__DB 16         /* rows a band of the streamed form */
+static int supermat__detail_radius(float sigma, int w, int h) {
+    double s = (double)sigma * (w > h ? w : h);
+    int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5);
+    return r < 1 ? 1 : r;
+}
+/* one row's box pass, in place through tmp (len x SUPERMAT__DC floats) */
+static void supermat__box_row(float *d, float *tmp, int len, int r) {
+    double a[SUPERMAT__DC];
+    int k, j;
+    memcpy(tmp, d, sizeof(float) * SUPERMAT__DC * (size_t)len);
+    for (j = 0; j < SUPERMAT__DC; j++) a[j] = 0.0;
+    for (k = 0; k < r && k < len; k++)
+        for (j = 0; j < SUPERMAT__DC; j++) a[j] += tmp[SUPERMAT__DC * k + j];
+    for (k = 0; k < len; k++) {
+        if (k + r < len)
+            for (j = 0; j < SUPERMAT__DC; j++) a[j] += tmp[SUPERMAT__DC * (k + r) + j];
+        if (k - r - 1 >= 0)
+            for (j = 0; j < SUPERMAT__DC; j++) a[j] -= tmp[SUPERMAT__DC * (k - r - 1) + j];
+        for (j = 0; j < SUPERMAT__DC; j++) d[SUPERMAT__DC * k + j] = (float)a[j];
+    }
+}
+
+typedef void (*supermat__row_fn)(void *user, int y, float *row, int thread);
+/* The detail step's low-pass over a w x h picture, fed a row at a time by src (the row's SUPERMAT__DC floats a
+   pixel) and handing each low-passed row to sink with the whole picture's ratios gr. Streamed (whole = 0): each
+   of the three column passes keeps a ring of rcap = 2r + 2 + SUPERMAT__DB rows and its running sums, and src is
+   called twice a row (once for the sums gr needs, once to feed the passes). Whole (when three rings would
+   hold more than the plane): one w x h plane, src called once a row. */
+typedef struct supermat__dstream {
+    supermat__ctx *X;
+    int w, h, r, rcap, whole, T;
+    float *ring[3];     /* streamed: each column pass's input rows (rcap x w x DC); whole: ring[0] is the plane */
+    double *acc;        /* streamed: 3 x w x DC running sums */
+    float *band;        /* streamed: the last pass's rows, SUPERMAT__DB x w x DC */
+    float *tmp;         /* a thread's: whole, max(w, h) x DC x SUPERMAT__BOX_LINES floats; streamed, w x DC */
+    double *rs;         /* h x DC row sums */
+    double gr[3];
+    supermat__row_fn src, sink;
+    void *user;
+    int s, k0, n, dir;  /* a parallel step's pass, first row, rows, (whole) direction */
+} supermat__dstream;
+/* the buffers, from the context's arena (planned like every other) */
+static void supermat__dstream_get(supermat__ctx *X, supermat__dstream *D, int w, int h, float sigma) {
+    size_t row = (size_t)w * SUPERMAT__DC;
+    int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1, s;
+    memset(D, 0, sizeof *D);
+    D->X = X; D->w = w; D->h = h; D->T = T;
+    D->r = supermat__detail_radius(sigma, w, h);
+    D->rcap = 2 * D->r + 2 + SUPERMAT__DB < h ? 2 * D->r + 2 + SUPERMAT__DB : h;
+    D->whole = 3 * D->rcap >= h;
+    if (D->whole) {
+        D->ring[0] = supermat__get(X, row * h);
+        D->tmp = supermat__get(X, (size_t)SUPERMAT__MAX(w, h) * SUPERMAT__DC * SUPERMAT__BOX_LINES * T);
     } else {
-        /* columns l0..l1 together: rows of the block are read and written whole (a column at a time would
-           touch one cache line per pixel); each column's sums run in the same order as a lone column's */
-        int n = l1 - l0;
-        size_t rn = (size_t)n * 2;
-        double a[2 * SUPERMAT__BOX_LINES];
-        for (k = 0; k < len; k++) memcpy(tmp + (size_t)k * rn, g + ((size_t)k * w + l0) * 2, sizeof(float) * rn);
-        for (j = 0; j < 2 * n; j++) a[j] = 0.0;
-        for (k = 0; k < r && k < len; k++)
-            for (j = 0; j < 2 * n; j++) a[j] += tmp[(size_t)k * rn + j];
-        for (k = 0; k < len; k++) {
-            float *d = g + ((size_t)k * w + l0) * 2;
-            if (k + r < len)
-                for (j = 0; j < 2 * n; j++) a[j] += tmp[(size_t)(k + r) * rn + j];
+        for (s = 0; s < 3; s++) D->ring[s] = supermat__get(X, row * D->rcap);
+        D->acc = (double *)supermat__get(X, 3 * row * 2);
+        D->band = supermat__get(X, row * SUPERMAT__DB);
+        D->tmp = supermat__get(X, row * T);
+    }
+    D->rs = (double *)supermat__get(X, (size_t)h * SUPERMAT__DC * 2);
+}
+static void supermat__dstream_put(supermat__ctx *X, supermat__dstream *D) {
+    int s;
+    supermat__put(X, D->rs);
+    supermat__put(X, D->tmp);
+    supermat__put(X, D->band);
+    supermat__put(X, D->acc);
+    for (s = 2; s >= 0; s--) supermat__put(X, D->ring[s]);
+}
+static float *supermat__dstream_slot(const supermat__dstream *D, int s, int y) {
+    return D->ring[s] + (size_t)(y % D->rcap) * D->w * SUPERMAT__DC;
+}
+/* the sums of row y (src's floats, added in order) */
+static void supermat__dstream_sum_task(void *user, int y, int thread) {
+    supermat__dstream *D = (supermat__dstream *)user;
+    float *row = D->whole ? D->ring[0] + (size_t)y * D->w * SUPERMAT__DC : D->tmp + (size_t)thread * D->w * SUPERMAT__DC;
+    double a[SUPERMAT__DC];
+    int x, j;
+    D->src(D->user, y, row, thread);
+    for (j = 0; j < SUPERMAT__DC; j++) a[j] = 0.0;
+    for (x = 0; x < D->w; x++)
+        for (j = 0; j < SUPERMAT__DC; j++) a[j] += row[SUPERMAT__DC * x + j];
+    for (j = 0; j < SUPERMAT__DC; j++) D->rs[(size_t)y * SUPERMAT__DC + j] = a[j];
+}
+/* streamed: row k0 + i fed into the first column pass (src, then its row pass) */
+static void supermat__dstream_push_task(void *user, int i, int thread) {
+    supermat__dstream *D = (supermat__dstream *)user;
+    float *d = supermat__dstream_slot(D, 0, D->k0 + i);
+    D->src(D->user, D->k0 + i, d, thread);
+    supermat__box_row(d, D->tmp + (size_t)thread * D->w * SUPERMAT__DC, D->w, D->r);
+}
+/* streamed: column pass s, rows k0 .. k0 + n - 1 of columns task x SUPERMAT__BOX_LINES .. */
+static void supermat__dstream_col_task(void *user, int task, int thread) {
+    supermat__dstream *D = (supermat__dstream *)user;
+    int s = D->s, r = D->r, h = D->h, k, x0 = task * SUPERMAT__BOX_LINES;
+    int x1 = x0 + SUPERMAT__BOX_LINES < D->w ? x0 + SUPERMAT__BOX_LINES : D->w;
+    size_t j0 = (size_t)x0 * SUPERMAT__DC, j1 = (size_t)x1 * SUPERMAT__DC, jj;
+    double *a = D->acc + (size_t)s * D->w * SUPERMAT__DC;
+    (void)thread;
+    if (D->k0 == 0) {
+        for (jj = j0; jj < j1; jj++) a[jj] = 0.0;
+        for (k = 0; k < r && k < h; k++) {
+            const float *in = supermat__dstream_slot(D, s, k);
+            for (jj = j0; jj < j1; jj++) a[jj] += in[jj];
+        }
+    }
+    for (k = D->k0; k < D->k0 + D->n; k++) {
+        float *out = s < 2 ? supermat__dstream_slot(D, s + 1, k) : D->band + (size_t)(k - D->k0) * D->w * SUPERMAT__DC;
+        if (k + r < h) {
+            const float *in = supermat__dstream_slot(D, s, k + r);
+            for (jj = j0; jj < j1; jj++) a[jj] += in[jj];
+        }
+        if (k - r - 1 >= 0) {
+            const float *in = supermat__dstream_slot(D, s, k - r - 1);
+            for (jj = j0; jj < j1; jj++) a[jj] -= in[jj];
+        }
+        for (jj = j0; jj < j1; jj++) out[jj] = (float)a[jj];
+    }
+}
+static void supermat__dstream_row_task(void *user, int i, int thread) { /* streamed: the row pass on pass s + 1's input */
+    supermat__dstream *D = (supermat__dstream *)user;
+    supermat__box_row(supermat__dstream_slot(D, D->s + 1, D->k0 + i), D->tmp + (size_t)thread * D->w * SUPERMAT__DC, D->w, D->r);
+}
+static void supermat__dstream_sink_task(void *user, int i, int thread) {
+    supermat__dstream *D = (supermat__dstream *)user;
+    const size_t row = (size_t)D->w * SUPERMAT__DC;
+    D->sink(D->user, D->k0 + i, D->whole ? D->ring[0] + (size_t)(D->k0 + i) * row : D->band + (size_t)i * row, thread);
+}
+/* whole: a box pass over the plane, rows (dir 0) or columns (dir 1; SUPERMAT__BOX_LINES columns a task, their
+   rows read and written whole) */
+static void supermat__dstream_whole_task(void *user, int task, int thread) {
+    supermat__dstream *D = (supermat__dstream *)user;
+    int w = D->w, h = D->h, r = D->r, k, j;
+    float *g = D->ring[0], *tmp = D->tmp + (size_t)thread * SUPERMAT__MAX(w, h) * SUPERMAT__DC * SUPERMAT__BOX_LINES;
+    if (!D->dir) {
+        supermat__box_row(g + (size_t)task * w * SUPERMAT__DC, tmp, w, r);
+    } else {
+        int l0 = task * SUPERMAT__BOX_LINES, l1 = l0 + SUPERMAT__BOX_LINES < w ? l0 + SUPERMAT__BOX_LINES : w;
+        size_t rn = (size_t)(l1 - l0) * SUPERMAT__DC;
+        double a[SUPERMAT__DC * SUPERMAT__BOX_LINES];
+        for (k = 0; k < h; k++) memcpy(tmp + (size_t)k * rn, g + ((size_t)k * w + l0) * SUPERMAT__DC, sizeof(float) * rn);
+        for (j = 0; j < (int)rn; j++) a[j] = 0.0;
+        for (k = 0; k < r && k < h; k++)
+            for (j = 0; j < (int)rn; j++) a[j] += tmp[(size_t)k * rn + j];
+        for (k = 0; k < h; k++) {
+            float *d = g + ((size_t)k * w + l0) * SUPERMAT__DC;
+            if (k + r < h)
+                for (j = 0; j < (int)rn; j++) a[j] += tmp[(size_t)(k + r) * rn + j];
             if (k - r - 1 >= 0)
-                for (j = 0; j < 2 * n; j++) a[j] -= tmp[(size_t)(k - r - 1) * rn + j];
-            for (j = 0; j < 2 * n; j++) d[j] = (float)a[j];
+                for (j = 0; j < (int)rn; j++) a[j] -= tmp[(size_t)(k - r - 1) * rn + j];
+            for (j = 0; j < (int)rn; j++) d[j] = (float)a[j];
         }
     }
 }
-static void supermat__detail_box(supermat__ctx *X, float *g, float *tmp, int w, int h, int r, int dir) {
-    supermat__box B;
-    int lines = dir ? w : h;
-    B.g = g; B.tmp = tmp; B.w = w; B.h = h; B.r = r; B.dir = dir;
-    supermat__par(X, (lines + SUPERMAT__BOX_LINES - 1) / SUPERMAT__BOX_LINES, supermat__detail_box_task, &B);
+/* streamed: column pass s takes the rows its input has (each needs r rows below it), SUPERMAT__DB at a time,
+   and hands them on */
+static void supermat__dstream_flush(supermat__dstream *D, int s, int *in_n, int *out_n) {
+    int cols = (D->w + SUPERMAT__BOX_LINES - 1) / SUPERMAT__BOX_LINES;
+    for (;;) {
+        int avail = (in_n[s] == D->h ? D->h : in_n[s] - D->r) - out_n[s], n;
+        if (avail <= 0) return;
+        n = avail < SUPERMAT__DB ? avail : SUPERMAT__DB;
+        D->s = s; D->k0 = out_n[s]; D->n = n;
+        supermat__par(D->X, cols, supermat__dstream_col_task, D);
+        out_n[s] += n;
+        if (s < 2) {
+            D->s = s; D->k0 = out_n[s] - n;
+            supermat__par(D->X, n, supermat__dstream_row_task, D);
+            in_n[s + 1] += n;
+            supermat__dstream_flush(D, s + 1, in_n, out_n);
+        } else {
+            D->k0 = out_n[s] - n;
+            supermat__par(D->X, n, supermat__dstream_sink_task, D);
+        }
+    }
+}
+static void supermat__dstream_run(supermat__dstream *D) {
+    int y, c, pass, in_n[3] = {0, 0, 0}, out_n[3] = {0, 0, 0};
+    supermat__par(D->X, D->h, supermat__dstream_sum_task, D);
+    for (c = 0; c < 3; c++) { /* rows in order: the same sums on any thread count */
+        double sa = 0.0, si = 0.0;
+        for (y = 0; y < D->h; y++) { sa += D->rs[(size_t)y * SUPERMAT__DC + 2 * c]; si += D->rs[(size_t)y * SUPERMAT__DC + 2 * c + 1]; }
+        D->gr[c] = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
+    }
+    if (D->whole) {
+        for (pass = 0; pass < 3; pass++) {
+            D->dir = 0;
+            supermat__par(D->X, D->h, supermat__dstream_whole_task, D);
+            D->dir = 1;
+            supermat__par(D->X, (D->w + SUPERMAT__BOX_LINES - 1) / SUPERMAT__BOX_LINES, supermat__dstream_whole_task, D);
+        }
+        D->k0 = 0;
+        supermat__par(D->X, D->h, supermat__dstream_sink_task, D);
+        return;
+    }
+    for (y = 0; y < D->h; y += SUPERMAT__DB) {
+        D->k0 = y; D->n = D->h - y < SUPERMAT__DB ? D->h - y : SUPERMAT__DB;
+        supermat__par(D->X, D->n, supermat__dstream_push_task, D);
+        in_n[0] += D->n;
+        supermat__dstream_flush(D, 0, in_n, out_n);
+    }
 }
 static double supermat__lin(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; /* NaN -> 0 */ return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
@@ -5836,24 +5988,17 @@ SUPERMAT__DEF double supermat_srgb_to_linear(double v) { return supermat__lin(v)
 SUPERMAT__DEF double supermat_linear_to_srgb(double v) { return supermat__srgb(v); }
 
 
-/* The detail and colour steps, a row of pixels a task. Linear light of the picture: an 8-bit picture's
-   256 values from a table (the same doubles supermat__lin gives for them), a float picture's through
-   supermat__lin. The albedo is a run's raw decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one
-   ([0, 1], srgb 1, supermat_detail), 3 floats a pixel, rows `astride` bytes apart. */
+/* The detail and colour steps on one row of albedo (3 floats a pixel). Linear light of the picture: an 8-bit
+   picture's 256 values from a table (the same doubles supermat__lin gives for them), a float picture's
+   through supermat__lin. The albedo is a run's raw decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one
+   ([0, 1], srgb 1, supermat_detail). */
 typedef struct supermat__post {
     const supermat_image *in;
     const supermat_image *wt, *rg; /* detail: the weight and the region (supermat_detail_desc), or NULL */
-    float *alb, *g;   /* the albedo; detail: its w x h x 2 plane */
-    size_t astride;
-    int srgb;
-    int w, h, c;      /* c: the detail step's colour channel */
-    float k;          /* chroma_weight */
-    double gr, *rs;   /* detail: the whole image's ratio; per-row sums of the plane's two channels (h x 2) */
+    int srgb, w;
+    float k;           /* chroma_weight */
     const double *lut; /* 256 entries for an 8-bit picture, else NULL */
 } supermat__post;
-static float *supermat__post_alb(const supermat__post *P, int x, int y) {
-    return (float *)(void *)((unsigned char *)P->alb + (size_t)y * P->astride) + (size_t)x * 3;
-}
 /* the albedo's linear light, and a linear value encoded back as the albedo is */
 static double supermat__post_alin(const supermat__post *P, float v) { return supermat__lin(P->srgb ? (double)v : v * 0.5 + 0.5); }
 static float supermat__post_aenc(const supermat__post *P, double lin) { return P->srgb ? (float)supermat__srgb(lin) : (float)(supermat__srgb(lin) * 2.0 - 1.0); }
@@ -5875,68 +6020,37 @@ static float supermat__post_alpha(const supermat__post *P, int x, int y) {
 static int supermat__post_writes(const supermat__post *P, int x, int y) {
     return P->rg ? supermat__px(P->rg, x, y, 0) > 0.0f : supermat__post_alpha(P, x, y) > 0.0f;
 }
-/* detail, one row: the plane's two channels (alpha x linear albedo, alpha x linear picture) and their row sums */
-static void supermat__detail_in_task(void *user, int y, int thread) {
-    const supermat__post *P = (const supermat__post *)user;
-    double sa = 0.0, si = 0.0;
-    int x;
-    (void)thread;
+/* detail, row y of the planes: alpha x linear albedo, alpha x linear picture, per colour channel */
+static void supermat__detail_in(const supermat__post *P, const float *alb, int y, float *g) {
+    int x, c;
     for (x = 0; x < P->w; x++) {
-        size_t i = (size_t)y * P->w + x;
         float a = supermat__post_alpha(P, x, y);
-        P->g[2 * i] = a > 0.0f ? (float)(a * supermat__post_alin(P, supermat__post_alb(P, x, y)[P->c])) : 0.0f;
-        P->g[2 * i + 1] = a > 0.0f ? (float)(a * supermat__post_lin(P, x, y, P->c)) : 0.0f;
-        sa += P->g[2 * i]; si += P->g[2 * i + 1];
-    }
-    P->rs[2 * y] = sa; P->rs[2 * y + 1] = si;
-}
-/* detail, one row: the albedo channel from the picture and the ratio of the low-passed planes */
-static void supermat__detail_out_task(void *user, int y, int thread) {
-    const supermat__post *P = (const supermat__post *)user;
-    int x;
-    (void)thread;
-    for (x = 0; x < P->w; x++) {
-        size_t i = (size_t)y * P->w + x;
-        double q;
-        if (!supermat__post_writes(P, x, y)) continue;
-        q = P->g[2 * i + 1] > 1e-6f ? (double)P->g[2 * i] / P->g[2 * i + 1] : P->gr;
-        q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-        supermat__post_alb(P, x, y)[P->c] = supermat__post_aenc(P, supermat__post_lin(P, x, y, P->c) * q);
-    }
-}
-/* the albedo of one view (or a caller's, supermat_detail: P's albedo, weight and region set) keeps its input
-   picture's detail, a channel at a time; g: w x h x 2, tmp: max(w, h) x 2 x SUPERMAT__BOX_LINES a thread,
-   rs: h x 2 doubles */
-static void supermat__detail(supermat__ctx *X, supermat__post P, float sigma, float *g, float *tmp, double *rs, const double *lut) {
-    int w = P.w, h = P.h;
-    double s = (double)sigma * (w > h ? w : h);
-    int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5), c, pass, y;
-    if (r < 1) r = 1;
-    P.g = g; P.rs = rs;
-    P.lut = P.in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
-    for (c = 0; c < 3; c++) {
-        double sa = 0.0, si = 0.0;
-        P.c = c;
-        supermat__par(X, h, supermat__detail_in_task, &P);
-        for (y = 0; y < h; y++) { sa += rs[2 * y]; si += rs[2 * y + 1]; } /* rows in order: the same sum on any thread count */
-        P.gr = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
-        for (pass = 0; pass < 3; pass++) {
-            supermat__detail_box(X, g, tmp, w, h, r, 0);
-            supermat__detail_box(X, g, tmp, w, h, r, 1);
+        for (c = 0; c < 3; c++) {
+            g[SUPERMAT__DC * x + 2 * c] = a > 0.0f ? (float)(a * supermat__post_alin(P, alb[3 * x + c])) : 0.0f;
+            g[SUPERMAT__DC * x + 2 * c + 1] = a > 0.0f ? (float)(a * supermat__post_lin(P, x, y, c)) : 0.0f;
         }
-        supermat__par(X, h, supermat__detail_out_task, &P);
     }
 }
-
-/* chroma_weight (see supermat_session_desc), one row: the albedo takes its input picture's chromaticity with
+/* detail, row y: the albedo from the picture and the ratio of the low-passed planes g (gr: the whole
+   picture's, where the picture's low-pass is below 1e-6) */
+static void supermat__detail_out(const supermat__post *P, float *alb, int y, const float *g, const double *gr) {
+    int x, c;
+    for (x = 0; x < P->w; x++) {
+        if (!supermat__post_writes(P, x, y)) continue;
+        for (c = 0; c < 3; c++) {
+            const float *gp = g + SUPERMAT__DC * x + 2 * c;
+            double q = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c];
+            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+            alb[3 * x + c] = supermat__post_aenc(P, supermat__post_lin(P, x, y, c) * q);
+        }
+    }
+}
+/* chroma_weight (see supermat_session_desc), row y of a run's albedo: the picture's chromaticity with
    weight k, at the albedo's own luminance */
-static void supermat__chroma_task(void *user, int y, int thread) {
-    const supermat__post *P = (const supermat__post *)user;
+static void supermat__chroma_row(const supermat__post *P, float *alb, int y) {
     const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722, k = P->k;
     int x, c;
-    (void)thread;
-    for (x = 0; x < P->w; x++) {
-        float *alb = supermat__post_alb(P, x, y);
+    for (x = 0; x < P->w; x++, alb += 3) {
         double A[3], I[3], la, li;
         if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
         for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[c] * 0.5 + 0.5); I[c] = supermat__post_lin(P, x, y, c); }
@@ -5948,13 +6062,114 @@ static void supermat__chroma_task(void *user, int y, int thread) {
         }
     }
 }
-static void supermat__chroma(supermat__ctx *X, const supermat_image *in, float k, float *alb, int w, int h, const double *lut) {
-    supermat__post P;
-    memset(&P, 0, sizeof P);
-    P.in = in; P.alb = alb; P.astride = (size_t)w * 3 * sizeof(float); P.w = w; P.h = h; P.k = k;
-    P.lut = in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
-    supermat__par(X, h, supermat__chroma_task, &P);
+
+/* writes row y of one view's decoded image (px: w x 3 in [-1,1]) as x/2+0.5 clamped: src_channel >= 0 picks
+   one channel for every output channel but alpha; alpha (4th channel) comes from `alpha_src`, or is 1 */
+static void supermat__write_row(const supermat_image *o, const float *px, int src_channel, const supermat_image *alpha_src, int w, int y) {
+    size_t es = o->format == SUPERMAT_FORMAT_F32 ? 4 : 1, stride = o->stride ? o->stride : (size_t)w * o->channels * es;
+    unsigned char *row = (unsigned char *)o->pixels + (size_t)y * stride;
+    int x, c;
+    for (x = 0; x < w; x++, px += 3)
+        for (c = 0; c < o->channels; c++) {
+            float v;
+            if (c == 3 || (c == 1 && o->channels == 2)) v = alpha_src && alpha_src->channels == 4 ? supermat__px(alpha_src, x, y, 3) : 1.0f;
+            else {
+                v = px[src_channel >= 0 ? src_channel : (o->channels == 1 ? 0 : c)] / 2.0f + 0.5f;
+                v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+            }
+            if (o->format == SUPERMAT_FORMAT_F32) memcpy(row + ((size_t)x * o->channels + c) * 4, &v, 4);
+            else row[(size_t)x * o->channels + c] = (unsigned char)rintf(v * 255.0f);
+        }
 }
+
+/* the caller's output image `k` (0 albedo, 1 roughness, 2 metallic, 3 orm, 4 refined) of view v, or NULL */
+static const supermat_image *supermat__out(const supermat_run_desc *rd, int k, int v) {
+    const supermat_image *one[5], *arr[5];
+    const supermat_image *o;
+    one[0] = &rd->albedo; one[1] = &rd->roughness; one[2] = &rd->metallic; one[3] = &rd->orm; one[4] = &rd->refined;
+    arr[0] = rd->albedo_views; arr[1] = rd->roughness_views; arr[2] = rd->metallic_views; arr[3] = rd->orm_views; arr[4] = NULL;
+    o = arr[k] ? &arr[k][v] : (v == 0 ? one[k] : NULL);
+    return o && o->pixels ? o : NULL;
+}
+
+/* a view's picture at pixel (x, y) as the network takes it: RGB in [-1, 1], composited over gray 0.5 (straight
+   alpha), and po[3] the foreground (alpha; for UV, in a chart) when `fg` */
+static void supermat__in_pixel(const supermat_run_desc *rd, const supermat_image *in, int uv, int x, int y, float *po, int fg) {
+    float px[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+    int c;
+    for (c = 0; c < SUPERMAT__MIN(in->channels, 4); c++) px[c] = supermat__px(in, x, y, c);
+    if (in->channels < 4 || uv) px[3] = 1.0f; /* UV maps: RGB as is (the official loader drops alpha) */
+    for (c = 0; c < 3; c++) {
+        float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
+        po[c] = comp * 2.0f - 1.0f;
+    }
+    if (fg) po[3] = uv ? supermat__in_chart(rd, x, y) : px[3];
+}
+/* resizing the picture: row y as the network takes it (a thread's line of w x 4 floats), resampled to the work
+   width into rows (h x W x 4) */
+typedef struct supermat__inrow { const supermat_run_desc *rd; const supermat_image *in; float *rows, *lines; int w, W, uv; } supermat__inrow;
+static void supermat__in_row_task(void *user, int y, int thread) {
+    const supermat__inrow *R = (const supermat__inrow *)user;
+    float *line = R->lines + (size_t)thread * R->w * 4;
+    int x;
+    for (x = 0; x < R->w; x++) supermat__in_pixel(R->rd, R->in, R->uv, x, y, line + (size_t)x * 4, 1);
+    supermat__resample_axis(line, R->w, R->W, 0, R->W, 4, 4, 1, (size_t)R->w * 4, (size_t)R->W * 4, 4, R->rows + (size_t)y * R->W * 4);
+}
+
+/* The maps of one view at the picture's size, a row at a time: each branch's decode (resized: its rows
+   resampled to the picture's width first, H x w x 3, then a row of the picture's height at a time), the
+   detail and colour steps, the roughness curve, written into the caller's images */
+typedef struct supermat__fin {
+    const supermat_session *S;
+    const supermat_image *in, *out[5];
+    const float *dec[SUPERMAT__MAXBRANCH]; /* resized: the rows at the work height, H x w x 3; else w x h x 3 */
+    const float *src;                      /* resized, the row pass: a branch's decode, H x W x 3 */
+    float *dst;                            /*   and its rows, H x w x 3 */
+    int resize, W, H, chroma, curve;
+    float *rows;                           /* a thread's albedo and second branch rows: w x 6 floats */
+    const double *gr;                      /* detail: the whole picture's ratios */
+    supermat__post P;
+} supermat__fin;
+static void supermat__fin_rowpass_task(void *user, int y, int thread) {
+    const supermat__fin *F = (const supermat__fin *)user;
+    int w = F->S->w;
+    (void)thread;
+    supermat__resample_axis(F->src + (size_t)y * F->W * 3, F->W, w, 0, w, 3, 3, 1, (size_t)F->W * 3, (size_t)w * 3, 3, F->dst + (size_t)y * w * 3);
+}
+static void supermat__fin_get(const supermat__fin *F, int b, int y, float *dst) {
+    int w = F->S->w;
+    if (!F->resize) memcpy(dst, F->dec[b] + (size_t)y * w * 3, sizeof(float) * 3 * (size_t)w);
+    else supermat__resample_axis(F->dec[b], F->H, F->S->h, y, y + 1, (size_t)w * 3, (size_t)w * 3, w, 3, 3, 3, dst);
+}
+static void supermat__fin_src(void *user, int y, float *g, int thread) { /* detail: row y of its planes */
+    const supermat__fin *F = (const supermat__fin *)user;
+    float *alb = F->rows + (size_t)thread * F->S->w * 6;
+    supermat__fin_get(F, 0, y, alb);
+    supermat__detail_in(&F->P, alb, y, g);
+}
+static void supermat__fin_row(void *user, int y, float *g, int thread) {
+    const supermat__fin *F = (const supermat__fin *)user;
+    const supermat_session *S = F->S;
+    static const int branch[5] = {0, 1, 1, 1, 0}, chan[5] = {-1, 1, 2, -1, -1};
+    float *row[2];
+    int k, x;
+    row[0] = F->rows + (size_t)thread * S->w * 6; row[1] = row[0] + (size_t)S->w * 3;
+    if (F->dec[0]) {
+        supermat__fin_get(F, 0, y, row[0]);
+        if (g) supermat__detail_out(&F->P, row[0], y, g, F->gr);
+        if (F->chroma) supermat__chroma_row(&F->P, row[0], y);
+    }
+    if (S->m->branches > 1 && F->dec[1]) {
+        supermat__fin_get(F, 1, y, row[1]);
+        if (F->curve) /* the roughness curve: channel 1 of the second branch */
+            for (x = 0; x < S->w; x++)
+                if (F->in->channels < 4 || supermat__px(F->in, x, y, 3) > 0.0f)
+                    row[1][3 * x + 1] = 2.0f * supermat__curve_at(S->rough, S->rough_n, row[1][3 * x + 1] / 2.0f + 0.5f) - 1.0f;
+    }
+    for (k = 0; k < 5; k++)
+        if (F->out[k]) supermat__write_row(F->out[k], row[branch[k]], chan[k], k < 3 ? F->in : NULL, S->w, y);
+}
+static void supermat__fin_task(void *user, int y, int thread) { supermat__fin_row(user, y, NULL, thread); }
 
 /* The whole run. While planning (X->plan) `rd` is NULL: only memory and FLOPs are counted. */
 static void supermat__forward(supermat__ctx *X, const supermat_session *S, const supermat_run_desc *rd, supermat__t *dec,
@@ -5968,45 +6183,39 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     double f0;
     memset(fl, 0, sizeof *fl);
     if (S->skip_bg) fg = supermat__get(X, (size_t)V * H * W); /* foreground: alpha (mask for UV) at the work size */
-    {
-        float *full = resize ? supermat__get(X, (size_t)S->h * S->w * 4) : NULL;
-        int k;
+    { /* resized: the picture's rows at the work width (h x W x 4, a line a thread), then its columns */
+        int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1, k; /* the plan sets it too */
+        float *rows = resize ? supermat__get(X, (size_t)S->h * W * 4) : NULL, *lines = resize ? supermat__get(X, (size_t)S->w * 4 * T) : NULL;
         for (k = 0; k < V; k++) {
             float *dst = img.d + (size_t)k * H * W * 3, *fgk = fg ? fg + (size_t)k * H * W : NULL;
-            if (supermat__live(X)) {
-                const supermat_image *in = supermat__view_in(rd, k);
-                int x, y, c, ldo = resize ? 4 : 3;
-                float *o = resize ? full : dst;
-                for (y = 0; y < S->h; y++)
-                    for (x = 0; x < S->w; x++) {
-                        float px[4] = {0.0f, 0.0f, 0.0f, 1.0f}, *po = o + ((size_t)y * S->w + x) * ldo;
-                        for (c = 0; c < SUPERMAT__MIN(in->channels, 4); c++) px[c] = supermat__px(in, x, y, c);
-                        if (in->channels < 4 || uv) px[3] = 1.0f; /* UV maps: RGB as is (the official loader drops alpha) */
-                        for (c = 0; c < 3; c++) {
-                            float comp = px[c] * px[3] + 0.5f * (1.0f - px[3]); /* straight alpha over gray 0.5 */
-                            po[c] = comp * 2.0f - 1.0f;
-                        }
-                        if (resize || fgk) {
-                            float f = uv ? supermat__in_chart(rd, x, y) : px[3];
-                            if (resize) po[3] = f;
-                            else fgk[(size_t)y * S->w + x] = f;
-                        }
-                    }
-            }
             if (resize) {
                 float *tmp = supermat__get(X, (size_t)H * W * 4);
-                supermat__resample(X, full, S->h, S->w, 4, tmp, H, W);
                 if (supermat__live(X)) {
+                    supermat__inrow R;
                     size_t p2, np = (size_t)H * W;
+                    R.rd = rd; R.in = supermat__view_in(rd, k); R.rows = rows; R.lines = lines; R.w = S->w; R.W = W; R.uv = uv;
+                    supermat__par(X, S->h, supermat__in_row_task, &R);
+                    supermat__resample_axis(rows, S->h, H, 0, H, (size_t)W * 4, (size_t)W * 4, W, 4, 4, 4, tmp);
                     for (p2 = 0; p2 < np; p2++) {
                         memcpy(dst + p2 * 3, tmp + p2 * 4, sizeof(float) * 3);
                         if (fgk) fgk[p2] = tmp[p2 * 4 + 3];
                     }
                 }
                 supermat__put(X, tmp);
+            } else if (supermat__live(X)) {
+                const supermat_image *in = supermat__view_in(rd, k);
+                int x, y;
+                for (y = 0; y < S->h; y++)
+                    for (x = 0; x < S->w; x++) {
+                        float po[4];
+                        supermat__in_pixel(rd, in, uv, x, y, po, fgk != NULL);
+                        memcpy(dst + ((size_t)y * S->w + x) * 3, po, sizeof(float) * 3);
+                        if (fgk) fgk[(size_t)y * S->w + x] = po[3];
+                    }
             }
         }
-        supermat__put(X, full);
+        supermat__put(X, lines);
+        supermat__put(X, rows);
         if (supermat__live(X) && rd->inspect) rd->inspect(rd->inspect_user, SUPERMAT_STAGE_INPUT, 0, img.d, V, img.h, img.w, 3);
     }
     /* the VAE works view by view (bounded memory for many views; the same numbers) */
@@ -6051,14 +6260,13 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         dec[b].d = NULL;
         if (!v[b].d) continue;
         f0 = X->flops;
-        dec[b] = supermat__tensor(X, V, S->h, S->w, m->vout);
+        dec[b] = supermat__tensor(X, V, H, W, m->vout); /* resized back in the last step, a row at a time */
         for (i = 0; i < V; i++) {
             supermat__t z = v[b], d1;
             z.n = 1;
             if (z.d) z.d += (size_t)i * z.h * z.w * z.c;
             d1 = S->tile ? supermat__vae_tiled(X, m, &z, 0, S->tile, S->overlap, fg ? fg + (size_t)i * H * W : NULL) : supermat__vae_decode(X, m, &z);
-            if (resize) supermat__resample(X, d1.d, H, W, m->vout, dec[b].d + (size_t)i * S->h * S->w * m->vout, S->h, S->w);
-            else if (supermat__live(X)) memcpy(dec[b].d + (size_t)i * supermat__numel(&d1), d1.d, sizeof(float) * supermat__numel(&d1));
+            if (supermat__live(X)) memcpy(dec[b].d + (size_t)i * supermat__numel(&d1), d1.d, sizeof(float) * supermat__numel(&d1));
             supermat__drop(X, &d1);
         }
         fl->decode += X->flops - f0;
@@ -6066,38 +6274,48 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     }
     for (b = m->branches - 1; b >= 0; b--) supermat__drop(X, &v[b]);
     supermat__put(X, fg);
-    if ((S->detail > 0.0f || S->chroma > 0.0f) && !uv && dec[0].d) { /* planned too: the detail step's memory */
+    { /* the maps at the picture's size, a view and a row at a time, into the caller's images (planned too). What
+         it needs is taken first: once it writes, nothing can fail, so outputs are written only by a run that
+         succeeded */
+        int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1, detail = S->detail > 0.0f && !uv && dec[0].d;
+        float *rows[SUPERMAT__MAXBRANCH] = {NULL}, *trows;
         double lut[256];
-        for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
-        if (S->detail > 0.0f) { /* detail_sigma: the albedo keeps its picture's detail */
-            int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1; /* the plan sets it too */
-            float *g0 = supermat__get(X, (size_t)S->h * S->w * 2), *g1 = supermat__get(X, (size_t)SUPERMAT__MAX(S->h, S->w) * 2 * SUPERMAT__BOX_LINES * T);
-            double *rs = (double *)supermat__get(X, (size_t)S->h * 4); /* h x 2 doubles */
-            if (supermat__live(X))
-                for (i = 0; i < V; i++) {
-                    supermat__post P;
-                    memset(&P, 0, sizeof P);
-                    P.in = supermat__view_in(rd, i); P.alb = dec[0].d + (size_t)i * S->h * S->w * 3;
-                    P.astride = (size_t)S->w * 3 * sizeof(float); P.w = S->w; P.h = S->h;
-                    supermat__detail(X, P, S->detail, g0, g1, rs, lut);
+        supermat__dstream D;
+        supermat__fin F;
+        memset(&F, 0, sizeof F);
+        for (b = 0; b < m->branches && resize; b++)
+            if (dec[b].d) rows[b] = supermat__get(X, (size_t)H * S->w * 3);
+        trows = supermat__get(X, (size_t)S->w * 6 * T);
+        if (detail) supermat__dstream_get(X, &D, S->w, S->h, S->detail);
+        if (supermat__live(X)) {
+            for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
+            F.S = S; F.resize = resize; F.W = W; F.H = H; F.rows = trows;
+            F.chroma = S->chroma > 0.0f && !uv && dec[0].d;
+            F.curve = S->rough_n > 0 && !uv && m->branches > 1;
+            F.P.w = S->w; F.P.k = S->chroma;
+            for (i = 0; i < V; i++) {
+                int k;
+                F.in = F.P.in = supermat__view_in(rd, i);
+                F.P.lut = F.in->format == SUPERMAT_FORMAT_F32 ? NULL : lut;
+                for (k = 0; k < 5; k++) F.out[k] = supermat__out(rd, k, i);
+                for (b = 0; b < m->branches; b++) {
+                    F.dec[b] = dec[b].d ? dec[b].d + (size_t)i * H * W * 3 : NULL;
+                    if (rows[b]) { /* the rows to the picture's width */
+                        F.src = F.dec[b]; F.dst = rows[b];
+                        supermat__par(X, H, supermat__fin_rowpass_task, &F);
+                        F.dec[b] = rows[b];
+                    }
                 }
-            supermat__put(X, (float *)rs);
-            supermat__put(X, g1);
-            supermat__put(X, g0);
+                if (detail) {
+                    D.src = supermat__fin_src; D.sink = supermat__fin_row; D.user = &F; F.gr = D.gr;
+                    supermat__dstream_run(&D);
+                } else supermat__par(X, S->h, supermat__fin_task, &F);
+            }
         }
-        if (S->chroma > 0.0f && supermat__live(X)) /* chroma_weight: the picture's colour */
-            for (i = 0; i < V; i++) supermat__chroma(X, supermat__view_in(rd, i), S->chroma, dec[0].d + (size_t)i * S->h * S->w * 3, S->w, S->h, lut);
+        if (detail) supermat__dstream_put(X, &D);
+        supermat__put(X, trows);
+        for (b = m->branches - 1; b >= 0; b--) supermat__put(X, rows[b]);
     }
-    if (S->rough_n > 0 && !uv && m->branches > 1 && dec[1].d && supermat__live(X)) /* the roughness curve: channel 1 of the second branch */
-        for (i = 0; i < V; i++) {
-            const supermat_image *in = supermat__view_in(rd, i);
-            float *px = dec[1].d + (size_t)i * S->h * S->w * 3;
-            int x, y;
-            for (y = 0; y < S->h; y++)
-                for (x = 0; x < S->w; x++, px += 3)
-                    if (in->channels < 4 || supermat__px(in, x, y, 3) > 0.0f)
-                        px[1] = 2.0f * supermat__curve_at(S->rough, S->rough_n, px[1] / 2.0f + 0.5f) - 1.0f;
-        }
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
@@ -6337,42 +6555,9 @@ static supermat_result supermat__check_image(const supermat_image *im, const cha
     return SUPERMAT_SUCCESS;
 }
 
-/* writes one view's decoded image (3 channels in [-1,1]) as x/2+0.5 clamped: src_channel >= 0 picks
-   one channel for every output channel but alpha; alpha (4th channel) comes from `alpha_src`, or is 1 */
-static void supermat__write(const supermat_image *o, const float *dec, int src_channel, const supermat_image *alpha_src, int w, int h) {
-    size_t es = o->format == SUPERMAT_FORMAT_F32 ? 4 : 1, stride = o->stride ? o->stride : (size_t)w * o->channels * es;
-    int x, y, c;
-    for (y = 0; y < h; y++) {
-        unsigned char *row = (unsigned char *)o->pixels + (size_t)y * stride;
-        for (x = 0; x < w; x++) {
-            const float *px = dec + ((size_t)y * w + x) * 3;
-            for (c = 0; c < o->channels; c++) {
-                float v;
-                if (c == 3 || (c == 1 && o->channels == 2)) v = alpha_src && alpha_src->channels == 4 ? supermat__px(alpha_src, x, y, 3) : 1.0f;
-                else {
-                    v = px[src_channel >= 0 ? src_channel : (o->channels == 1 ? 0 : c)] / 2.0f + 0.5f;
-                    v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
-                }
-                if (o->format == SUPERMAT_FORMAT_F32) memcpy(row + ((size_t)x * o->channels + c) * 4, &v, 4);
-                else row[(size_t)x * o->channels + c] = (unsigned char)rintf(v * 255.0f);
-            }
-        }
-    }
-}
-
-/* the caller's output image `k` (0 albedo, 1 roughness, 2 metallic, 3 orm, 4 refined) of view v, or NULL */
-static const supermat_image *supermat__out(const supermat_run_desc *rd, int k, int v) {
-    const supermat_image *one[5], *arr[5];
-    const supermat_image *o;
-    one[0] = &rd->albedo; one[1] = &rd->roughness; one[2] = &rd->metallic; one[3] = &rd->orm; one[4] = &rd->refined;
-    arr[0] = rd->albedo_views; arr[1] = rd->roughness_views; arr[2] = rd->metallic_views; arr[3] = rd->orm_views; arr[4] = NULL;
-    o = arr[k] ? &arr[k][v] : (v == 0 ? one[k] : NULL);
-    return o && o->pixels ? o : NULL;
-}
-
 /* >>detail: supermat_detail, the detail step on a caller's albedo (the same supermat__detail a run applies) */
 /* checks the desc (scan: the float pixels too, for NaN / Inf) and sizes the scratch: sz = plane, line buffers, row sums */
-static supermat_result supermat__detail_plan(const supermat_detail_desc *d, size_t sz[3], int scan, supermat_error *err) {
+static supermat_result supermat__detail_plan(const supermat_detail_desc *d, size_t *need, int scan, supermat_error *err) {
     const supermat_image *pic;
     supermat_image alb;
     supermat_result r;
@@ -6398,30 +6583,48 @@ static supermat_result supermat__detail_plan(const supermat_detail_desc *d, size
     if (d->threading.parallel_for && d->threading.max_threads < 1) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "threading.max_threads must be >= 1");
     if (d->scratch && ((uintptr_t)d->scratch % 16)) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: scratch is not 16-byte aligned");
     T = d->threading.parallel_for ? d->threading.max_threads : 1;
-    sz[0] = (size_t)w * h * 2 * sizeof(float);                                     /* the plane */
-    sz[1] = (size_t)SUPERMAT__MAX(w, h) * 2 * SUPERMAT__BOX_LINES * T * sizeof(float); /* line buffers */
-    sz[2] = (size_t)h * 2 * sizeof(double);                                         /* row sums */
+    { /* the low-pass's buffers, planned as supermat_detail takes them */
+        supermat__ctx X;
+        supermat__dstream D;
+        memset(&X, 0, sizeof X);
+        X.plan = 1; X.thr.max_threads = T;
+        supermat__dstream_get(&X, &D, w, h, d->sigma);
+        *need = X.peak;
+    }
     return SUPERMAT_SUCCESS;
 }
 SUPERMAT__DEF supermat_result supermat_detail_memory(const supermat_detail_desc *d, size_t *bytes, supermat_error *err) {
-    size_t sz[3];
-    supermat_result r = supermat__detail_plan(d, sz, 0, err);
+    size_t need = 0;
+    supermat_result r = supermat__detail_plan(d, &need, 0, err);
     if (r) return r;
-    if (bytes) *bytes = sz[0] + sz[1] + sz[2];
+    if (bytes) *bytes = need;
     supermat__ok(err);
     return SUPERMAT_SUCCESS;
 }
+/* supermat_detail's rows: the caller's albedo, read and written in place (a row is written only once the
+   low-pass has read every row it needs) */
+typedef struct supermat__udet { supermat__post P; unsigned char *alb; size_t astride; const double *gr; } supermat__udet;
+static void supermat__udet_src(void *user, int y, float *g, int thread) {
+    const supermat__udet *U = (const supermat__udet *)user;
+    (void)thread;
+    supermat__detail_in(&U->P, (const float *)(const void *)(U->alb + (size_t)y * U->astride), y, g);
+}
+static void supermat__udet_sink(void *user, int y, float *g, int thread) {
+    const supermat__udet *U = (const supermat__udet *)user;
+    (void)thread;
+    supermat__detail_out(&U->P, (float *)(void *)(U->alb + (size_t)y * U->astride), y, g, U->gr);
+}
 SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, supermat_error *err) {
-    size_t sz[3], need;
+    size_t need = 0;
     supermat_allocator al;
     supermat__ctx X;
-    supermat__post P;
+    supermat__dstream D;
+    supermat__udet U;
     double lut[256];
     unsigned char *mem;
     int i;
-    supermat_result r = supermat__detail_plan(d, sz, 1, err);
+    supermat_result r = supermat__detail_plan(d, &need, 1, err);
     if (r) return r;
-    need = sz[0] + sz[1] + sz[2];
     al = supermat__resolve_allocator(&d->allocator);
     if (d->scratch && d->scratch_size < need)
         return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: scratch_size %llu, it needs %llu bytes (supermat_detail_memory)",
@@ -6431,13 +6634,18 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     memset(&X, 0, sizeof X);
     if (d->threading.parallel_for) X.thr = d->threading;
     else X.thr.max_threads = 1;
+    X.base = (char *)mem; X.cap = need;
+    supermat__dstream_get(&X, &D, d->picture.width, d->picture.height, d->sigma);
     for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
-    memset(&P, 0, sizeof P);
-    P.in = &d->picture; P.wt = d->weight.pixels ? &d->weight : NULL; P.rg = d->region.pixels ? &d->region : NULL;
-    P.alb = (float *)d->albedo.pixels; P.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
-    P.srgb = 1; P.w = d->picture.width; P.h = d->picture.height;
-    supermat__detail(&X, P, d->sigma, (float *)(void *)mem, (float *)(void *)(mem + sz[0]), (double *)(void *)(mem + sz[0] + sz[1]), lut);
+    memset(&U, 0, sizeof U);
+    U.P.in = &d->picture; U.P.wt = d->weight.pixels ? &d->weight : NULL; U.P.rg = d->region.pixels ? &d->region : NULL;
+    U.P.srgb = 1; U.P.w = d->picture.width; U.P.lut = d->picture.format == SUPERMAT_FORMAT_F32 ? NULL : lut;
+    U.alb = (unsigned char *)d->albedo.pixels; U.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
+    D.src = supermat__udet_src; D.sink = supermat__udet_sink; D.user = &U; U.gr = D.gr;
+    if (X.status == SUPERMAT_SUCCESS) supermat__dstream_run(&D);
+    supermat__dstream_put(&X, &D);
     if (!d->scratch) al.free(al.user, mem, need);
+    if (X.status) return supermat__fail(err, SUPERMAT_ERROR_INTERNAL, NULL, "detail: internal error (scratch plan)");
     supermat__ok(err);
     return SUPERMAT_SUCCESS;
 }
@@ -6500,17 +6708,7 @@ SUPERMAT__DEF supermat_result supermat_run(supermat_session *S, const supermat_r
     X.work_total = S->work_total;
     X.mv_att = S->mv_att; X.mv_stride = S->mv_stride;
     supermat__forward(&X, S, rd, dec, &fl);
-    if (X.status == SUPERMAT_SUCCESS) { /* outputs are written only once everything succeeded */
-        S->last_flops = fl;
-        size_t per = (size_t)S->w * S->h * 3;
-        for (v = 0; v < S->views; v++)
-            for (i = 0; i < 5; i++) {
-                const supermat_image *o = supermat__out(rd, i, v);
-                static const int branch[5] = {0, 1, 1, 1, 0}, chan[5] = {-1, 1, 2, -1, -1};
-                if (!o) continue;
-                supermat__write(o, dec[branch[i]].d + (size_t)v * per, chan[i], i < 3 ? supermat__view_in(rd, v) : NULL, S->w, S->h);
-            }
-    }
+    if (X.status == SUPERMAT_SUCCESS) S->last_flops = fl; /* the outputs were written by its last step (supermat__forward) */
     for (b = S->m->branches - 1; b >= 0; b--) if (dec[b].d) supermat__drop(&X, &dec[b]);
     if (X.status) {
         if (X.status != SUPERMAT_ERROR_CANCELLED) return supermat__fail(err, X.status, NULL, "internal error during the run");

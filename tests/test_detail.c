@@ -5,7 +5,8 @@
    G(w I) < 1e-6 the ratio is sum(w A) / sum(w I). Tolerance: 2e-5 on the sRGB-encoded result (the
    implementation keeps the planes in float, ~6e-8 relative a step, and sums in double).
    - pictures of 8-bit RGBA (w = alpha), float RGB (w = 1), an explicit weight, a region (every region
-     pixel written, w 0 outside it), an odd size and a padded albedo stride; ratios clipped both ways;
+     pixel written, w 0 outside it), an odd size and a padded albedo stride, a tall picture whose low-pass
+     is streamed in rows (its scratch: fewer bytes than the whole plane; at 8000x8000 under 3 a pixel); ratios clipped both ways;
    - pixels outside the written set keep their exact bytes; the threaded run (a pool) gives the serial
      bytes; a caller's scratch gives the allocated run's bytes and allocates nothing;
    - errors: garbage-filled desc / one canary (INVALID_ARGUMENT naming the struct), sigma 0 / > 1 / NaN, a U8
@@ -169,6 +170,49 @@ int main(void) {
     d.albedo.pixels = albp; d.albedo.stride = (W * 3 + 5) * sizeof(float);
     for (y = 0; y < H; y++) for (x = 0; x < W * 3 + 5; x++) albp[y * (W * 3 + 5) + x] = x < W * 3 ? alb[y * W * 3 + x] : -7.0f;
     check_case(d, "odd size, strided picture and albedo");
+
+    /* a tall picture: the low-pass streamed in rows (three rings of 2r + 18 rows, fewer than the picture's),
+       against the same reference; a pool gives the serial bytes; the scratch is less than the whole plane
+       (24 bytes a pixel), and at 8000x8000 with sigma 1/64 under 3 bytes a pixel (before: 8) */
+    {
+        enum { TW = 23, TH = 160 };
+        static unsigned char trgba[TW * TH * 4];
+        static float talb[TW * TH * 3], tkeep[TW * TH * 3];
+        supermat_pool *pool = NULL;
+        supermat_threading hook;
+        supermat_detail_desc t;
+        for (y = 0; y < TH; y++)
+            for (x = 0; x < TW; x++) {
+                i = (size_t)y * TW + x;
+                for (k = 0; k < 4; k++) trgba[i * 4 + k] = rgba[((size_t)(y % H) * W + x) * 4 + k];
+                for (k = 0; k < 3; k++) talb[i * 3 + k] = alb[((size_t)(y % H) * W + x) * 3 + k];
+            }
+        memset(&t, 0, sizeof t);
+        t.sigma = 1.0f / 32.0f;
+        t.picture.pixels = trgba; t.picture.width = TW; t.picture.height = TH; t.picture.channels = 4;
+        t.albedo.pixels = talb; t.albedo.channels = 3; t.albedo.format = SUPERMAT_FORMAT_F32;
+        check_case(t, "tall 23x160, sigma 1/32 (streamed rows)");
+        t.sigma = 1e-4f; check_case(t, "tall 23x160, sigma 1e-4 (streamed rows, r 1)");
+        t.sigma = 1.0f / 32.0f;
+        r = supermat_detail_memory(&t, &bytes, &err);
+        TU_CHECK(r == SUPERMAT_SUCCESS && bytes < (size_t)TW * TH * 24, "tall picture: %lu bytes of scratch, want fewer than the whole plane's %lu", (unsigned long)bytes, (unsigned long)TW * TH * 24);
+        memcpy(tkeep, talb, sizeof talb);
+        r = supermat_detail(&t, &err);
+        memset(&hook, 0, sizeof hook);
+        if (r == SUPERMAT_SUCCESS && supermat_pool_create(3, NULL, &pool, &hook) == SUPERMAT_SUCCESS) {
+            static float serial[TW * TH * 3];
+            memcpy(serial, talb, sizeof talb); memcpy(talb, tkeep, sizeof talb);
+            t.threading = hook;
+            r = supermat_detail(&t, &err);
+            TU_CHECK(r == SUPERMAT_SUCCESS && !memcmp(talb, serial, sizeof talb), "tall picture: a pool of 3 threads gives the serial bytes (%s)", err.message);
+            supermat_pool_destroy(pool);
+            t.threading.parallel_for = NULL; t.threading.user = NULL; t.threading.max_threads = 0;
+        }
+        t.picture.width = t.picture.height = 8000; t.sigma = 1.0f / 64.0f; /* sized only: the pixels are not read */
+        r = supermat_detail_memory(&t, &bytes, &err);
+        TU_CHECK(r == SUPERMAT_SUCCESS && bytes < (size_t)3 * 8000 * 8000, "8000x8000, sigma 1/64: %.2f bytes a pixel of scratch (want < 3)", (double)bytes / 64e6);
+        printf("scratch: 8000x8000 at sigma 1/64 %.2f bytes a pixel (the whole plane would be 24)\n", (double)bytes / 64e6);
+    }
 
     /* the built-in pool, and a caller's scratch: the same bytes as the serial, allocating run */
     {

@@ -10,6 +10,9 @@
      off-chart position gray) keep every chart texel, seen or not.
    - Work size: the network input equals this file's float64 triangle-filter resampling of the
      composited image; the work size equal to the image size is bit-identical to the default.
+   - Resized back: a 70x300 picture's maps (work size 32) against this file's float64 resampling of the
+     decode (the DECODED stage, at the work size), and its detail step (streamed in rows) against the
+     float64 detail reference; the session plan for 8000x8000 under 4 bytes a pixel.
    - Restricted multi-view attention: a key stride of 1 (every key, gathered per view) equals the full
      attention; own view and stride 2 change the maps, stay in range, and do not depend on threads.
    - Detail (detail_sigma): the albedo against a float64 reference of the documented formula from the
@@ -141,28 +144,24 @@ static void resample64(const float *src, int sh, int sw, int c, double *dst, int
 }
 
 static void test_resample_props(void) {
-    supermat__ctx X;
     float src[16 * 3], dst[8 * 3], up[32 * 3];
     int i;
-    memset(&X, 0, sizeof X);
-    X.base = (char *)malloc(1 << 16); X.cap = 1 << 16;
     for (i = 0; i < 16 * 3; i++) src[i] = 0.25f;
-    supermat__resample(&X, src, 1, 16, 3, dst, 1, 8);
+    supermat__resample_axis(src, 16, 8, 0, 8, 3, 3, 1, 16 * 3, 8 * 3, 3, dst);
     for (i = 0; i < 8 * 3; i++) TU_CHECK(fabsf(dst[i] - 0.25f) < 1e-7f, "constant through a 2x reduction: %g", (double)dst[i]);
     for (i = 0; i < 16; i++) src[i * 3] = src[i * 3 + 1] = src[i * 3 + 2] = (float)(i * i % 7);
-    supermat__resample(&X, src, 1, 16, 3, dst, 1, 8); /* interior taps 1/8, 3/8, 3/8, 1/8 */
+    supermat__resample_axis(src, 16, 8, 0, 8, 3, 3, 1, 16 * 3, 8 * 3, 3, dst); /* interior taps 1/8, 3/8, 3/8, 1/8 */
     for (i = 1; i < 7; i++) {
         double want = (src[(2 * i - 1) * 3] + 3.0 * src[2 * i * 3] + 3.0 * src[(2 * i + 1) * 3] + src[(2 * i + 2) * 3]) / 8.0;
         TU_CHECK(fabs(dst[i * 3] - want) < 1e-5, "2x reduction tap weights at %d: %g vs %g", i, (double)dst[i * 3], want);
     }
-    supermat__resample(&X, src, 1, 16, 3, up, 1, 32); /* bilinear enlargement: 0.75 / 0.25 */
+    supermat__resample_axis(src, 16, 32, 0, 32, 3, 3, 1, 16 * 3, 32 * 3, 3, up); /* bilinear enlargement: 0.75 / 0.25 */
     for (i = 1; i < 31; i++) {
         int a = (i - 1) / 2, b = a + 1;
         double want = (i % 2) ? 0.75 * src[a * 3] + 0.25 * src[b * 3] : 0.25 * src[a * 3] + 0.75 * src[b * 3];
         if (i % 2 == 0) { a = i / 2 - 1; b = i / 2; want = 0.25 * src[a * 3] + 0.75 * src[b * 3]; }
         TU_CHECK(fabs(up[i * 3] - want) < 1e-5, "2x enlargement at %d: %g vs %g", i, (double)up[i * 3], want);
     }
-    free(X.base);
 }
 
 /* ---- tiled VAE vs tiles run alone ---- */
@@ -483,12 +482,57 @@ static void refused_values(supermat_model *m, supermat_model *uv, int chroma) {
    decoded; RGB input (no alpha) weighs every pixel ---- */
 static double dl_lin(double v) { v = v < 0 ? 0 : v > 1 ? 1 : v; return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 static double dl_srgb(double v) { v = v < 0 ? 0 : v > 1 ? 1 : v; return v <= 0.0031308 ? v * 12.92 : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
+/* the float64 reference of detail_sigma: the albedo a0 (x/2+0.5, w x h x 3) after the step on picture img (ch
+   channels, 8-bit; w = alpha with 4): three box passes of half-width r over rows then columns, zero outside;
+   ref gets it where the picture's alpha is > 0 (elsewhere a0); returns r, *clipped the ratios clipped */
+static int detail64(const float *a0, const unsigned char *img, int ch, int w, int h, double sigma, double *ref, int *clipped) {
+    size_t n = (size_t)w * h, i;
+    double *g = (double *)malloc(n * 6 * sizeof(double)), *t = (double *)malloc(n * 6 * sizeof(double)), sum[6] = {0, 0, 0, 0, 0, 0};
+    double sg = sigma * (w > h ? w : h);
+    int r = (int)floor((sqrt(4.0 * sg * sg + 1.0) - 1.0) * 0.5 + 0.5), pass, x, y, c;
+    if (r < 1) r = 1;
+    *clipped = 0;
+    for (i = 0; i < n; i++) {
+        double wt = ch == 4 ? img[i * 4 + 3] / 255.0 : 1.0;
+        for (c = 0; c < 3; c++) {
+            g[i * 6 + c] = wt * dl_lin(a0[i * 3 + c]);
+            g[i * 6 + 3 + c] = wt * dl_lin(img[i * ch + c] / 255.0);
+            sum[c] += g[i * 6 + c]; sum[3 + c] += g[i * 6 + 3 + c];
+        }
+    }
+    for (pass = 0; pass < 6; pass++) { /* rows, columns, x3: direct window sums */
+        for (y = 0; y < h; y++)
+            for (x = 0; x < w; x++)
+                for (c = 0; c < 6; c++) {
+                    double a = 0;
+                    int d;
+                    for (d = -r; d <= r; d++) {
+                        int xx = pass % 2 ? x : x + d, yy = pass % 2 ? y + d : y;
+                        if (xx >= 0 && xx < w && yy >= 0 && yy < h) a += g[((size_t)yy * w + xx) * 6 + c];
+                    }
+                    t[((size_t)y * w + x) * 6 + c] = a;
+                }
+        memcpy(g, t, n * 6 * sizeof(double));
+    }
+    for (i = 0; i < n; i++)
+        for (c = 0; c < 3; c++) {
+            double q;
+            if (ch == 4 && img[i * 4 + 3] == 0) { ref[i * 3 + c] = a0[i * 3 + c]; continue; }
+            q = g[i * 6 + 3 + c] > 1e-6 ? g[i * 6 + c] / g[i * 6 + 3 + c] : (sum[c] > 0 && sum[3 + c] > 0 ? sum[c] / sum[3 + c] : 1.0);
+            if (q < 0.25 || q > 4.0) (*clipped)++;
+            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+            ref[i * 3 + c] = dl_srgb(dl_lin(img[i * ch + c] / 255.0) * q);
+        }
+    free(g); free(t);
+    return r;
+}
+
 static void test_detail(supermat_model *m, supermat_model *uv, const unsigned char *img4) {
     static unsigned char img3[S * S * 3];
     static float a0[S * S * 3], a1[S * S * 3], o0[S * S * 3], o1[S * S * 3];
-    static double g[S * S * 6], t[S * S * 6];
+    static double ref[S * S * 3];
     static const float sig[3] = {0.1f, 1.0f / 64.0f, 1.0f};
-    int ch, k, i, c, x, y, pass;
+    int ch, k, i, c;
     for (i = 0; i < S * S; i++) for (c = 0; c < 3; c++) img3[i * 3 + c] = img4[i * 4 + c];
     for (ch = 3; ch <= 4; ch++) {
         const unsigned char *img = ch == 4 ? img4 : img3;
@@ -496,47 +540,18 @@ static void test_detail(supermat_model *m, supermat_model *uv, const unsigned ch
         memset(&o, 0, sizeof o);
         if (run1(m, &o, S, S, img, ch, a0, o0, NULL, NULL, NULL)) return;
         for (k = 0; k < 3; k++) {
-            double sg = (double)sig[k] * S, sum[6] = {0, 0, 0, 0, 0, 0}, worst = 0;
-            int r = (int)floor((sqrt(4.0 * sg * sg + 1.0) - 1.0) * 0.5 + 0.5), bg_same = 1, changed = 0, clipped = 0;
-            if (r < 1) r = 1;
+            double worst = 0;
+            int r, bg_same = 1, changed = 0, clipped = 0;
             o.detail = sig[k];
             if (run1(m, &o, S, S, img, ch, a1, o1, NULL, NULL, NULL)) return;
-            for (i = 0; i < S * S; i++) {
-                double w = ch == 4 ? img[i * 4 + 3] / 255.0 : 1.0;
+            r = detail64(a0, img, ch, S, S, sig[k], ref, &clipped);
+            for (i = 0; i < S * S; i++)
                 for (c = 0; c < 3; c++) {
-                    g[i * 6 + c] = w * dl_lin(a0[i * 3 + c]);
-                    g[i * 6 + 3 + c] = w * dl_lin(img[i * ch + c] / 255.0);
-                    sum[c] += g[i * 6 + c]; sum[3 + c] += g[i * 6 + 3 + c];
-                }
-            }
-            for (pass = 0; pass < 6; pass++) { /* rows, columns, x3: direct window sums, zero outside */
-                for (y = 0; y < S; y++)
-                    for (x = 0; x < S; x++)
-                        for (c = 0; c < 6; c++) {
-                            double a = 0;
-                            int d;
-                            for (d = -r; d <= r; d++) {
-                                int xx = pass % 2 ? x : x + d, yy = pass % 2 ? y + d : y;
-                                if (xx >= 0 && xx < S && yy >= 0 && yy < S) a += g[(yy * S + xx) * 6 + c];
-                            }
-                            t[(y * S + x) * 6 + c] = a;
-                        }
-                memcpy(g, t, sizeof g);
-            }
-            for (i = 0; i < S * S; i++) {
-                int fg = ch == 3 || img[i * 4 + 3] > 0;
-                for (c = 0; c < 3; c++) {
-                    double q, want, e;
-                    if (!fg) { bg_same &= a1[i * 3 + c] == a0[i * 3 + c]; continue; }
-                    q = g[i * 6 + 3 + c] > 1e-6 ? g[i * 6 + c] / g[i * 6 + 3 + c] : (sum[c] > 0 && sum[3 + c] > 0 ? sum[c] / sum[3 + c] : 1.0);
-                    if (q < 0.25 || q > 4.0) clipped++;
-                    q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-                    want = dl_srgb(dl_lin(img[i * ch + c] / 255.0) * q);
-                    e = fabs(want - a1[i * 3 + c]);
+                    double e = fabs(ref[i * 3 + c] - a1[i * 3 + c]);
+                    if (ch == 4 && img[i * 4 + 3] == 0) { bg_same &= a1[i * 3 + c] == a0[i * 3 + c]; continue; }
                     if (e > worst) worst = e;
                     changed += a1[i * 3 + c] != a0[i * 3 + c];
                 }
-            }
             TU_CHECK(worst < 2e-5 && changed > 0, "detail %g, %d channels: albedo worst %.3g from the float64 reference (%d values changed, %d ratios clipped)",
                      (double)sig[k], ch, worst, changed, clipped);
             TU_CHECK(bg_same, "detail %g: alpha-0 pixels as decoded", (double)sig[k]);
@@ -546,6 +561,75 @@ static void test_detail(supermat_model *m, supermat_model *uv, const unsigned ch
         }
     }
     refused_values(m, uv, 0);
+}
+
+/* ---- a picture larger than the work size: the maps are resized back a row at a time and the detail step
+   runs on rows (rings of 2r + 18 rows for each column pass, or the whole plane where that is smaller).
+   Against float64: the run's decode at the work size (the DECODED stage) resampled here, x/2+0.5; with
+   detail_sigma, detail64 of the albedo without it. The plan for an 8000x8000 picture stays under 4 bytes a
+   pixel (the maps at the picture's size were 32) ---- */
+static void test_resize_back(supermat_model *m) {
+    enum { PW = 70, PH = 300, WK = 32 };
+    static const float sig[3] = {1.0f / 64.0f, 1.0f / 8.0f, 0.5f};
+    unsigned char *img = (unsigned char *)malloc((size_t)PW * PH * 4);
+    float *a0 = (float *)malloc(sizeof(float) * PW * PH * 3), *o0 = (float *)malloc(sizeof(float) * PW * PH * 3);
+    float *a1 = (float *)malloc(sizeof(float) * PW * PH * 3), *o1 = (float *)malloc(sizeof(float) * PW * PH * 3);
+    double *ref = (double *)malloc(sizeof(double) * PW * PH * 3), worst = 0;
+    size_t i, np = (size_t)PW * PH;
+    int b, c, k;
+    opts o;
+    cap cp;
+    tu_disc_rgba(img, PW, PH, 35, 160, 31);
+    for (i = 0; i < np; i++) for (c = 0; c < 3; c++) img[i * 4 + c] = (unsigned char)(img[i * 4 + c] ^ (unsigned char)((i * 7 + (size_t)c * 13) % 61));
+    memset(&o, 0, sizeof o); o.ww = WK; o.wh = WK;
+    memset(&cp, 0, sizeof cp); cp.want = SUPERMAT_STAGE_DECODED; cp.inject = SUPERMAT_STAGE_COUNT;
+    run1(m, &o, PW, PH, img, 4, a0, o0, &cp, NULL, NULL);
+    TU_CHECK(cp.got[0] && cp.got[1] && cp.h == WK && cp.w == WK, "resized: the DECODED stage is at the work size (%dx%d)", cp.w, cp.h);
+    for (b = 0; b < 2 && cp.got[b] && cp.h == WK; b++) {
+        resample64(cp.got[b], WK, WK, 3, ref, PH, PW);
+        for (i = 0; i < np; i++)
+            for (c = b; c < 3; c++) { /* the albedo's 3 channels; roughness / metallic in the ORM's G and B */
+                double want = ref[i * 3 + c] / 2.0 + 0.5, e;
+                want = want < 0 ? 0 : want > 1 ? 1 : want;
+                e = fabs(want - (b ? o0 : a0)[i * 3 + c]);
+                if (e > worst) worst = e;
+            }
+    }
+    TU_CHECK(worst < 1e-5, "resized back: maps worst %.3g from the float64 resampling of the decode", worst);
+    printf("resized back (%dx%d from %d): maps within %.2g of the float64 resampling of the decode\n", PW, PH, WK, worst);
+    for (b = 0; b < 2; b++) free(cp.got[b]);
+    for (k = 0; k < 3; k++) {
+        int r, clipped, bg_same = 1, changed = 0;
+        o.detail = sig[k];
+        run1(m, &o, PW, PH, img, 4, a1, o1, NULL, NULL, NULL);
+        r = detail64(a0, img, 4, PW, PH, sig[k], ref, &clipped);
+        worst = 0;
+        for (i = 0; i < np; i++)
+            for (c = 0; c < 3; c++) {
+                double e = fabs(ref[i * 3 + c] - a1[i * 3 + c]);
+                if (img[i * 4 + 3] == 0) { bg_same &= a1[i * 3 + c] == a0[i * 3 + c]; continue; }
+                if (e > worst) worst = e;
+                changed += a1[i * 3 + c] != a0[i * 3 + c];
+            }
+        TU_CHECK(worst < 2e-5 && changed > 0 && bg_same, "resized, detail %g: albedo worst %.3g from the float64 reference (%d changed; background %s)",
+                 (double)sig[k], worst, changed, bg_same ? "as decoded" : "CHANGED");
+        TU_CHECK(!memcmp(o0, o1, sizeof(float) * np * 3), "resized, detail %g: roughness / metallic untouched", (double)sig[k]);
+        printf("resized %dx%d, detail %g (r %d): albedo within %.2g of the float64 reference, %d values changed, %d ratios clipped\n",
+               PW, PH, (double)sig[k], r, worst, changed, clipped);
+    }
+    {
+        supermat_session_desc sd;
+        supermat_error err;
+        size_t bytes = 0;
+        memset(&sd, 0, sizeof sd);
+        sd.model = m; sd.width = 8000; sd.height = 8000; sd.work_width = 64; sd.work_height = 64; sd.threads = 2;
+        sd.detail_sigma = 1.0f / 64.0f; sd.chroma_weight = 1.0f;
+        TU_CHECK(supermat_session_memory(&sd, &bytes, &err) == SUPERMAT_SUCCESS, "session memory at 8000x8000: %s", err.message);
+        TU_CHECK(bytes < (size_t)4 * 8000 * 8000, "session memory at 8000x8000, work size 64, detail 1/64: %.2f bytes a pixel (want < 4)", (double)bytes / (8000.0 * 8000.0));
+        printf("session memory at 8000x8000 (work size 64, detail 1/64, chroma 1, 2 threads): %.1f MiB, %.2f bytes a pixel\n",
+               (double)bytes / 1048576.0, (double)bytes / (8000.0 * 8000.0));
+    }
+    free(img); free(a0); free(o0); free(a1); free(o1); free(ref);
 }
 
 /* ---- chroma_weight: the albedo with it against this file's float64 reference of the documented formula,
@@ -607,7 +691,7 @@ int main(int argc, char **argv) {
     test_layout();
     test_resample_props();
     tu_disc_rgba(img, S, S, 18, 20, 13);
-    if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); test_detail(m, uv, img); test_chroma(m, uv, img); }
+    if (m) { test_tiles(m, img); test_skip(m, img); test_work_size(m, img); test_resize_back(m); test_detail(m, uv, img); test_chroma(m, uv, img); }
     if (uv) test_skip_uv(uv);
     if (mv) test_mv_window(mv);
     if (m && mv) test_errors(m, mv);
