@@ -60,7 +60,10 @@
  *   - UV refine: the partial UV map's latent, the mask and the position map (bilinearly resized to the
  *     latent size as PyTorch does) -> one refined map (albedo or roughness/metallic, by checkpoint).
  *   - Any picture size: the network runs at the model's work size (its file records it) and the maps come
- *     back at the picture's size. At a picture's own size (no work size) the sides must be multiples of
+ *     back at the picture's size, made a row at a time into the caller's images: at the picture's size
+ *     the session holds no full-size plane (about 2.7 bytes a pixel at 8000x8000 with the default
+ *     model's detail step, rings of rows; the rest is the network at the work size). At a picture's own
+ *     size (no work size) the sides must be multiples of
  *     8, square or not: where the latent is not a multiple of 8, each upsampler resizes to its skip
  *     tensor's size (nearest), exactly as diffusers does.
  *   - Computes only what was asked: a branch nobody wants is neither run nor decoded.
@@ -548,7 +551,8 @@ typedef enum supermat_stage {
     SUPERMAT_STAGE_LATENT,    /* VAE encoder mode x scaling factor */
     SUPERMAT_STAGE_UNET_OUT,  /* per branch: the UNet output (v or epsilon) */
     SUPERMAT_STAGE_X0,        /* per branch: the one-step x0 latent */
-    SUPERMAT_STAGE_DECODED,   /* per branch: raw VAE decode, before x/2+0.5 */
+    SUPERMAT_STAGE_DECODED,   /* per branch: raw VAE decode, before x/2+0.5 (at the work size: a resized
+                                 run resizes it back a row at a time after this stage) */
     SUPERMAT_STAGE_TRUNK,     /* the shared UNet trunk's output (input of every branch tail) */
     SUPERMAT_STAGE_UNET_IN,   /* UV refine: [latent, mask, position] at the latent size */
     SUPERMAT_STAGE_COUNT
@@ -612,8 +616,10 @@ typedef struct supermat_detail_desc {
     size_t scratch_size;         /* allocating (then nothing is allocated) */
     uint32_t _end_canary;
 } supermat_detail_desc;
-/* The scratch bytes supermat_detail needs for this desc (2 floats a pixel, line buffers per thread); the desc
-   is checked as by supermat_detail, its pixels are not read. */
+/* The scratch bytes supermat_detail needs for this desc (the low-pass runs on rows: three rings of 2r + 18
+   rows of 24 bytes a pixel, r = sigma x the larger side, or one plane of 24 bytes a pixel where that is
+   smaller; about 2.5 bytes a pixel at 8000x8000 and sigma 1/64); the desc is checked as by
+   supermat_detail, its pixels are not read. */
 SUPERMAT_API supermat_result supermat_detail_memory(const supermat_detail_desc *desc, size_t *bytes, supermat_error *err);
 SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, supermat_error *err);
 /* A calibration curve as text (metadata pipeline.roughness_curve, the tool's --roughness-curve): 2 to

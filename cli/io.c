@@ -819,7 +819,7 @@ static int cli_pic_info(const char *path, const char *what, int *w, int *h, int 
         return 0;
     }
     if (max_memory) { /* the decoded bytes, before decoding: RGBA at 8 bits, or 16 bits and its float copy */
-        double need = (double)*w * (double)*h * 4.0 * (is16 ? 2.0 + 4.0 : 1.0);
+        double need = (double)*w * (double)*h * 4.0 * (deep ? 2.0 + 4.0 : 1.0);
         if (need > (double)max_memory) {
             cli_error("%s '%s' (%dx%d) needs %.1f MiB decoded, more than --max-memory %.1f MiB", what, path, *w, *h, cli_mib(need),
                       cli_mib((double)max_memory));

@@ -100,7 +100,8 @@ check "--json summary" grep -q '"items": 22, "done": 22, "done_this_run": 1, "fa
 echo "not a picture" > lib/chars/broken.png
 "$BIN" batch image "${RUN[@]}" --out out2 --fail-fast lib/chars 2> log; rc=$?
 check "--fail-fast stops at the first failure (exit 1)" [ $rc -eq 1 ]
-check "--fail-fast: nothing after it" [ "$(count out2/journal.jsonl '"status"')" -eq 2 ] && tail -1 out2/journal.jsonl | grep -q '"item":"chars/broken"' 
+check "--fail-fast: nothing after it" [ "$(count out2/journal.jsonl '"status"')" -eq 2 ]
+check "--fail-fast: the last record is the failure" grep -q '"item":"broken",.*"status":"failed"' <(tail -1 out2/journal.jsonl)
 rm -f lib/chars/broken.png
 
 # ---- SIGKILL at random instants ----
@@ -120,11 +121,14 @@ check "after 12 kills the run to the end exits 0 (got $rc; $partial done before 
 check "after the kills every item done exactly once" each_done_once killed/journal.jsonl
 check "after the kills no FILE.tmp left" no_tmp killed
 check "after the kills every map identical to the reference" same_as_ref killed
-check "the kills interrupted the work ($partial of $ITEMS done before the last run)" [ "$partial" -gt 0 ] && [ "$partial" -lt $ITEMS ]
+check "the kills interrupted the work ($partial of $ITEMS done before the last run)" [ "$partial" -gt 0 ]
+check "the kills interrupted the work ($partial of $ITEMS done before the last run) (2)" [ "$partial" -lt $ITEMS ]
 
 # ---- shards and merge ----
 for i in 0 1 2; do "$BIN" batch image "${RUN[@]}" --out sharded --shard $i/3 lib 2>/dev/null || bad "shard $i/3"; done
-check "shards: journal per shard" [ -f sharded/journal.0-of-3.jsonl ] && [ -f sharded/journal.2-of-3.jsonl ] && [ ! -f sharded/journal.jsonl ]
+check "shards: journal per shard" [ -f sharded/journal.0-of-3.jsonl ]
+check "shards: journal per shard (2)" [ -f sharded/journal.2-of-3.jsonl ]
+check "shards: journal per shard (3)" [ ! -f sharded/journal.jsonl ]
 check "shards: 7 + 7 + 7 items" [ "$(count sharded/journal.0-of-3.jsonl done)$(count sharded/journal.1-of-3.jsonl done)$(count sharded/journal.2-of-3.jsonl done)" = 777 ]
 check "shards: disjoint, every item once" each_done_once sharded/journal.*-of-3.jsonl
 check "shards: maps identical to the reference" same_as_ref sharded
@@ -153,11 +157,16 @@ check "--jobs 3: maps identical to the reference" same_as_ref jobs
 } > list.txt
 "$BIN" batch image "${RUN[@]}" --out listed @list.txt 2> log; rc=$?
 check "manifest: exit 0 (got $rc)" [ $rc -eq 0 ]
-check "manifest: per-item outputs" [ -f listed/sphere_64_1_metallic.png ] && [ -f listed/box_40_1_albedo.png ] && [ ! -f listed/box_40_1_roughness.png ] && [ -f listed/ring_48x72_1_metallic.png ] && [ ! -f listed/ring_48x72_1_albedo.png ]
+check "manifest: per-item outputs" [ -f listed/sphere_64_1_metallic.png ]
+check "manifest: per-item outputs (2)" [ -f listed/box_40_1_albedo.png ]
+check "manifest: per-item outputs (3)" [ ! -f listed/box_40_1_roughness.png ]
+check "manifest: per-item outputs (4)" [ -f listed/ring_48x72_1_metallic.png ]
+check "manifest: per-item outputs (5)" [ ! -f listed/ring_48x72_1_albedo.png ]
 check "manifest: the maps are the reference's" cmp -s ref/props/box_40_1_albedo.png listed/box_40_1_albedo.png
 echo '{"input": "lib/a.png", "colour": 1}' > badlist.txt
 "$BIN" batch image "${RUN[@]}" --out listed2 @badlist.txt 2> log; rc=$?
-check "manifest: an unknown key is a usage error naming the line" [ $rc -eq 2 ] && grep -q 'badlist.txt:1: unknown key "colour"' log
+check "manifest: an unknown key is a usage error naming the line" [ $rc -eq 2 ]
+check "manifest: an unknown key is a usage error naming the line (2)" grep -q 'badlist.txt:1: unknown key "colour"' log
 echo '{"input": "lib/a.png"' > badlist.txt
 "$BIN" batch image "${RUN[@]}" --out listed2 @badlist.txt 2> log; rc=$?
 check "manifest: malformed JSON is a usage error" [ $rc -eq 2 ]
@@ -178,7 +187,9 @@ if command -v parallel >/dev/null 2>&1; then
     done
     wait $ppid; prc=$?
     before=$(count fan/journal.1-of-3.jsonl done)
-    check "parallel: one worker killed mid-run (killed=$killed, exit $prc, shard 1 had $before of 7)" [ $killed -eq 1 ] && [ $prc -ne 0 ] && [ "$before" -lt 7 ]
+    check "parallel: one worker killed mid-run (killed=$killed, exit $prc, shard 1 had $before of 7)" [ $killed -eq 1 ]
+    check "parallel: one worker killed mid-run (killed=$killed, exit $prc, shard 1 had $before of 7) (2)" [ $prc -ne 0 ]
+    check "parallel: one worker killed mid-run (killed=$killed, exit $prc, shard 1 had $before of 7) (3)" [ "$before" -lt 7 ]
     parallel --will-cite --joblog fan/joblog --resume-failed -j3 "$BIN" batch image "${RUN[@]}" --out fan --shard {}/3 lib ::: 0 1 2 2>/dev/null; prc=$?
     check "parallel --resume-failed: exit 0 (got $prc)" [ $prc -eq 0 ]
     check "parallel: every item done exactly once" each_done_once fan/journal.*-of-3.jsonl
@@ -194,7 +205,8 @@ for i in 0 1 2 3; do
         bash "$SCRIPT" lib 2>/dev/null || bad "slurm task $i"
 done
 OUT=slurm SUPERMAT="$BIN" SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_MAX=3 SUPERMAT_ARGS="${RUN[*]}" bash "$SCRIPT" lib 2>/dev/null
-check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard done" [ $? -eq 0 ] && [ "$(count slurm/journal.1-of-4.jsonl done)" -eq 5 ]
+check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard done" [ $? -eq 0 ]
+check "slurm: a resubmitted task (SLURM_ARRAY_TASK_MAX only) finds its shard done (2)" [ "$(count slurm/journal.1-of-4.jsonl done)" -eq 5 ]
 check "slurm: 4 journals, every item once" each_done_once slurm/journal.*-of-4.jsonl
 "$BIN" batch --merge --out slurm lib 2>/dev/null; check "slurm: the merge step finds every item" [ $? -eq 0 ]
 check "slurm: maps identical to the reference" same_as_ref slurm
@@ -263,7 +275,8 @@ EOC
         done
         for _ in $(seq 1500); do [ -z "$(squeue -h -j "$jid" 2>/dev/null)" ] && break; sleep 0.1; done
         before=$(count sl/journal.1-of-4.jsonl done)
-        check "slurm cluster: task 1 cancelled mid-run (cancelled=$cancelled, it had $before of 5)" [ $cancelled -eq 1 ] && [ "$before" -lt 5 ]
+        check "slurm cluster: task 1 cancelled mid-run (cancelled=$cancelled, it had $before of 5)" [ $cancelled -eq 1 ]
+        check "slurm cluster: task 1 cancelled mid-run (cancelled=$cancelled, it had $before of 5) (2)" [ "$before" -lt 5 ]
         check "slurm cluster: the other tasks finished their shards" [ "$(count sl/journal.0-of-4.jsonl done)$(count sl/journal.2-of-4.jsonl done)$(count sl/journal.3-of-4.jsonl done)" = 655 ]
         jid2=$(OUT=$T/sl SHARDS=4 SUPERMAT="$BIN" SUPERMAT_ARGS="${RUN[*]}" sbatch --parsable --array=1 --cpus-per-task=1 \
                --chdir="$T" --output="$T/sl-%A_%a.log" "$SCRIPT" "$T/lib")
@@ -291,7 +304,8 @@ cp "$DATA/img/box_40.png" stems/sub/a.png  # another folder: no clash, its plain
 check "shared stems: exit 0, every picture done (got $rc)" [ $rc -eq 0 ]
 check "shared stems: a.png's maps as a_png_*, those of \`image a.png\`" cmp -s stems_ref_png/a_albedo.png stems_out/a_png_albedo.png
 check "shared stems: a.jpg's maps as a_jpg_*, those of \`image a.jpg\`" cmp -s stems_ref_jpg/a_albedo.png stems_out/a_jpg_albedo.png
-check "shared stems: b (no clash) keeps its plain stem" [ -f stems_out/b_metallic.png ] && [ ! -e stems_out/b_png_metallic.png ]
+check "shared stems: b (no clash) keeps its plain stem" [ -f stems_out/b_metallic.png ]
+check "shared stems: b (no clash) keeps its plain stem (2)" [ ! -e stems_out/b_png_metallic.png ]
 check "shared stems: sub/a.png (alone in its folder) keeps its plain stem" [ -f stems_out/sub/a_roughness.png ]
 check "shared stems: the journal's items a_jpg, a_png, b, sub/a, each done" \
     [ "$(grep '"status":"done"' stems_out/journal.jsonl | sed 's/^{"item":"\([^"]*\)".*/\1/' | sort | tr '\n' ' ')" = "a_jpg a_png b sub/a " ]
@@ -299,16 +313,20 @@ check "shared stems: the journal's items a_jpg, a_png, b, sub/a, each done" \
 check "shared stems, image: exit 0 (got $rc), the same names and maps as the batch" \
     [ $rc -eq 0 ] && cmp -s stems_img/a_png_albedo.png stems_out/a_png_albedo.png && cmp -s stems_img/a_jpg_metallic.png stems_out/a_jpg_metallic.png
 "$BIN" image "${RUN[@]}" --out stems_twice stems/a.png stems/a.png stems/b.png > /dev/null 2> log; rc=$?
-check "image: one picture named twice is still a usage error (exit $rc), nothing written" [ $rc -eq 2 ] && [ ! -e stems_twice ] && grep -q "would write the same files" log
+check "image: one picture named twice is still a usage error (exit $rc), nothing written" [ $rc -eq 2 ]
+check "image: one picture named twice is still a usage error (exit $rc), nothing written (2)" [ ! -e stems_twice ]
+check "image: one picture named twice is still a usage error (exit $rc), nothing written (3)" grep -q "would write the same files" log
 cp stems/b.png stems/a_png.jpg  # a.png -> a_png would meet a_png.jpg's own stem
 "$BIN" image "${RUN[@]}" --out stems_meet stems/a.png stems/a.jpg stems/a_png.jpg > /dev/null 2> log; rc=$?
-check "image: a.png, a.jpg and a_png.jpg still meet: usage error (exit $rc), nothing written" [ $rc -eq 2 ] && [ ! -e stems_meet ]
+check "image: a.png, a.jpg and a_png.jpg still meet: usage error (exit $rc), nothing written" [ $rc -eq 2 ]
+check "image: a.png, a.jpg and a_png.jpg still meet: usage error (exit $rc), nothing written (2)" [ ! -e stems_meet ]
 
 # ---- a 16-bit picture: read at full precision, as `image` reads it (it was refused per item) ----
 mkdir -p deep && cp "$DATA/img/sphere_64_16bit.png" deep/
 "$BIN" image "${RUN[@]}" --out deep_ref deep/sphere_64_16bit.png > /dev/null 2>&1 || bad "reference image run of a 16-bit picture"
 "$BIN" batch image "${RUN[@]}" --out deep_out deep > /dev/null 2>&1; rc=$?
-check "batch image, a 16-bit picture: exit 0 (got $rc), the maps of \`image\`" [ $rc -eq 0 ] && cmp -s deep_ref/sphere_64_16bit_albedo.png deep_out/sphere_64_16bit_albedo.png
+check "batch image, a 16-bit picture: exit 0 (got $rc), the maps of \`image\`" [ $rc -eq 0 ]
+check "batch image, a 16-bit picture: exit 0 (got $rc), the maps of \`image\` (2)" cmp -s deep_ref/sphere_64_16bit_albedo.png deep_out/sphere_64_16bit_albedo.png
 
 # ---- batch mesh ----
 if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
@@ -327,7 +345,8 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     check "batch mesh: exit 1 with a broken asset (got $rc)" [ $rc -eq 1 ]
     check "batch mesh: 6 done, 1 failed" [ "$(count mout/journal.jsonl '"status":"done"')$(count mout/journal.jsonl '"status":"failed"')" = 61 ]
     check "batch mesh: the asset mirrored, its textures as supermat mesh bakes them" cmp -s mref_baseColor.png mout/a/deep/asset_1_baseColor.png
-    check "batch mesh: a .gltf with its buffer beside it" [ -f mout/b/asset_2.gltf ] && [ -f mout/b/geo_2.bin ]
+    check "batch mesh: a .gltf with its buffer beside it" [ -f mout/b/asset_2.gltf ]
+    check "batch mesh: a .gltf with its buffer beside it (2)" [ -f mout/b/geo_2.bin ]
     "$BIN" batch mesh --model x --out mout m 2>/dev/null; check "batch mesh: an image option is a usage error" [ $? -eq 2 ]
     # mesh's options are checked once, by mesh's own parser, before any asset or folder: a usage error
     "$BIN" batch mesh "${MESH[@]}" --work-size 7 --out mbad m > /dev/null 2> log; rc=$?
@@ -335,7 +354,8 @@ if [ -n "$CUBE" ] && "$BIN" --version | grep -q mesh; then
     check "batch mesh --work-size 7: mesh's message" grep -q -- "--work-size: 'native' or a multiple of 8" log
     check "batch mesh --work-size 7: no output folder, no journal" [ ! -e mbad ]
     "$BIN" batch mesh --passthrough --refine --out mbad m > /dev/null 2> log; rc=$?
-    check "batch mesh --passthrough --refine: a usage error before any asset (got $rc)" [ $rc -eq 2 ] && [ ! -e mbad ]
+    check "batch mesh --passthrough --refine: a usage error before any asset (got $rc)" [ $rc -eq 2 ]
+    check "batch mesh --passthrough --refine: a usage error before any asset (got $rc) (2)" [ ! -e mbad ]
     rm -f m/b/broken.gltf
     for k in $(seq 6); do
         "$BIN" batch mesh "${MESH[@]}" --out mkill m >/dev/null 2>&1 &

@@ -28,6 +28,7 @@ PASS=0
 FAIL=0
 ok() { PASS=$((PASS + 1)); }
 bad() { FAIL=$((FAIL + 1)); echo "FAIL: $*"; }
+not() { ! "$@"; } # check "..." not grep -q ...: passes when the command fails
 check() { # check "description" command...
     local what=$1
     shift

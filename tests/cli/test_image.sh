@@ -145,7 +145,8 @@ for m in albedo roughness metallic; do
 done
 check_pfm "$OF/sphere_64_albedo.pfm" 64 64 3
 run image --model "$MODEL" --out "$T/alpha_bad" --alpha none "$SPHERE"
-check "image --alpha none: exit 2, a message" [ $RC -eq 2 ] && grep -q "is not keep or drop" "$T/err"
+check "image --alpha none: exit 2, a message" [ $RC -eq 2 ]
+check "image --alpha none: exit 2, a message (2)" grep -q "is not keep or drop" "$T/err"
 
 # ---- --max-memory: refused before allocating, with the sizes in the message --------------------------
 run image --model "$MODEL" --max-memory 1M --out "$T/mm1" "$SPHERE"

@@ -4,7 +4,8 @@
 #   bash tests/cli/test_inputs.sh BUILD/supermat tests/data
 #
 # A 16-bit PNG (the maps of its 8-bit twin; refused where 8 bits are read, by refine); PNG headers claiming
-# more than 16384 pixels a side, refused from the header; hostile pictures from fuzz/corpus/picture (JPEG
+# more than 16384 pixels a side, refused from the header; --max-memory against the decoded size of 8- and
+# 16-bit pictures, from the header; hostile pictures from fuzz/corpus/picture (JPEG
 # Huffman tables of more than 256 codes, refused before decoding, in image, sheet and a mesh's texture; a
 # BMP of negative width; GIF/HDR/PPM refused by their signature) while the corpus' valid pictures still read;
 # an EXIF-rotated JPEG processed upright; a folder; WebP with or without libwebp. Bad input: an image that is
@@ -40,6 +41,16 @@ printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x4e\x20\x00\x00\x4e\x20\x0
 run image --model "$MODEL" --out "$T/huge" "$T/huge2.png"
 check "a PNG claiming 20000x20000: exit 1" [ $RC -eq 1 ]
 check "a PNG claiming 20000x20000: says its size and the limit" grep -q "20000x20000: at most 16384 pixels a side" "$T/err"
+# --max-memory against the decoded picture, from the header: an 8-bit RGBA 4000x4000 is 61 MiB decoded (the check
+# counted the 16-bit cost, 6 times that, for every picture), a 16-bit one 366 MiB with its float copy
+printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x0f\xa0\x00\x00\x0f\xa0\x08\x06\x00\x00\x00\x02\xd2\x04\xa0\x00\x00\x00\x00IEND\xae\x42\x60\x82' > "$T/big8.png"
+printf '\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x0f\xa0\x00\x00\x0f\xa0\x10\x06\x00\x00\x00\x02\xd2\x04\xa0\x00\x00\x00\x00IEND\xae\x42\x60\x82' > "$T/big16.png"
+run image --model "$MODEL" --max-memory 100M --out "$T/bigmm" "$T/big8.png"
+check "an 8-bit 4000x4000 under --max-memory 100M: not refused for its decoded size (61 MiB)" [ $RC -eq 1 ]
+check "an 8-bit 4000x4000 under --max-memory 100M: not refused for its decoded size (61 MiB) (2)" not grep -q "decoded, more than" "$T/err"
+run image --model "$MODEL" --max-memory 100M --out "$T/bigmm" "$T/big16.png"
+check "a 16-bit 4000x4000 under --max-memory 100M: refused for its decoded size (366 MiB)" [ $RC -eq 1 ]
+check "a 16-bit 4000x4000 under --max-memory 100M: refused for its decoded size (366 MiB) (2)" grep -q "needs 366.2 MiB decoded, more than --max-memory 100.0 MiB" "$T/err"
 # hostile pictures from fuzz/fuzz_picture.c (fuzz/corpus/picture/regress_*): Debian's stb_image 2.27 writes past a
 # Huffman table for a JPEG table of more than 256 codes (also behind leading fill bytes, or cut off by the end of
 # the file: stb_image counts zeros there); a BMP's negative width
