@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 need=()
-for p in cmake make gcc g++ clang libstb-dev libembree-dev libopenimageio-dev libtinygltf-dev nlohmann-json3-dev pkg-config libwebp-dev zlib1g-dev parallel procps slurmctld slurmd slurm-client munge afl++ gcc-aarch64-linux-gnu qemu-user-static file python3-numpy python3-scipy python3-pil strace curl; do
+for p in cmake make gcc g++ clang libstb-dev libembree-dev libopenimageio-dev libtinygltf-dev nlohmann-json3-dev pkg-config libwebp-dev zlib1g-dev parallel procps slurmctld slurmd slurm-client munge afl++ gcc-aarch64-linux-gnu qemu-user-static file python3-numpy python3-scipy python3-pil python3-pytest strace curl; do
   dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
 done
 if [ ${#need[@]} -gt 0 ]; then
