@@ -93,8 +93,17 @@ def test_layout_and_version():
         assert d._start_canary == 0 and d._end_canary == 0
 
 
-def _python(code, **env_changes):
+def _env():
+    """This process's environment, PYTHONPATH made absolute: a child in another folder imports this supermat."""
     env = dict(os.environ)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(supermat.__file__)))
+    paths = [os.path.abspath(p) for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]
+    env["PYTHONPATH"] = os.pathsep.join([here] + paths)
+    return env
+
+
+def _python(code, **env_changes):
+    env = _env()
     for k, v in env_changes.items():
         if v is None:
             env.pop(k, None)
@@ -274,3 +283,17 @@ def test_threads_share_a_model(model):
         for name in supermat.MAPS:
             assert np.array_equal(maps[name], expected[s][name]), "thread %d, %s, %s" % (i, s, name)
     assert len(results) == 4
+
+
+# ---- the manual's examples -------------------------------------------------------------------------------
+@pytest.mark.parametrize("doc", ["README.md", os.path.join("python", "README.md")])
+def test_doc_examples_run(work, doc):
+    # the ```python block of each, run in a folder where photo.png is a test picture
+    text = open(os.path.join(REPO, doc)).read()
+    blocks = re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+    assert len(blocks) == 1, doc
+    folder = os.path.join(work, "doc_" + doc.replace(os.sep, "_"))
+    os.makedirs(folder, exist_ok=True)
+    Image.open(os.path.join(IMG, "sphere_64.png")).save(os.path.join(folder, "photo.png"))
+    r = subprocess.run([sys.executable, "-c", blocks[0]], cwd=folder, env=_env(), capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
