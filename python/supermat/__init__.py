@@ -17,6 +17,7 @@ model are looked for: supermat._paths (or supermat.library_path(), supermat.defa
 """
 import mmap
 import os
+import signal
 import threading
 
 import numpy as np
@@ -289,9 +290,9 @@ class Model:
         False), or a value (--detail, --chroma). roughness_curve: None = the file's, "off", or the knots (a
         list, or the CLI's text "0.2,0.5,0.8"). threads: None = the model's. max_memory: bytes this call's
         session may take (0 = no limit).
-        progress: a callable progress(fraction, what) called between layers (on the calling thread, or a
-        pool thread, with the GIL); a true return value stops the run with supermat.Cancelled, an exception
-        stops it and is raised again here.
+        progress: a callable progress(fraction, what) called between layers (on the calling thread, with the
+        GIL); a true return value stops the run with supermat.Cancelled, an exception stops it and is raised
+        again here. Ctrl-C (KeyboardInterrupt) stops a run between two layers, with or without a callable.
         Raises supermat.Error (InvalidArgument for bad arrays and options, Cancelled) with the library's
         message and result code."""
         lib = _lib()
@@ -334,17 +335,24 @@ class Model:
                 maps[name] = np.empty((h, w, 3) if name == "albedo" else (h, w), dtype)
                 setattr(rd, name, _image(maps[name], fmt))
 
-        # progress: the callable's answer, or its exception (kept, and raised again after the run)
-        caught = []
-        if progress is not None:
-            def on_progress(user, fraction, what):
-                try:
-                    return 1 if progress(float(fraction), what.decode() if what else "") else 0
-                except BaseException as e:  # noqa: B036 (re-raised after the run, KeyboardInterrupt too)
-                    caught.append(e)
+        # progress: the callable's answer, or its exception (kept, and raised again after the run). Installed
+        # without a callable too, for Ctrl-C: the library calls it between layers on this thread, where Python
+        # runs its signal handlers; while the run is in C, SIGINT only sets `interrupted` (a KeyboardInterrupt
+        # raised on entering the callback would be swallowed by ctypes), the callback then cancels the run and
+        # KeyboardInterrupt is raised after it.
+        caught, interrupted = [], []
+
+        def on_progress(user, fraction, what):
+            try:
+                if interrupted:
                     return 1
-            cb = _capi.PROGRESS_FN(on_progress)
-            rd.progress = cb
+                if progress is None:
+                    return 0
+                return 1 if progress(float(fraction), what.decode() if what else "") else 0
+            except BaseException as e:  # re-raised after the run (KeyboardInterrupt too)
+                caught.append(e)
+                return 1
+        rd.progress = _capi.PROGRESS_FN(on_progress)
 
         handle = self._acquire()
         try:
@@ -357,14 +365,22 @@ class Model:
             r = lib.supermat_session_create(sd, sess, err)
             if r != _capi.SUCCESS:
                 _raise(r, err, "session for a %dx%d picture" % (w, h))
+            old_sigint = None   # only the main thread has signal handlers; a program's own handler is kept
+            if (threading.current_thread() is threading.main_thread() and
+                    signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+                old_sigint = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
             try:
                 r = lib.supermat_run(sess, rd, err)
             finally:
+                if old_sigint is not None:
+                    signal.signal(signal.SIGINT, old_sigint)
                 lib.supermat_session_destroy(sess)
         finally:
             self._release()
         if caught:
             raise caught[0]
+        if interrupted:
+            raise KeyboardInterrupt
         if r != _capi.SUCCESS:
             _raise(r, err, "image")
         return maps

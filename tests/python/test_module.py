@@ -297,3 +297,23 @@ def test_doc_examples_run(work, doc):
     Image.open(os.path.join(IMG, "sphere_64.png")).save(os.path.join(folder, "photo.png"))
     r = subprocess.run([sys.executable, "-c", blocks[0]], cwd=folder, env=_env(), capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
+
+
+def test_ctrl_c_stops_a_run():
+    # SIGINT during a long run (the picture at 1024x1024: many seconds) without a progress callable: the
+    # run stops at the next layer and KeyboardInterrupt comes out of image()
+    code = """if 1:
+        import os, signal, threading, time, numpy as np, supermat
+        m = supermat.Model()
+        pic = np.full((64, 64, 3), 128, np.uint8)
+        threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        t0 = time.time()
+        try:
+            m.image(pic, work_size=1024)
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted after %.2f s" % (time.time() - t0))
+    """
+    r = _python(code)
+    assert r.returncode == 0 and "interrupted" in r.stdout, r.stdout + r.stderr
+    print(r.stdout)
