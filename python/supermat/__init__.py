@@ -12,7 +12,8 @@ target supermat_shared) and gives the maps `supermat image` writes, as numpy arr
     maps["metallic"]    # (H, W) uint8, linear
 
 The model file's pipeline (its work size, detail and colour steps, roughness curve) is applied unless an
-argument says otherwise, so the maps are `supermat image`'s, byte for byte. Where the library and the default
+argument says otherwise, so the maps are `supermat image`'s, byte for byte. supermat.bake() does the same for
+a textured mesh (supermat_uv.h, `supermat mesh`). Where the library and the default
 model are looked for: supermat._paths (or supermat.library_path(), supermat.default_model_path()).
 """
 import mmap
@@ -25,7 +26,7 @@ import numpy as np
 from . import _capi, _paths
 from ._capi import LoadError
 
-__all__ = ["Model", "Error", "Cancelled", "InvalidArgument", "ModelNotFound", "LibraryNotFound", "library_path",
+__all__ = ["Model", "bake", "Error", "Cancelled", "InvalidArgument", "ModelNotFound", "LibraryNotFound", "library_path",
            "default_model_path", "library_version", "MAPS"]
 __version__ = "0.2.0"
 
@@ -335,45 +336,20 @@ class Model:
                 maps[name] = np.empty((h, w, 3) if name == "albedo" else (h, w), dtype)
                 setattr(rd, name, _image(maps[name], fmt))
 
-        # progress: the callable's answer, or its exception (kept, and raised again after the run). Installed
-        # without a callable too, for Ctrl-C: the library calls it between layers on this thread, where Python
-        # runs its signal handlers; while the run is in C, SIGINT only sets `interrupted` (a KeyboardInterrupt
-        # raised on entering the callback would be swallowed by ctypes), the callback then cancels the run and
-        # KeyboardInterrupt is raised after it.
-        caught, interrupted = [], []
-
-        def on_progress(user, fraction, what):
-            try:
-                if interrupted:
-                    return 1
-                if progress is None:
-                    return 0
-                return 1 if progress(float(fraction), what.decode() if what else "") else 0
-            except BaseException as e:  # re-raised after the run (KeyboardInterrupt too)
-                caught.append(e)
-                return 1
-        rd.progress = _capi.PROGRESS_FN(on_progress)
-
+        err = _capi.supermat_error()
         handle = self._acquire()
         try:
             if self._info.kind != 1:
                 raise InvalidArgument("model '%s' is a %s model; image() runs supermat (single-view) models"
                                       % (self.path, self.kind), _capi.ERROR_INVALID_ARGUMENT)
             sd.model = handle
-            err = _capi.supermat_error()
             sess = _capi.c_void_p()
             r = lib.supermat_session_create(sd, sess, err)
             if r != _capi.SUCCESS:
                 _raise(r, err, "session for a %dx%d picture" % (w, h))
-            old_sigint = None   # only the main thread has signal handlers; a program's own handler is kept
-            if (threading.current_thread() is threading.main_thread() and
-                    signal.getsignal(signal.SIGINT) is signal.default_int_handler):
-                old_sigint = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
             try:
-                r = lib.supermat_run(sess, rd, err)
+                r, caught, interrupted = _with_progress(lambda: lib.supermat_run(sess, rd, err), rd, progress)
             finally:
-                if old_sigint is not None:
-                    signal.signal(signal.SIGINT, old_sigint)
                 lib.supermat_session_destroy(sess)
         finally:
             self._release()
@@ -386,10 +362,46 @@ class Model:
         return maps
 
 
+def _with_progress(call, desc, progress):
+    """call() (a supermat_run or supermat_uv_bake of desc) with desc.progress set: (result, [exception], interrupted).
+
+    progress: the callable's answer, or its exception (kept, and raised again by the caller after the run). The
+    callback is installed without a callable too, for Ctrl-C: the library calls it between layers on the calling
+    thread, where Python runs its signal handlers; while the run is in C, SIGINT only sets `interrupted` (a
+    KeyboardInterrupt raised on entering the callback would be swallowed by ctypes), the callback then cancels
+    the run and the caller raises KeyboardInterrupt."""
+    caught, interrupted = [], []
+
+    def on_progress(user, fraction, what):
+        try:
+            if interrupted:
+                return 1
+            if progress is None:
+                return 0
+            return 1 if progress(float(fraction), what.decode() if what else "") else 0
+        except BaseException as e:  # re-raised after the run (KeyboardInterrupt too)
+            caught.append(e)
+            return 1
+    desc.progress = _capi.PROGRESS_FN(on_progress)
+    old_sigint = None   # only the main thread has signal handlers; a program's own handler is kept
+    if (threading.current_thread() is threading.main_thread() and
+            signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        old_sigint = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
+    try:
+        r = call()
+    finally:
+        if old_sigint is not None:
+            signal.signal(signal.SIGINT, old_sigint)
+    return r, caught, bool(interrupted)
+
+
 # ---- arguments -> C ----------------------------------------------------------------------------------------
-def _input_array(array):
-    """(array, format): an (H, W, C) uint8 or float32 array whose pixels are packed (rows may be strided)."""
+def _input_array(array, gray=False):
+    """(array, format): an (H, W, C) uint8 or float32 array whose pixels are packed (rows may be strided);
+    gray: an (H, W) array is taken as (H, W, 1)."""
     a = np.asarray(array)
+    if gray and a.ndim == 2:
+        a = a[:, :, None]
     if a.dtype == np.uint8:
         fmt = _capi.FORMAT_U8
     elif a.dtype == np.float32 and a.dtype.isnative:
@@ -459,3 +471,6 @@ def _curve(lib, v):
         raise InvalidArgument("roughness_curve=[]: None (the model's), 'off' or 2 to %d knots" % _capi.CURVE_MAX_KNOTS,
                               _capi.ERROR_INVALID_ARGUMENT)
     return (_capi.c_float * len(vals))(*vals)
+
+
+from ._bake import bake  # noqa: E402 (it uses the names above)

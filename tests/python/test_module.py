@@ -16,6 +16,7 @@ Environment (CMakeLists.txt sets them): SUPERMAT_LIBRARY (the library under test
 `supermat` tool), SUPERMAT_TEST_WORK (a scratch folder; default: pytest's tmp_path).
 usage: python3 -m pytest tests/python/test_module.py   (PYTHONPATH=python)
 """
+import json
 import os
 import re
 import subprocess
@@ -317,3 +318,88 @@ def test_ctrl_c_stops_a_run():
     r = _python(code)
     assert r.returncode == 0 and "interrupted" in r.stdout, r.stdout + r.stderr
     print(r.stdout)
+
+
+# ---- bake: the mesh path ---------------------------------------------------------------------------------
+def write_cube_gltf(folder):
+    """A unit cube (glTF: Y up) into folder/cube.gltf (+ .bin, .png): each face its own 4 vertices with normals,
+    UVs in a 3x2 atlas, a patterned texture. Returns the same mesh as supermat_uv.h takes it (Z up) and the
+    texture."""
+    pos, nrm, uv, idx = [], [], [], []
+    faces = [((1, 0, 0), (0, 0, -1), (0, 1, 0)), ((-1, 0, 0), (0, 0, 1), (0, 1, 0)), ((0, 1, 0), (1, 0, 0), (0, 0, -1)),
+             ((0, -1, 0), (1, 0, 0), (0, 0, 1)), ((0, 0, 1), (1, 0, 0), (0, 1, 0)), ((0, 0, -1), (-1, 0, 0), (0, 1, 0))]
+    for f, (n, u, v) in enumerate(faces):
+        n, u, v = np.array(n, float), np.array(u, float), np.array(v, float)
+        cu, cv = (f % 3) / 3.0, (f // 3) / 2.0
+        base = len(pos)
+        for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            pos.append(0.5 * (n + a * u + b * v))
+            nrm.append(n)
+            uv.append((cu + (a + 1) / 2 / 3.0 * 0.9 + 0.015, cv + (1 - b) / 2 / 2.0 * 0.9 + 0.025))
+        idx += [base, base + 1, base + 2, base, base + 2, base + 3]
+    pos = np.array(pos, np.float32); nrm = np.array(nrm, np.float32); uv = np.array(uv, np.float32)
+    idx = np.array(idx, np.uint32)
+    blob = pos.tobytes() + nrm.tobytes() + uv.tobytes() + idx.tobytes()
+    n = len(pos)
+    views = [dict(buffer=0, byteOffset=0, byteLength=n * 12), dict(buffer=0, byteOffset=n * 12, byteLength=n * 12),
+             dict(buffer=0, byteOffset=n * 24, byteLength=n * 8), dict(buffer=0, byteOffset=n * 32, byteLength=idx.size * 4)]
+    acc = [dict(bufferView=0, componentType=5126, count=n, type="VEC3", min=pos.min(0).tolist(), max=pos.max(0).tolist()),
+           dict(bufferView=1, componentType=5126, count=n, type="VEC3"),
+           dict(bufferView=2, componentType=5126, count=n, type="VEC2"),
+           dict(bufferView=3, componentType=5125, count=int(idx.size), type="SCALAR")]
+    g = dict(asset=dict(version="2.0"), scene=0, scenes=[dict(nodes=[0])], nodes=[dict(mesh=0)],
+             meshes=[dict(primitives=[dict(attributes=dict(POSITION=0, NORMAL=1, TEXCOORD_0=2), indices=3, material=0)])],
+             materials=[dict(pbrMetallicRoughness=dict(baseColorTexture=dict(index=0), metallicFactor=0.0))],
+             textures=[dict(source=0)], images=[dict(uri="cube.png")],
+             buffers=[dict(uri="cube.bin", byteLength=len(blob))], bufferViews=views, accessors=acc)
+    yy, xx = np.mgrid[0:96, 0:96]
+    tex = np.stack([(xx * 2.5) % 256, (yy * 2.5) % 256, ((xx + yy) * 1.3) % 256], -1).astype(np.uint8)
+    Image.fromarray(tex).save(folder + "/cube.png")
+    open(folder + "/cube.bin", "wb").write(blob)
+    json.dump(g, open(folder + "/cube.gltf", "w"))
+    # the same mesh as supermat_uv.h takes it: Z up
+    def zup(a):
+        return np.stack([a[:, 0], -a[:, 2], a[:, 1]], 1)
+    return zup(pos), zup(nrm), uv, idx, tex
+
+
+@pytest.mark.parametrize("passthrough", [True, False])
+def test_bake_equals_cli_mesh(work, passthrough):
+    # `supermat mesh` on a glTF cube and supermat.bake() on the same mesh: the same texture bytes (passthrough,
+    # and the multi-view default model both find without model options)
+    if not os.path.isfile(CLI):
+        pytest.skip("no supermat tool at %s (SUPERMAT_TEST_CLI)" % CLI)
+    folder = os.path.join(work, "bake_" + ("passthrough" if passthrough else "model"))
+    os.makedirs(os.path.join(folder, "out"), exist_ok=True)
+    pos, nrm, uv, idx, tex = write_cube_gltf(folder)
+    subprocess.run([CLI, "mesh", "--force", "--size", "64", "--views-size", "64"] +
+                   (["--passthrough"] if passthrough else []) +
+                   [os.path.join(folder, "cube.gltf"), os.path.join(folder, "out", "cube.gltf")], check=True)
+    g = json.load(open(os.path.join(folder, "out", "cube.gltf")))
+    m = g["materials"][0]["pbrMetallicRoughness"]
+
+    def texture(t):
+        uri = g["images"][g["textures"][t["index"]]["source"]]["uri"]
+        return np.asarray(Image.open(os.path.join(folder, "out", uri)))[..., :3]
+    r = supermat.bake(pos, uv, tex, indices=idx.reshape(-1, 3), normals=nrm, passthrough=passthrough,
+                      texture_size=64, view_size=64)
+    assert r["base_color"].shape == (64, 64, 3) and r["base_color"].dtype == np.uint8
+    assert np.array_equal(texture(m["baseColorTexture"]), r["base_color"])
+    assert np.array_equal(texture(m["metallicRoughnessTexture"]), r["metallic_roughness"])
+    assert r["stats"]["triangles"] == 12 and r["stats"]["texels_chart"] > 0
+
+
+def test_bake_errors(work):
+    pos, nrm, uv, idx, tex = write_cube_gltf(os.path.join(work))
+    with pytest.raises(supermat.InvalidArgument, match="positions"):
+        supermat.bake(pos[:, :2], uv, tex, passthrough=True, texture_size=64, view_size=64)
+    bad = pos.copy()
+    bad[5, 1] = np.nan
+    with pytest.raises(supermat.Error) as e:
+        supermat.bake(bad, uv, tex, indices=idx, passthrough=True, texture_size=64, view_size=64)
+    assert e.value.result is not None and e.value.message
+    with pytest.raises(supermat.Error) as e:
+        supermat.bake(pos, uv, tex, indices=idx, passthrough=True, texture_size=60, view_size=64)
+    assert e.value.result == _capi.ERROR_INVALID_ARGUMENT and e.value.message
+    with pytest.raises(supermat.Cancelled):
+        supermat.bake(pos, uv, tex, indices=idx, texture_size=64, view_size=64, progress=lambda f, w: True)
