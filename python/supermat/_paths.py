@@ -12,7 +12,7 @@ The library (libsupermat.so, CMake's target supermat_shared), the first that exi
 The default model (supermat_default.safetensors), as `supermat image` finds it, the first that exists of:
   1. $SUPERMAT_MODEL, when set and not empty (a file that is not there is an error: no fallback);
   2. installed beside the library: <libdir>/../share/supermat/ (and ../../share for lib/<multiarch>);
-  3. the source checkout's models/;
+  3. the source checkout's models/ (this package's, or the one whose build folder holds the library);
   4. the model folder `supermat download` fills: $SUPERMAT_MODEL_DIR, else $XDG_DATA_HOME/supermat, else
      ~/.local/share/supermat;
   5. <sys.prefix>/share/supermat, /usr/local/share/supermat, /usr/share/supermat.
@@ -139,6 +139,11 @@ def default_model_candidates(library_path=None):
     repo = source_checkout()
     if repo:
         out.append((os.path.join(repo, "models", DEFAULT_MODEL), "the source checkout"))
+    if library_path and os.path.isabs(library_path):
+        # a library used from a checkout's build folder (an installed module, SUPERMAT_LIBRARY): that checkout's
+        built_in = os.path.dirname(os.path.dirname(os.path.realpath(library_path)))
+        if os.path.isfile(os.path.join(built_in, "supermat.h")):
+            out.append((os.path.join(built_in, "models", DEFAULT_MODEL), "the checkout the library was built in"))
     d = model_dir()
     if d:
         out.append((os.path.join(d, DEFAULT_MODEL), "the model folder"))
