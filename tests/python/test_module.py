@@ -369,6 +369,9 @@ def test_bake_equals_cli_mesh(work, passthrough):
     # and the multi-view default model both find without model options)
     if not os.path.isfile(CLI):
         pytest.skip("no supermat tool at %s (SUPERMAT_TEST_CLI)" % CLI)
+    built = subprocess.run([CLI, "--version"], capture_output=True, text=True).stdout
+    if not re.search(r"^built with:.*\bmesh\b", built, re.M):
+        pytest.skip("this supermat was built without `supermat mesh` (libtinygltf-dev)")
     folder = os.path.join(work, "bake_" + ("passthrough" if passthrough else "model"))
     os.makedirs(os.path.join(folder, "out"), exist_ok=True)
     pos, nrm, uv, idx, tex = write_cube_gltf(folder)
