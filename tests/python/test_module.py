@@ -174,6 +174,20 @@ def test_outputs_strides_and_progress(model):
     assert all(isinstance(w, str) for _, w in calls)
 
 
+def test_pipeline_options(model):
+    # the model file's roughness curve given back as a list (and as the CLI's text) changes nothing; "off" does
+    stem = "box_40"
+    full = module_maps(model, stem)["roughness"]
+    curve = model.info["roughness_curve"]
+    assert len(curve) >= 2 and model.info["work_size"] == 256
+    as_list = model.image(picture(stem), outputs="roughness", roughness_curve=curve)["roughness"]
+    as_text = model.image(picture(stem), outputs="roughness",
+                          roughness_curve=",".join(repr(float(v)) for v in curve))["roughness"]
+    off = model.image(picture(stem), outputs="roughness", roughness_curve="off")["roughness"]
+    assert np.array_equal(as_list, full) and np.array_equal(as_text, full)
+    assert not np.array_equal(off, full)
+
+
 # ---- errors ----------------------------------------------------------------------------------------------
 def test_cancel(model):
     pic = picture("box_40")
