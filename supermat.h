@@ -1798,6 +1798,34 @@ static void supermat__widen_scalar(const void *src, int fmt, const float *scale,
         dst[i] = fmt == 1 ? supermat__f16_to_f32(h[i]) : fmt == 2 ? supermat__bf16_to_f32(h[i]) : (float)q[i] * scale[i % SUPERMAT__NR];
 }
 
+#if SUPERMAT__HAS_NEON
+/* supermat__widen_scalar's values, 4 lanes at a time (every conversion is exact; int8 times its column scale
+   is one rounding, as there) */
+static void supermat__widen_neon(const void *src, int fmt, const float *scale, int kc, float *dst) {
+    size_t i, n = (size_t)kc * SUPERMAT__NR;
+    int k;
+    if (fmt == 1) {
+        const float16_t *h = (const float16_t *)src;
+        for (i = 0; i < n; i += 4) vst1q_f32(dst + i, vcvt_f32_f16(vld1_f16(h + i)));
+    } else if (fmt == 2) {
+        const uint16_t *h = (const uint16_t *)src;
+        for (i = 0; i < n; i += 4) vst1q_f32(dst + i, vreinterpretq_f32_u32(vshll_n_u16(vld1_u16(h + i), 16)));
+    } else {
+        const int8_t *q = (const int8_t *)src;
+        float32x4_t s0 = vld1q_f32(scale), s1 = vld1q_f32(scale + 4), s2 = vld1q_f32(scale + 8), s3 = vld1q_f32(scale + 12);
+        for (k = 0; k < kc; k++) {
+            int8x16_t v = vld1q_s8(q + 16 * (size_t)k);
+            int16x8_t lo = vmovl_s8(vget_low_s8(v)), hi = vmovl_high_s8(v);
+            float *d = dst + 16 * (size_t)k;
+            vst1q_f32(d, vmulq_f32(vcvtq_f32_s32(vmovl_s16(vget_low_s16(lo))), s0));
+            vst1q_f32(d + 4, vmulq_f32(vcvtq_f32_s32(vmovl_high_s16(lo)), s1));
+            vst1q_f32(d + 8, vmulq_f32(vcvtq_f32_s32(vmovl_s16(vget_low_s16(hi))), s2));
+            vst1q_f32(d + 12, vmulq_f32(vcvtq_f32_s32(vmovl_high_s16(hi)), s3));
+        }
+    }
+}
+#endif
+
 #if SUPERMAT__HAS_AVX2
 SUPERMAT__AVX2 static void supermat__ukr_avx2(int kc, const float *const *a, const float *b, float *c, size_t ldc, int mr,
                                               int nr, const float *bias, const float *r, size_t ldr, int accumulate) {
@@ -3304,10 +3332,76 @@ SUPERMAT__AVX2 static float supermat__softmax_block_avx2(float *s, int n, float 
     return corr;
 }
 #endif
+#if SUPERMAT__HAS_NEON
+/* the AVX2 functions above on 4 lanes: the same range reduction, polynomial and clamps */
+static float32x4_t supermat__exp_neon(float32x4_t x) {
+    float32x4_t fx, y, z, p;
+    int32x4_t e;
+    x = vminq_f32(x, vdupq_n_f32(88.3762626647949f));
+    x = vmaxq_f32(x, vdupq_n_f32(-87.3365447505531f));
+    fx = vrndnq_f32(vmulq_f32(x, vdupq_n_f32(1.44269504088896341f)));
+    x = vfmsq_f32(x, fx, vdupq_n_f32(0.693359375f));
+    x = vfmsq_f32(x, fx, vdupq_n_f32(-2.12194440e-4f));
+    z = vmulq_f32(x, x);
+    p = vdupq_n_f32(1.9875691500E-4f);
+    p = vfmaq_f32(vdupq_n_f32(1.3981999507E-3f), p, x);
+    p = vfmaq_f32(vdupq_n_f32(8.3334519073E-3f), p, x);
+    p = vfmaq_f32(vdupq_n_f32(4.1665795894E-2f), p, x);
+    p = vfmaq_f32(vdupq_n_f32(1.6666665459E-1f), p, x);
+    p = vfmaq_f32(vdupq_n_f32(5.0000001201E-1f), p, x);
+    y = vfmaq_f32(vaddq_f32(x, vdupq_n_f32(1.0f)), p, z);
+    e = vshlq_n_s32(vaddq_s32(vcvtnq_s32_f32(fx), vdupq_n_s32(127)), 23);
+    return vmulq_f32(y, vreinterpretq_f32_s32(e));
+}
+static void supermat__silu_neon(float *y, const float *x, int n) {
+    int i = 0;
+    for (; i + 4 <= n; i += 4) {
+        float32x4_t v = vld1q_f32(x + i);
+        vst1q_f32(y + i, vdivq_f32(v, vaddq_f32(vdupq_n_f32(1.0f), supermat__exp_neon(vnegq_f32(v)))));
+    }
+    for (; i < n; i++) {
+        float32x4_t v = vdupq_n_f32(x[i]);
+        y[i] = vgetq_lane_f32(vdivq_f32(v, vaddq_f32(vdupq_n_f32(1.0f), supermat__exp_neon(vnegq_f32(v)))), 0);
+    }
+}
+static float supermat__softmax_block_neon(float *s, int n, float scale, float *mrow, float *lrow) {
+    float32x4_t vs = vdupq_n_f32(scale), vmax = vdupq_n_f32(-INFINITY), vsum = vdupq_n_f32(0.0f);
+    float mx, mnew, corr, sum;
+    int c = 0;
+    for (; c + 4 <= n; c += 4) {
+        float32x4_t v = vmulq_f32(vld1q_f32(s + c), vs);
+        vst1q_f32(s + c, v);
+        vmax = vmaxq_f32(vmax, v);
+    }
+    mx = vmaxvq_f32(vmax);
+    for (; c < n; c++) { s[c] *= scale; if (s[c] > mx) mx = s[c]; }
+    mnew = *mrow > mx ? *mrow : mx;
+    corr = *mrow == -INFINITY ? 0.0f : expf(*mrow - mnew);
+    {
+        float32x4_t vm = vdupq_n_f32(mnew);
+        for (c = 0; c + 4 <= n; c += 4) {
+            float32x4_t e = supermat__exp_neon(vsubq_f32(vld1q_f32(s + c), vm));
+            vst1q_f32(s + c, e);
+            vsum = vaddq_f32(vsum, e);
+        }
+        sum = (vgetq_lane_f32(vsum, 0) + vgetq_lane_f32(vsum, 2)) + (vgetq_lane_f32(vsum, 1) + vgetq_lane_f32(vsum, 3));
+        for (; c < n; c++) {
+            s[c] = vgetq_lane_f32(supermat__exp_neon(vdupq_n_f32(s[c] - mnew)), 0);
+            sum += s[c];
+        }
+    }
+    *lrow = *lrow * corr + sum;
+    *mrow = mnew;
+    return corr;
+}
+#endif
 static void supermat__silu(const supermat__ctx *X, float *y, const float *x, int n) {
     int i;
 #if SUPERMAT__HAS_AVX2
     if (X->avx2) { supermat__silu_avx2(y, x, n); return; }
+#endif
+#if SUPERMAT__HAS_NEON
+    if (X->neon) { supermat__silu_neon(y, x, n); return; }
 #endif
     (void)X;
     for (i = 0; i < n; i++) y[i] = x[i] / (1.0f + expf(-x[i]));
@@ -3415,6 +3509,39 @@ SUPERMAT__AVX512 static void supermat__gn_sum_avx512(const float *x, size_t p0, 
 }
 #endif
 
+#if SUPERMAT__HAS_NEON
+/* supermat__gn_sum_avx2 on 2-lane doubles: 8 channels a block, each summed in pixel order (the squared
+   deviations fused, as there), the channels past the last block by the scalar loop */
+static void supermat__gn_sum_neon(const float *x, size_t p0, size_t p1, int C, const double *mc, double *acc) {
+    size_t p;
+    int c = 0;
+    for (; c + 8 <= C; c += 8) {
+        float64x2_t s0 = vdupq_n_f64(0.0), s1 = s0, s2 = s0, s3 = s0;
+        if (!mc) {
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                float32x4_t a = vld1q_f32(r), b = vld1q_f32(r + 4);
+                s0 = vaddq_f64(s0, vcvt_f64_f32(vget_low_f32(a)));
+                s1 = vaddq_f64(s1, vcvt_high_f64_f32(a));
+                s2 = vaddq_f64(s2, vcvt_f64_f32(vget_low_f32(b)));
+                s3 = vaddq_f64(s3, vcvt_high_f64_f32(b));
+            }
+        } else {
+            float64x2_t m0 = vld1q_f64(mc + c), m1 = vld1q_f64(mc + c + 2), m2 = vld1q_f64(mc + c + 4), m3 = vld1q_f64(mc + c + 6), d;
+            for (p = p0; p < p1; p++) {
+                const float *r = x + p * C + c;
+                float32x4_t a = vld1q_f32(r), b = vld1q_f32(r + 4);
+                d = vsubq_f64(vcvt_f64_f32(vget_low_f32(a)), m0); s0 = vfmaq_f64(s0, d, d);
+                d = vsubq_f64(vcvt_high_f64_f32(a), m1); s1 = vfmaq_f64(s1, d, d);
+                d = vsubq_f64(vcvt_f64_f32(vget_low_f32(b)), m2); s2 = vfmaq_f64(s2, d, d);
+                d = vsubq_f64(vcvt_high_f64_f32(b), m3); s3 = vfmaq_f64(s3, d, d);
+            }
+        }
+        vst1q_f64(acc + c, s0); vst1q_f64(acc + c + 2, s1); vst1q_f64(acc + c + 4, s2); vst1q_f64(acc + c + 6, s3);
+    }
+    supermat__gn_sum_scalar(x, p0, p1, C, c, mc, acc);
+}
+#endif
 static void supermat__gn_stats_task(void *user, int index, int thread) {
     const supermat__gn_args *a = (const supermat__gn_args *)user;
     int img = index / a->cpi, ch = index % a->cpi, C = a->in->c, cg = C / a->groups, c;
@@ -3431,6 +3558,9 @@ static void supermat__gn_stats_task(void *user, int index, int thread) {
 #endif
 #if SUPERMAT__HAS_AVX2
     if (a->X->avx2) { supermat__gn_sum_avx2(x, p0, p1, C, 0, mc, acc); return; }
+#endif
+#if SUPERMAT__HAS_NEON
+    if (a->X->neon) { supermat__gn_sum_neon(x, p0, p1, C, mc, acc); return; }
 #endif
     supermat__gn_sum_scalar(x, p0, p1, C, 0, mc, acc);
 }
@@ -3627,6 +3757,10 @@ static void supermat__attn_task(void *user, int index, int thread) {
             int c;
 #if SUPERMAT__HAS_AVX2
             if (a->X->avx2) corr = supermat__softmax_block_avx2(s, nk, a->scale, &mrow[r], &lrow[r]);
+            else
+#endif
+#if SUPERMAT__HAS_NEON
+            if (a->X->neon) corr = supermat__softmax_block_neon(s, nk, a->scale, &mrow[r], &lrow[r]);
             else
 #endif
             {
@@ -6530,7 +6664,7 @@ static void supermat__select_kernels(supermat__ctx *X) {
 #if SUPERMAT__HAS_NEON
     if (X->neon) {
         X->ukr = supermat__ukr_neon;
-        X->widen = supermat__widen_scalar;
+        X->widen = supermat__widen_neon;
         return;
     }
 #endif

@@ -482,6 +482,105 @@ static void test_exp(void) {
 #endif
 }
 
+/* the NEON passes against their scalar twins (aarch64 only; run under qemu by ctest neon): panel widening
+   (f16 and bf16 with subnormals, infinities and NaNs; int8 times its scales) bit for bit, NaN for NaN; exp against
+   float64 on [-87, 88] and at the extremes; SiLU against the scalar expf form; one online-softmax block
+   against the scalar form; GroupNorm (+SiLU) in both modes: the same means bit for bit (the sums run in
+   the same order), the outputs within 2e-6 */
+static void test_neon_twins(void) {
+#if SUPERMAT__HAS_NEON
+    kctx ks, kn;
+    int i, j, fmt, kc = 37, n = kc * 16;
+    uint16_t *h = (uint16_t *)malloc(sizeof(uint16_t) * (size_t)n);
+    signed char *q = (signed char *)malloc((size_t)n);
+    float *a = (float *)malloc(sizeof(float) * (size_t)n), *b = (float *)malloc(sizeof(float) * (size_t)n), sc[16];
+    double worst = 0;
+    if (!supermat_cpu().neon) { printf("SKIP: no NEON: the NEON twins were not tested\n"); free(h); free(q); free(a); free(b); return; }
+    for (i = 0; i < n; i++) { h[i] = (uint16_t)(rnd() * 32768.0 + 32768.0); q[i] = (signed char)(rnd() * 127.0); }
+    h[0] = 0x0001; h[1] = 0x7C00; h[2] = 0xFC00; h[3] = 0x7E01; h[4] = 0x8000; h[5] = 0x03FF; /* f16 subnormals, +-Inf, NaN, -0 */
+    for (i = 0; i < 16; i++) sc[i] = (float)(0.01 + 0.003 * i);
+    for (fmt = 1; fmt <= 3; fmt++) {
+        const void *src = fmt == 3 ? (const void *)q : (const void *)h;
+        supermat__widen_scalar(src, fmt, sc, kc, a);
+        supermat__widen_neon(src, fmt, sc, kc, b);
+        for (i = 0, j = 0; i < n; i++) /* the same bits, NaN for NaN (a signalling NaN comes out quiet from NEON) */
+            if (a[i] == a[i] ? memcmp(a + i, b + i, 4) != 0 : b[i] == b[i]) j++;
+        TU_CHECK(j == 0, "NEON widening, format %d: %d values not the scalar bits", fmt, j);
+    }
+    printf("neon twins: f16 / bf16 / int8 panel widening bit-identical to scalar (%d values each)\n", n);
+    for (i = 0; i < 40000; i++) {
+        float x[4], y[4];
+        for (j = 0; j < 4; j++) x[j] = (float)(-87.0 + 175.0 * (i * 4 + j) / 160000.0);
+        vst1q_f32(y, supermat__exp_neon(vld1q_f32(x)));
+        for (j = 0; j < 4; j++) { double r = exp((double)x[j]), e = fabs(y[j] - r) / r; if (e > worst) worst = e; }
+    }
+    TU_CHECK(worst < 4e-7, "NEON exp max relative error %.3g on [-87, 88]", worst);
+    {
+        float x[8] = {-1000.0f, 1000.0f, -INFINITY, 0.0f, -87.5f, 1e-30f, -1e-30f, 88.0f}, y[8];
+        vst1q_f32(y, supermat__exp_neon(vld1q_f32(x))); vst1q_f32(y + 4, supermat__exp_neon(vld1q_f32(x + 4)));
+        TU_CHECK(y[0] >= 0 && y[0] < 1e-37 && y[1] > 1e38 && y[2] >= 0 && y[2] < 1e-37 && y[3] == 1.0f && y[5] == 1.0f && y[6] == 1.0f && nan_free(y, 8),
+                 "NEON exp at the extremes: %g %g %g %g %g", y[0], y[1], y[2], y[3], y[4]);
+    }
+    printf("neon twins: exp within %.2g (relative) of float64 on [-87, 88], clamped at the extremes\n", worst);
+    kctx_init(&ks, 0, 1); kctx_init(&kn, 3, 1);
+    { /* SiLU over a wide range (and past exp's range), the scalar twin is x / (1 + expf(-x)) */
+        int m = 1001;
+        float *x = rvec((size_t)m, 40.0), *ys = (float *)malloc(sizeof(float) * (size_t)m), *yn = (float *)malloc(sizeof(float) * (size_t)m);
+        double e = 0;
+        x[0] = 120.0f; x[1] = -120.0f; x[2] = 0.0f;
+        supermat__silu(&ks.X, ys, x, m); supermat__silu(&kn.X, yn, x, m);
+        for (i = 0; i < m; i++) { double d = fabs((double)yn[i] - ys[i]) / (fabs(ys[i]) > 1e-3 ? fabs(ys[i]) : 1e-3); if (d > e) e = d; }
+        TU_CHECK(nan_free(yn, (size_t)m) && e < 2e-6, "NEON SiLU vs scalar: %.3g", e);
+        printf("neon twins: SiLU within %.2g of the scalar twin (relative, 1001 values in [-120, 120])\n", e);
+        free(x); free(ys); free(yn);
+    }
+    { /* one online-softmax block, twice (the running max and sum carried over) */
+        int m = 203, pass;
+        float *s0 = rvec((size_t)m, 30.0), *s1 = (float *)malloc(sizeof(float) * (size_t)m), ms = -INFINITY, ls = 0, mn = -INFINITY, ln = 0;
+        double e = 0;
+        for (pass = 0; pass < 2; pass++) {
+            float mx = -INFINITY, sum = 0.0f, corr_s, corr_n, mnew;
+            int c;
+            memcpy(s1, s0, sizeof(float) * (size_t)m);
+            corr_n = supermat__softmax_block_neon(s1, m, 0.125f, &mn, &ln);
+            for (c = 0; c < m; c++) { s0[c] *= 0.125f; if (s0[c] > mx) mx = s0[c]; } /* the scalar twin, as in the attention */
+            mnew = ms > mx ? ms : mx;
+            corr_s = ms == -INFINITY ? 0.0f : expf(ms - mnew);
+            for (c = 0; c < m; c++) { s0[c] = expf(s0[c] - mnew); sum += s0[c]; }
+            ls = ls * corr_s + sum; ms = mnew;
+            for (c = 0; c < m; c++) { double d = fabs((double)s1[c] - s0[c]); if (d > e) e = d; }
+            TU_CHECK(mn == ms && fabs((double)ln - ls) <= 1e-5 * ls && fabs((double)corr_n - corr_s) <= 1e-6, "NEON softmax block %d: max %g / %g, sum %g / %g", pass, mn, ms, ln, ls);
+            for (c = 0; c < m; c++) s0[c] = (float)(rnd() * 30.0);
+        }
+        TU_CHECK(e < 1e-6, "NEON softmax block vs scalar: %.3g", e);
+        printf("neon twins: online softmax block within %.2g of the scalar twin\n", e);
+        free(s0); free(s1);
+    }
+    { /* GroupNorm (+SiLU): 72 channels in 8 groups (9 a group: blocks of 8 and a scalar tail), 300 pixels (two chunks) */
+        int C = 72, groups = 8, pix = 300, silu;
+        size_t total = (size_t)pix * C;
+        float *x = rvec(total, 4.0), *gm = rvec((size_t)C, 1.0), *bt = rvec((size_t)C, 1.0), *ys = (float *)malloc(sizeof(float) * total), *yn = (float *)malloc(sizeof(float) * total);
+        supermat__norm nm;
+        supermat__t in, out;
+        for (silu = 0; silu < 2; silu++) {
+            double e = 0;
+            size_t p;
+            nm.g = gm; nm.b = bt; nm.c = C; nm.eps = 1e-5f;
+            in.d = x; in.n = 1; in.h = 15; in.w = 20; in.c = C; out = in;
+            out.d = ys; ks.X.status = SUPERMAT_SUCCESS; supermat__groupnorm(&ks.X, &in, &out, &nm, groups, silu);
+            out.d = yn; kn.X.status = SUPERMAT_SUCCESS; supermat__groupnorm(&kn.X, &in, &out, &nm, groups, silu);
+            for (p = 0; p < total; p++) { double d = fabs((double)yn[p] - ys[p]); if (d > e) e = d; }
+            for (i = 0; i < groups; i++) TU_CHECK(ks.X.gn_stats[i] == kn.X.gn_stats[i], "NEON GroupNorm group %d: mean %.17g vs scalar %.17g", i, kn.X.gn_stats[i], ks.X.gn_stats[i]); /* means first, then 1/std */
+            TU_CHECK(nan_free(yn, total) && e < 2e-6, "NEON GroupNorm (silu %d) vs scalar: %.3g", silu, e);
+            printf("neon twins: GroupNorm%s within %.2g of the scalar twin, the same means\n", silu ? " + SiLU" : "", e);
+        }
+        free(x); free(gm); free(bt); free(ys); free(yn);
+    }
+    kctx_free(&ks); kctx_free(&kn);
+    free(h); free(q); free(a); free(b);
+#endif
+}
+
 /* AVX-512 (12 x 16 and 12 x 32) and AVX2 micro-kernels sum every output element in the same order: the
    same bits, for GEMMs with bias, residual and several K blocks, convolutions and attention */
 static void test_same_bits(void) {
@@ -821,6 +920,7 @@ int main(void) {
     test_json();
     test_scheduler();
     test_exp();
+    test_neon_twins();
     test_winograd();
     test_same_bits();
     test_bf16_compute();
