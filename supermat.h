@@ -3583,6 +3583,13 @@ static void supermat__gn_apply_task(void *user, int index, int thread) {
                 mean[c] = (float)m;
             }
         }
+#if SUPERMAT__HAS_NEON
+        if (a->X->neon) { /* the scalar loop's operations, 4 lanes at a time (no fused multiply-add) */
+            for (c = 0; c + 4 <= C; c += 4)
+                vst1q_f32(y + c, vaddq_f32(vmulq_f32(vsubq_f32(vld1q_f32(x + c), vld1q_f32(mean + c)), vld1q_f32(scale + c)), vld1q_f32(a->nm->b + c)));
+            for (; c < C; c++) y[c] = (x[c] - mean[c]) * scale[c] + a->nm->b[c];
+        } else
+#endif
         for (c = 0; c < C; c++) y[c] = (x[c] - mean[c]) * scale[c] + a->nm->b[c];
         if (a->silu) supermat__silu(a->X, y, y, C);
     }
