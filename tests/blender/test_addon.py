@@ -1,0 +1,216 @@
+"""ctest blender_addon: the Blender add-on integrations/blender/supermat_blender in Debian's Blender (3.4), headless.
+
+Run by tests/blender/run_test.sh as
+    blender -b --factory-startup --python-exit-code 1 --python tests/blender/test_addon.py -- WORK CLI LIBRARY
+Checks:
+  - the add-on folder, zipped, installs (preferences.addon_install) and enables; its preferences point it at the
+    checkout's python/ and the library under test;
+  - a glTF cube of the project's making (tests/python/test_module.py's write_cube_gltf) imported with Blender's
+    glTF importer, then Object > Estimate PBR material on it (64 px textures, 64 px views, the multi-view default
+    model): the Principled BSDF's Base Color, Roughness and Metallic come from the add-on's image nodes (sRGB base
+    colour; Non-Color metallic-roughness through Separate Color G and B), its other inputs are untouched, and the
+    new images equal `supermat mesh`'s textures of the same glTF within 1/255;
+  - a cancel from the progress callback stops a bake (supermat.Cancelled);
+  - Image > Estimate PBR maps on the cube's texture makes three images equal to Model.image()'s maps within 1/255;
+  - the .blend saved and opened again keeps the links and the (packed) images' pixels;
+  - a 320x240 Cycles render of the result (WORK/blender_addon.png; docs/img/blender_addon.png is one).
+"""
+import json
+import os
+import subprocess
+import sys
+import time
+import zipfile
+
+import bpy
+import numpy as np
+
+T0 = time.time()
+argv = sys.argv[sys.argv.index("--") + 1:]
+WORK, CLI, LIB = argv[:3]
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ADDON = os.path.join(REPO, "integrations", "blender", "supermat_blender")
+sys.path[:0] = [os.path.join(REPO, "python"), os.path.join(REPO, "tests", "python")]
+from test_module import write_cube_gltf   # noqa: E402  (the cube of the module's bake test)
+
+failures = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failures.append(what)
+
+
+def log(what):
+    print("[%5.1f s] %s" % (time.time() - T0, what))
+
+
+def pixels(img):
+    """A Blender image's (H, W, 3) bytes, top row first."""
+    w, h = img.size
+    px = np.empty(w * h * img.channels, np.float32)
+    img.pixels.foreach_get(px)
+    return np.rint(px.reshape(h, w, img.channels)[::-1, :, :3] * 255).astype(np.int32)
+
+
+def png(path):
+    img = bpy.data.images.load(path, check_existing=False)
+    a = pixels(img)
+    bpy.data.images.remove(img)
+    return a
+
+
+# ---- the glTF and `supermat mesh`'s textures ----------------------------------------------------------------
+os.makedirs(os.path.join(WORK, "out"), exist_ok=True)
+write_cube_gltf(WORK)
+subprocess.run([CLI, "mesh", "--force", "--size", "64", "--views-size", "64", os.path.join(WORK, "cube.gltf"),
+                os.path.join(WORK, "out", "cube.gltf")], check=True)
+g = json.load(open(os.path.join(WORK, "out", "cube.gltf")))
+pbr = g["materials"][0]["pbrMetallicRoughness"]
+cli_tex = {k: png(os.path.join(WORK, "out", g["images"][g["textures"][pbr[k]["index"]]["source"]]["uri"]))
+           for k in ("baseColorTexture", "metallicRoughnessTexture")}
+log("supermat mesh done")
+
+# ---- install and enable the add-on from the repository ----------------------------------------------------
+bpy.ops.wm.read_factory_settings(use_empty=True)
+zpath = os.path.join(WORK, "supermat_blender.zip")
+with zipfile.ZipFile(zpath, "w") as z:
+    for name in sorted(os.listdir(ADDON)):
+        if name.endswith(".py"):
+            z.write(os.path.join(ADDON, name), "supermat_blender/" + name)
+bpy.ops.preferences.addon_install(filepath=zpath, overwrite=True)
+bpy.ops.preferences.addon_enable(module="supermat_blender")
+check("supermat_blender" in bpy.context.preferences.addons, "the add-on installs from a zip and enables")
+prefs = bpy.context.preferences.addons["supermat_blender"].preferences
+prefs.module_path = os.path.join(REPO, "python")
+prefs.library_path = LIB
+check(hasattr(bpy.ops.object, "supermat_estimate_material") and hasattr(bpy.ops.image, "supermat_estimate_maps"),
+      "its operators are registered")
+import supermat_blender   # noqa: E402  (the installed copy)
+from supermat_blender import core   # noqa: E402
+
+# ---- the operator on an imported glTF -----------------------------------------------------------------------
+# Debian 12's Blender 3.4 runs with Debian's numpy 1.24, which dropped np.bool: the glTF importer (io_scene_gltf2
+# 3.4) still uses it for meshes with normals
+if "bool" not in np.__dict__:
+    np.bool = bool
+bpy.ops.import_scene.gltf(filepath=os.path.join(WORK, "cube.gltf"))
+obj = next(o for o in bpy.context.scene.objects if o.type == "MESH")
+mat = obj.active_material
+bsdf = core.principled(mat)
+KEYS = ("Base Color", "Roughness", "Metallic")
+
+
+def inputs_state(b):
+    out = {}
+    for i in b.inputs:
+        v = getattr(i, "default_value", None)
+        v = tuple(v) if hasattr(v, "__len__") else v
+        out[i.identifier] = (v, [(l.from_node.name, l.from_socket.identifier) for l in i.links])
+    return out
+before = {k: v for k, v in inputs_state(bsdf).items() if k not in KEYS}
+src = core.source_image(mat, bsdf)
+check(src is not None and src.name.startswith("cube"), "the importer's base-colour image is found (%s)" % src)
+
+bpy.ops.object.select_all(action="DESELECT")
+obj.select_set(True)
+bpy.context.view_layer.objects.active = obj
+t = time.time()
+r = bpy.ops.object.supermat_estimate_material(texture_size=64, view_size=64)
+log("operator: %s in %.2f s" % (r, time.time() - t))
+check(r == {"FINISHED"}, "Estimate PBR material finishes")
+
+
+def check_material(mat, when):
+    b = core.principled(mat)
+    ln = {k: b.inputs[k].links[0] if b.inputs[k].is_linked else None for k in KEYS}
+    bc, rough, metal = ln["Base Color"], ln["Roughness"], ln["Metallic"]
+    check(bc is not None and bc.from_node.name == core.NODE_BASE_COLOR and bc.from_socket.name == "Color",
+          "%s: Base Color <- the add-on's image node" % when)
+    check(rough is not None and rough.from_node.type == "SEPARATE_COLOR" and rough.from_socket.name == "Green" and
+          metal is not None and metal.from_node == rough.from_node and metal.from_socket.name == "Blue",
+          "%s: Roughness <- Separate Color G, Metallic <- B" % when)
+    sep = rough.from_node
+    orm_link = sep.inputs["Color"].links[0] if sep.inputs["Color"].is_linked else None
+    check(orm_link is not None and orm_link.from_node.name == core.NODE_ORM, "%s: Separate Color <- the ORM image" % when)
+    bci, ormi = bc.from_node.image, orm_link.from_node.image
+    check(bci.colorspace_settings.name == "sRGB" and ormi.colorspace_settings.name == "Non-Color",
+          "%s: base colour sRGB, metallic-roughness Non-Color" % when)
+    after = {k: v for k, v in inputs_state(b).items() if k not in KEYS}
+    check(after == before, "%s: the BSDF's other inputs are untouched" % when)
+    for key, img in (("baseColorTexture", bci), ("metallicRoughnessTexture", ormi)):
+        d = np.abs(pixels(img) - cli_tex[key])
+        check(img.size[0] == 64 and int(d.max()) <= 1,
+              "%s: %s equals supermat mesh's within 1/255 (max difference %d, %.1f%% of values differ)"
+              % (when, key, d.max(), 100.0 * np.mean(d > 0)))
+    return bci, ormi
+
+
+check_material(mat, "after the operator")
+
+# ---- cancelling -------------------------------------------------------------------------------------------
+sm = core.import_supermat()
+jobs, _ = core.collect_jobs([obj], bpy.context.evaluated_depsgraph_get())
+settings = supermat_blender.bake_settings(sm, prefs, 64, 64)
+try:
+    jobs[0].run(sm, settings, progress=lambda f, what: True)
+    check(False, "a cancel from the progress callback stops the bake")
+except sm.Cancelled:
+    check(jobs[0].result is None, "a cancel from the progress callback stops the bake (supermat.Cancelled)")
+
+# ---- Image > Estimate PBR maps ---------------------------------------------------------------------------------
+r = bpy.ops.image.supermat_estimate_maps(image=src.name)
+check(r == {"FINISHED"}, "Estimate PBR maps finishes")
+arr = core.image_to_array(src)
+with sm.Model() as m:
+    want = m.image(arr)
+for name in ("albedo", "roughness", "metallic"):
+    img = bpy.data.images.get("cube_" + name)
+    w = want[name] if want[name].ndim == 3 else np.repeat(want[name][..., None], 3, 2)
+    d = np.abs(pixels(img) - w) if img else None
+    check(img is not None and int(d.max()) <= 1 and
+          img.colorspace_settings.name == ("sRGB" if name == "albedo" else "Non-Color"),
+          "image cube_%s equals Model.image()'s %s within 1/255" % (name, name))
+log("image operator done")
+
+# ---- save, open again -------------------------------------------------------------------------------------------
+blend = os.path.join(WORK, "result.blend")
+mat_name = mat.name
+bpy.ops.wm.save_as_mainfile(filepath=blend)
+bpy.ops.wm.open_mainfile(filepath=blend)
+mat = bpy.data.materials[mat_name]
+check_material(mat, "after save and reload")
+log("reloaded")
+
+# ---- a small render of the result ------------------------------------------------------------------------------
+scene = bpy.context.scene
+obj = next(o for o in scene.objects if o.type == "MESH")
+obj.rotation_euler = (0.0, 0.0, 0.6)
+cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+scene.collection.objects.link(cam)
+cam.location = (2.2, -2.6, 1.9)
+cam.rotation_euler = (1.03, 0.0, 0.70)
+scene.camera = cam
+sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+sun.data.energy = 4.0
+sun.rotation_euler = (0.7, 0.2, 0.5)
+scene.collection.objects.link(sun)
+if scene.world is None:
+    scene.world = bpy.data.worlds.new("world")
+scene.world.use_nodes = True
+scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.35, 0.38, 0.42, 1.0)
+scene.render.engine = "CYCLES"
+scene.cycles.device = "CPU"
+scene.cycles.samples = 16
+scene.cycles.use_denoising = False
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 320, 240, 100
+scene.render.image_settings.file_format = "PNG"
+scene.render.filepath = os.path.join(WORK, "blender_addon.png")
+bpy.ops.render.render(write_still=True)
+check(os.path.isfile(scene.render.filepath), "rendered %s" % scene.render.filepath)
+log("rendered")
+
+bpy.ops.preferences.addon_disable(module="supermat_blender")
+print("%d failure(s) in %.1f s" % (len(failures), time.time() - T0))
+sys.exit(1 if failures else 0)
