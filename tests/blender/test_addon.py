@@ -87,6 +87,15 @@ prefs.module_path = os.path.join(REPO, "python")
 prefs.library_path = LIB
 check(hasattr(bpy.ops.object, "supermat_estimate_material") and hasattr(bpy.ops.image, "supermat_estimate_maps"),
       "its operators are registered")
+# a zip-installed copy has no checkout around it (the preference above); a folder linked into scripts/addons
+# finds the checkout's python/ through the link
+import importlib.util   # noqa: E402
+os.symlink(ADDON, os.path.join(WORK, "linked_addon"))
+spec = importlib.util.spec_from_file_location("linked_core", os.path.join(WORK, "linked_addon", "core.py"))
+linked = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(linked)
+check(linked.checkout_python_dir() == os.path.join(REPO, "python"),
+      "a linked add-on folder finds the checkout's python/ (%s)" % linked.checkout_python_dir())
 import supermat_blender   # noqa: E402  (the installed copy)
 from supermat_blender import core   # noqa: E402
 
@@ -137,6 +146,7 @@ def check_material(mat, when):
     bci, ormi = bc.from_node.image, orm_link.from_node.image
     check(bci.colorspace_settings.name == "sRGB" and ormi.colorspace_settings.name == "Non-Color",
           "%s: base colour sRGB, metallic-roughness Non-Color" % when)
+    check(bci.packed_file is not None and ormi.packed_file is not None, "%s: the new images are packed" % when)
     after = {k: v for k, v in inputs_state(b).items() if k not in KEYS}
     check(after == before, "%s: the BSDF's other inputs are untouched" % when)
     for key, img in (("baseColorTexture", bci), ("metallicRoughnessTexture", ormi)):
@@ -183,29 +193,60 @@ mat = bpy.data.materials[mat_name]
 check_material(mat, "after save and reload")
 log("reloaded")
 
-# ---- a small render of the result ------------------------------------------------------------------------------
+# ---- the lit example mesh (examples/mesh/lit), a small render of the result -----------------------------------
+# a real mesh (a torus and a sphere, 8064 triangles) through the importer and the operator at 256 px, against
+# `supermat mesh` at the same sizes; then the Cycles render under the example's studio light
+LIT = os.path.join(REPO, "examples", "mesh", "lit", "example_pbr_lit.gltf")
+subprocess.run([CLI, "mesh", "--force", "--size", "256", "--views-size", "256", LIT,
+                os.path.join(WORK, "out", "lit.gltf")], check=True)
+g = json.load(open(os.path.join(WORK, "out", "lit.gltf")))
+pbr = g["materials"][0]["pbrMetallicRoughness"]
+cli_lit = {k: png(os.path.join(WORK, "out", g["images"][g["textures"][pbr[k]["index"]]["source"]]["uri"]))
+           for k in ("baseColorTexture", "metallicRoughnessTexture")}
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+bpy.ops.import_scene.gltf(filepath=LIT)
+obj = next(o for o in bpy.context.scene.objects if o.type == "MESH")
+bpy.ops.object.select_all(action="DESELECT")
+obj.select_set(True)
+bpy.context.view_layer.objects.active = obj
+t = time.time()
+r = bpy.ops.object.supermat_estimate_material(texture_size=256, view_size=256)
+log("operator on the lit example mesh: %s in %.2f s" % (r, time.time() - t))
+b = core.principled(obj.active_material)
+got = {"baseColorTexture": b.inputs["Base Color"].links[0].from_node.image,
+       "metallicRoughnessTexture": b.inputs["Roughness"].links[0].from_node.inputs["Color"].links[0].from_node.image}
+for key, img in got.items():
+    d = np.abs(pixels(img) - cli_lit[key])
+    check(r == {"FINISHED"} and int(d.max()) <= 1,
+          "lit example: %s equals supermat mesh's within 1/255 (max difference %d, %d of %d values differ)"
+          % (key, d.max(), np.count_nonzero(d), d.size))
+
+import mathutils   # noqa: E402
 scene = bpy.context.scene
-obj = next(o for o in scene.objects if o.type == "MESH")
-obj.rotation_euler = (0.0, 0.0, 0.6)
+corners = [obj.matrix_world @ mathutils.Vector(c) for c in obj.bound_box]
+center = sum(corners, mathutils.Vector()) / 8
+radius = max((c - center).length for c in corners)
 cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
 scene.collection.objects.link(cam)
-cam.location = (2.2, -2.6, 1.9)
-cam.rotation_euler = (1.03, 0.0, 0.70)
+cam.location = center + mathutils.Vector((0.9, -2.0, 1.1)).normalized() * radius * 3.4
+cam.rotation_euler = (center - cam.location).to_track_quat("-Z", "Y").to_euler()
 scene.camera = cam
-sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-sun.data.energy = 4.0
-sun.rotation_euler = (0.7, 0.2, 0.5)
-scene.collection.objects.link(sun)
 if scene.world is None:
     scene.world = bpy.data.worlds.new("world")
 scene.world.use_nodes = True
-scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.35, 0.38, 0.42, 1.0)
+wn = scene.world.node_tree
+env = wn.nodes.new("ShaderNodeTexEnvironment")
+env.image = bpy.data.images.load(os.path.join(REPO, "examples", "mesh", "studio_small_03_256.hdr"))
+wn.links.new(env.outputs["Color"], wn.nodes["Background"].inputs["Color"])
 scene.render.engine = "CYCLES"
 scene.cycles.device = "CPU"
-scene.cycles.samples = 16
+scene.cycles.samples = 32
 scene.cycles.use_denoising = False
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 320, 240, 100
 scene.render.image_settings.file_format = "PNG"
+scene.render.image_settings.color_mode = "RGBA"
+scene.render.film_transparent = True   # the studio light lights, the page shows through
 scene.render.filepath = os.path.join(WORK, "blender_addon.png")
 bpy.ops.render.render(write_still=True)
 check(os.path.isfile(scene.render.filepath), "rendered %s" % scene.render.filepath)

@@ -21,8 +21,9 @@ _module = None
 
 
 def checkout_python_dir():
-    """python/ of the repository checkout this add-on sits in (integrations/blender/supermat_blender/..), or None."""
-    d = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "python"))
+    """python/ of the repository checkout this add-on sits in (integrations/blender/supermat_blender/..), or None.
+    Symbolic links are followed: an add-on folder linked into Blender's scripts/addons finds its checkout."""
+    d = os.path.normpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..", "python"))
     return d if os.path.isfile(os.path.join(d, "supermat", "__init__.py")) else None
 
 
