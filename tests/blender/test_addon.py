@@ -160,14 +160,27 @@ def check_material(mat, when):
 check_material(mat, "after the operator")
 
 # ---- cancelling -------------------------------------------------------------------------------------------
+# as Esc does from the menu (the modal operator; background mode has no event loop to run it): the bake on a
+# thread, the cancel flag set from this thread once progress is seen; the bake stops with supermat.Cancelled
+import threading   # noqa: E402
 sm = core.import_supermat()
 jobs, _ = core.collect_jobs([obj], bpy.context.evaluated_depsgraph_get())
 settings = supermat_blender.bake_settings(sm, prefs, 64, 64)
-try:
-    jobs[0].run(sm, settings, progress=lambda f, what: True)
-    check(False, "a cancel from the progress callback stops the bake")
-except sm.Cancelled:
-    check(jobs[0].result is None, "a cancel from the progress callback stops the bake (supermat.Cancelled)")
+cancel, seen, errors = threading.Event(), threading.Event(), []
+
+
+def worker():
+    try:
+        core.run_jobs(sm, settings, jobs, lambda f: seen.set(), cancel.is_set)
+    except Exception as e:
+        errors.append(e)
+th = threading.Thread(target=worker)
+th.start()
+seen.wait(60)
+cancel.set()
+th.join(60)
+check(not th.is_alive() and len(errors) == 1 and isinstance(errors[0], sm.Cancelled) and jobs[0].result is None,
+      "a cancel flag set while the bake runs on a thread stops it (supermat.Cancelled: %r)" % errors)
 
 # ---- Image > Estimate PBR maps ---------------------------------------------------------------------------------
 r = bpy.ops.image.supermat_estimate_maps(image=src.name)

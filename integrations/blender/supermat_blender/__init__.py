@@ -189,11 +189,7 @@ class OBJECT_OT_supermat_estimate_material(bpy.types.Operator):
         wm = context.window_manager
         wm.progress_begin(0, 1000)
         try:
-            for i, job in enumerate(jobs):
-                def progress(f, what, i=i):
-                    wm.progress_update(int(1000 * (i + f) / len(jobs)))
-                    return False
-                job.run(sm, settings, progress)
+            core.run_jobs(sm, settings, jobs, lambda f: wm.progress_update(int(1000 * f)))
         except Exception as e:
             self.report({"ERROR"}, "supermat: %s" % e)
             return {"CANCELLED"}
@@ -216,14 +212,10 @@ class OBJECT_OT_supermat_estimate_material(bpy.types.Operator):
         self._error = None
 
         def work():
-            n = len(self._jobs)
             try:
-                for i, job in enumerate(self._jobs):
-                    def progress(f, what, i=i):
-                        self._fraction = (i + f) / n
-                        return self._cancel.is_set()
-                    job.run(self._sm, self._settings, progress)
-            except Exception as e:   # Cancelled too: reported by modal()
+                core.run_jobs(self._sm, self._settings, self._jobs, lambda f: setattr(self, "_fraction", f),
+                              self._cancel.is_set)
+            except Exception as e:   # supermat.Cancelled too: reported by modal()
                 self._error = e
         wm = context.window_manager
         wm.progress_begin(0, 1000)
@@ -237,7 +229,10 @@ class OBJECT_OT_supermat_estimate_material(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == "ESC":
             self._cancel.set()
-        if event.type != "TIMER" or self._thread.is_alive():
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}   # the UI stays usable while the bake runs
+        if self._thread.is_alive():
             context.window_manager.progress_update(int(1000 * self._fraction))
             return {"RUNNING_MODAL"}
         wm = context.window_manager
@@ -275,7 +270,7 @@ class IMAGE_OT_supermat_estimate_maps(bpy.types.Operator):
             sm = core.import_supermat(p.module_path, p.library_path, p.model_dir)
             a = core.image_to_array(img)
             if a.dtype != "uint8":   # a float image is linear: the model reads sRGB-encoded values
-                a = (a.clip(0, 1) ** (1 / 2.2)).astype("float32")
+                a = core.srgb_encode(a)
             maps = image_model(sm, p).image(a, progress=lambda f, w: wm.progress_update(int(1000 * f)) and False)
         except Exception as e:
             self.report({"ERROR"}, "supermat: %s" % e)

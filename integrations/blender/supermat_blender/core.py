@@ -244,6 +244,24 @@ class BakeJob:
         return bc, orm
 
 
+def run_jobs(sm, settings, jobs, on_fraction=None, cancelled=None):
+    """Bake the jobs one after the other (on any thread: no bpy here): on_fraction(f) with the overall fraction
+    between layers; cancelled() true stops the run between two layers (supermat.Cancelled is raised)."""
+    n = len(jobs)
+    for i, job in enumerate(jobs):
+        def progress(f, what, i=i):
+            if on_fraction is not None:
+                on_fraction((i + f) / n)
+            return bool(cancelled and cancelled())
+        job.run(sm, settings, progress)
+
+
+def srgb_encode(linear):
+    """Linear float values -> sRGB-encoded ones (0..1), for float images given to Model.image()."""
+    x = np.clip(linear, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055).astype(np.float32)
+
+
 def collect_jobs(objects, depsgraph):
     """The BakeJobs for the mesh objects given (each material slot whose Principled BSDF has a base-colour image;
     a material shared by several slots or objects is baked once, for the first) and the warnings for the rest."""
