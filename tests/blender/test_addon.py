@@ -224,7 +224,7 @@ bpy.ops.object.select_all(action="DESELECT")
 obj.select_set(True)
 bpy.context.view_layer.objects.active = obj
 t = time.time()
-r = bpy.ops.object.supermat_estimate_material(texture_size=256, view_size=256)
+r = bpy.ops.object.supermat_estimate_material("INVOKE_DEFAULT", texture_size=256, view_size=256)   # as the menu
 log("operator on the lit example mesh: %s in %.2f s" % (r, time.time() - t))
 b = core.principled(obj.active_material)
 got = {"baseColorTexture": b.inputs["Base Color"].links[0].from_node.image,

@@ -199,6 +199,8 @@ class OBJECT_OT_supermat_estimate_material(bpy.types.Operator):
 
     # from the UI: the bakes run on a thread (the module releases the GIL), Esc cancels between two layers
     def invoke(self, context, event):
+        if bpy.app.background or context.window is None:   # no event loop to run a modal operator
+            return self.execute(context)
         try:
             self._sm, self._settings, self._jobs = self._prepare(context)
         except Exception as e:
