@@ -10,10 +10,15 @@ Checks:
     model): the Principled BSDF's Base Color, Roughness and Metallic come from the add-on's image nodes (sRGB base
     colour; Non-Color metallic-roughness through Separate Color G and B), its other inputs are untouched, and the
     new images equal `supermat mesh`'s textures of the same glTF within 1/255;
-  - a cancel from the progress callback stops a bake (supermat.Cancelled);
+  - a cancel flag set while the bake runs on a thread (what Esc does) stops it (supermat.Cancelled);
   - Image > Estimate PBR maps on the cube's texture makes three images equal to Model.image()'s maps within 1/255;
+  - Models: Official without the files reports an error naming them and changes nothing; with them (the default
+    multi-view file linked in under the official name) a second run bakes the original texture again, reusing
+    the add-on's nodes;
   - the .blend saved and opened again keeps the links and the (packed) images' pixels;
-  - a 320x240 Cycles render of the result (WORK/blender_addon.png; docs/img/blender_addon.png is one).
+  - the lit example mesh (examples/mesh/lit, 8064 triangles) at 256 px equals `supermat mesh` within 1/255, and a
+    320x240 Cycles render of it (WORK/blender_addon.png; docs/img/blender_addon.png is one).
+  - a folder linked into scripts/addons finds the checkout's python/.
 """
 import json
 import os
@@ -196,6 +201,36 @@ for name in ("albedo", "roughness", "metallic"):
           img.colorspace_settings.name == ("sRGB" if name == "albedo" else "Non-Color"),
           "image cube_%s equals Model.image()'s %s within 1/255" % (name, name))
 log("image operator done")
+
+# ---- the official models, not downloaded: an error naming them, the material unchanged -------------------------
+empty = os.path.join(WORK, "no_models")
+os.makedirs(empty, exist_ok=True)
+prefs.models, prefs.model_dir = "OFFICIAL", empty
+links_before = [(l.from_node.name, l.to_node.name, l.to_socket.identifier) for l in mat.node_tree.links]
+try:
+    r = bpy.ops.object.supermat_estimate_material(texture_size=64, view_size=64)
+    message = ""
+except RuntimeError as e:   # an operator's ERROR report is raised in background mode
+    r, message = {"CANCELLED"}, str(e)
+check(r == {"CANCELLED"} and "official" in message and empty in message and
+      [(l.from_node.name, l.to_node.name, l.to_socket.identifier) for l in mat.node_tree.links] == links_before,
+      "Models: Official without the files: an error naming them (%s), the material unchanged"
+      % message.strip().splitlines()[-1:])
+# ... and with them (the default multi-view model linked in under the official name): that file is baked with,
+# and a second run reuses the add-on's nodes and reads the original texture again
+official = os.path.join(WORK, "official_models")
+os.makedirs(official, exist_ok=True)
+os.symlink(os.path.join(REPO, "models", "supermat_mv_default.safetensors"),
+           os.path.join(official, "supermat_mv_official.safetensors"))
+prefs.model_dir = official
+nodes_before = len(mat.node_tree.nodes)
+r = bpy.ops.object.supermat_estimate_material(texture_size=64, view_size=64)
+check(r == {"FINISHED"} and len(mat.node_tree.nodes) == nodes_before and
+      any(m.path == os.path.join(official, "supermat_mv_official.safetensors")
+          for m in supermat_blender._models.values()),
+      "Models: Official bakes with the model folder's supermat_mv_official; a second run adds no nodes")
+check_material(mat, "after a second run (official)")
+prefs.models, prefs.model_dir = "DEFAULT", ""
 
 # ---- save, open again -------------------------------------------------------------------------------------------
 blend = os.path.join(WORK, "result.blend")
