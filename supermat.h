@@ -6018,6 +6018,22 @@ static void supermat__dstream_push_task(void *user, int i, int thread) {
     D->src(D->user, D->k0 + i, d, thread);
     supermat__box_row(d, D->tmp + (size_t)thread * D->w * SUPERMAT__DC, D->w, D->r);
 }
+/* a column pass's running sums: a[j] += in[j] (sub: -=) in double, the same sums on NEON (2 lanes of double) */
+static void supermat__dsum(const supermat__ctx *X, double *a, const float *in, size_t n, int sub) {
+    size_t j = 0;
+#if SUPERMAT__HAS_NEON
+    if (X->neon)
+        for (; j + 4 <= n; j += 4) {
+            float32x4_t v = vld1q_f32(in + j);
+            float64x2_t lo = vcvt_f64_f32(vget_low_f32(v)), hi = vcvt_high_f64_f32(v), a0 = vld1q_f64(a + j), a1 = vld1q_f64(a + j + 2);
+            vst1q_f64(a + j, sub ? vsubq_f64(a0, lo) : vaddq_f64(a0, lo));
+            vst1q_f64(a + j + 2, sub ? vsubq_f64(a1, hi) : vaddq_f64(a1, hi));
+        }
+#endif
+    (void)X;
+    if (sub) for (; j < n; j++) a[j] -= in[j];
+    else for (; j < n; j++) a[j] += in[j];
+}
 /* streamed: column pass s, rows k0 .. k0 + n - 1 of columns task x SUPERMAT__BOX_LINES .. */
 static void supermat__dstream_col_task(void *user, int task, int thread) {
     supermat__dstream *D = (supermat__dstream *)user;
@@ -6028,21 +6044,19 @@ static void supermat__dstream_col_task(void *user, int task, int thread) {
     (void)thread;
     if (D->k0 == 0) {
         for (jj = j0; jj < j1; jj++) a[jj] = 0.0;
-        for (k = 0; k < r && k < h; k++) {
-            const float *in = supermat__dstream_slot(D, s, k);
-            for (jj = j0; jj < j1; jj++) a[jj] += in[jj];
-        }
+        for (k = 0; k < r && k < h; k++) supermat__dsum(D->X, a + j0, supermat__dstream_slot(D, s, k) + j0, j1 - j0, 0);
     }
     for (k = D->k0; k < D->k0 + D->n; k++) {
         float *out = s < 2 ? supermat__dstream_slot(D, s + 1, k) : D->band + (size_t)(k - D->k0) * D->w * SUPERMAT__DC;
-        if (k + r < h) {
-            const float *in = supermat__dstream_slot(D, s, k + r);
-            for (jj = j0; jj < j1; jj++) a[jj] += in[jj];
+        if (k + r < h) supermat__dsum(D->X, a + j0, supermat__dstream_slot(D, s, k + r) + j0, j1 - j0, 0);
+        if (k - r - 1 >= 0) supermat__dsum(D->X, a + j0, supermat__dstream_slot(D, s, k - r - 1) + j0, j1 - j0, 1);
+#if SUPERMAT__HAS_NEON
+        if (D->X->neon) {
+            for (jj = j0; jj + 4 <= j1; jj += 4) vst1q_f32(out + jj, vcombine_f32(vcvt_f32_f64(vld1q_f64(a + jj)), vcvt_f32_f64(vld1q_f64(a + jj + 2))));
+            for (; jj < j1; jj++) out[jj] = (float)a[jj];
+            continue;
         }
-        if (k - r - 1 >= 0) {
-            const float *in = supermat__dstream_slot(D, s, k - r - 1);
-            for (jj = j0; jj < j1; jj++) a[jj] -= in[jj];
-        }
+#endif
         for (jj = j0; jj < j1; jj++) out[jj] = (float)a[jj];
     }
 }
@@ -6782,6 +6796,7 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     if (d->threading.parallel_for) X.thr = d->threading;
     else X.thr.max_threads = 1;
     X.base = (char *)mem; X.cap = need;
+    X.neon = supermat__cpu_has_neon(); /* the low-pass's sums on NEON where there is NEON (the same bits) */
     supermat__dstream_get(&X, &D, d->picture.width, d->picture.height, d->sigma);
     for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
     memset(&U, 0, sizeof U);

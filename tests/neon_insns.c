@@ -1,10 +1,17 @@
 /* The work of one NEON pass or of its scalar twin, for counting the instructions it executes under qemu
    (tests/test_neon.sh: qemu-aarch64 -singlestep -d exec,nochain prints a line per executed instruction;
    qemu's wall time says nothing about a real core). Runs PASS in MODE over fixed data REPS times.
-   usage: neon_insns widen_f16|widen_bf16|widen_i8|silu|softmax|groupnorm scalar|neon REPS */
+   usage: neon_insns widen_f16|widen_bf16|widen_i8|silu|softmax|groupnorm|lowpass scalar|neon REPS */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
 #include <stdio.h>
+
+static void lp_src(void *user, int y, float *row, int thread) {
+    int i;
+    (void)user; (void)thread;
+    for (i = 0; i < 64 * SUPERMAT__DC; i++) row[i] = (float)(i & 255) * 0.004f + (float)y * 0.001f;
+}
+static void lp_sink(void *user, int y, float *row, int thread) { (void)thread; if (y == 100) *(float *)user = row[77]; }
 
 int main(int argc, char **argv) {
     enum { N = 2048, C = 64, PIX = 64 };
@@ -64,6 +71,12 @@ int main(int argc, char **argv) {
             nm.g = g; nm.b = bt; nm.c = C; nm.eps = 1e-5f;
             in.d = gx; in.n = 1; in.h = 8; in.w = PIX / 8; in.c = C; out = in; out.d = gy;
             supermat__groupnorm(&X, &in, &out, &nm, 32, 0);
+        } else if (!strcmp(argv[1], "lowpass")) { /* the detail step's low-pass of a 64 x 64 picture, sigma 1/64 (r 1, streamed) */
+            supermat__dstream D;
+            supermat__dstream_get(&X, &D, 64, 64, 1.0f / 64.0f);
+            D.src = lp_src; D.sink = lp_sink; D.user = y;
+            supermat__dstream_run(&D);
+            supermat__dstream_put(&X, &D);
         } else { fprintf(stderr, "unknown pass %s\n", argv[1]); return 2; }
     }
     printf("%s %s x%d: %g\n", argv[1], argv[2], reps, (double)y[N / 3]);
