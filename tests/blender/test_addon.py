@@ -18,7 +18,9 @@ Checks:
   - the .blend saved and opened again keeps the links and the (packed) images' pixels;
   - the lit example mesh (examples/mesh/lit, 8064 triangles) at 256 px equals `supermat mesh` within 1/255, and a
     320x240 Cycles render of it (WORK/blender_addon.png; docs/img/blender_addon.png is one).
-  - a folder linked into scripts/addons finds the checkout's python/.
+  - a folder linked into scripts/addons finds the checkout's python/;
+  - a mesh with two material slots (the cube split in halves): each slot's textures equal supermat.bake() on its
+    own triangles (`supermat mesh`, which renders all materials in the same views, differs: printed, not checked).
 """
 import json
 import os
@@ -231,6 +233,46 @@ check(r == {"FINISHED"} and len(mat.node_tree.nodes) == nodes_before and
       "Models: Official bakes with the model folder's supermat_mv_official; a second run adds no nodes")
 check_material(mat, "after a second run (official)")
 prefs.models, prefs.model_dir = "DEFAULT", ""
+
+# ---- two materials on one mesh (the cube's faces 0-2 and 3-5) ---------------------------------------------------
+# supermat.bake() takes one part: each slot is baked with its own triangles alone, equal to supermat.bake() on that
+# half of the cube. `supermat mesh` renders all materials in the same views: its textures differ (printed only).
+g = json.load(open(os.path.join(WORK, "cube.gltf")))
+n = g["accessors"][0]["count"]
+for half in range(2):
+    g["bufferViews"].append(dict(buffer=0, byteOffset=n * 32 + half * 72, byteLength=72))
+    g["accessors"].append(dict(bufferView=4 + half, componentType=5125, count=18, type="SCALAR"))
+attrs = g["meshes"][0]["primitives"][0]["attributes"]
+g["meshes"][0]["primitives"] = [dict(attributes=attrs, indices=4 + h, material=h) for h in range(2)]
+g["materials"] = [dict(g["materials"][0], name=nm) for nm in ("half_a", "half_b")]
+json.dump(g, open(os.path.join(WORK, "cube2.gltf"), "w"))
+subprocess.run([CLI, "mesh", "--force", "--size", "64", "--views-size", "64", os.path.join(WORK, "cube2.gltf"),
+                os.path.join(WORK, "out", "cube2.gltf")], check=True)
+g = json.load(open(os.path.join(WORK, "out", "cube2.gltf")))
+before_objects = set(bpy.data.objects)
+bpy.ops.import_scene.gltf(filepath=os.path.join(WORK, "cube2.gltf"))
+obj2 = next(o for o in bpy.data.objects if o not in before_objects and o.type == "MESH")
+bpy.ops.object.select_all(action="DESELECT")
+obj2.select_set(True)
+r = bpy.ops.object.supermat_estimate_material(texture_size=64, view_size=64)
+check(r == {"FINISHED"} and len(obj2.material_slots) == 2, "two material slots: the operator finishes")
+os.makedirs(os.path.join(WORK, "cube_arrays"), exist_ok=True)
+cpos, cnrm, cuv, cidx, ctex = write_cube_gltf(os.path.join(WORK, "cube_arrays"))   # the same cube, Z up
+for h, gm in enumerate(g["materials"]):
+    m2 = bpy.data.materials[gm["name"]]
+    b = core.principled(m2)
+    got = {"base_color": b.inputs["Base Color"].links[0].from_node.image,
+           "metallic_roughness": b.inputs["Roughness"].links[0].from_node.inputs["Color"].links[0].from_node.image}
+    want = sm.bake(cpos, cuv, ctex, indices=cidx[18 * h:18 * (h + 1)].reshape(-1, 3), normals=cnrm,
+                   model=settings["model"], texture_size=64, view_size=64)
+    for (key, img), gkey in zip(got.items(), ("baseColorTexture", "metallicRoughnessTexture")):
+        d = np.abs(pixels(img) - want[key])
+        check(int(d.max()) <= 1, "two material slots: %s %s equals supermat.bake() on its triangles within 1/255 "
+              "(max difference %d)" % (gm["name"], key, d.max()))
+        cli = png(os.path.join(WORK, "out", g["images"][g["textures"][gm["pbrMetallicRoughness"][gkey]["index"]]["source"]]["uri"]))
+        print("     (supermat mesh, all materials in the same views: max difference %d)" % np.abs(pixels(img) - cli).max())
+bpy.data.objects.remove(obj2)
+obj.select_set(True)
 
 # ---- save, open again -------------------------------------------------------------------------------------------
 blend = os.path.join(WORK, "result.blend")
