@@ -232,10 +232,10 @@ class BakeJob:
                               view_size=settings["view_size"], threads=settings["threads"], progress=progress)
 
     def apply(self, bpy):
-        mat = bpy.data.materials.get(self.mat_name)
-        if mat is None or self.result is None:
+        mat = bpy.data.materials.get(self.mat_name)   # (from the menu, the scene may change while the bake runs)
+        bsdf = mat.node_tree.nodes.get(self.bsdf_name) if mat is not None and mat.node_tree else None
+        if bsdf is None or self.result is None:
             return None
-        bsdf = mat.node_tree.nodes.get(self.bsdf_name)
         base = "%s_%s" % (self.obj_name, self.mat_name)
         bc = new_image(bpy, base + "_supermat_base_color", self.result["base_color"], "sRGB")
         orm = new_image(bpy, base + "_supermat_metallic_roughness", self.result["metallic_roughness"], "Non-Color")
