@@ -353,12 +353,7 @@ class Model:
                 lib.supermat_session_destroy(sess)
         finally:
             self._release()
-        if caught:
-            raise caught[0]
-        if interrupted:
-            raise KeyboardInterrupt
-        if r != _capi.SUCCESS:
-            _raise(r, err, "image")
+        _check(r, caught, interrupted, err, "image")
         return maps
 
 
@@ -393,6 +388,16 @@ def _with_progress(call, desc, progress):
         if old_sigint is not None:
             signal.signal(signal.SIGINT, old_sigint)
     return r, caught, bool(interrupted)
+
+
+def _check(r, caught, interrupted, err, context):
+    """After _with_progress's call: the callable's exception, then Ctrl-C, then the library's error, raised."""
+    if caught:
+        raise caught[0]
+    if interrupted:
+        raise KeyboardInterrupt
+    if r != _capi.SUCCESS:
+        _raise(r, err, context)
 
 
 # ---- arguments -> C ----------------------------------------------------------------------------------------

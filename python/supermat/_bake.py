@@ -48,7 +48,7 @@ def bake(positions, uvs, base_color=None, *, indices=None, normals=None, base_co
     Returns "base_color" (S, S, 3) uint8 sRGB and "metallic_roughness" (S, S, 3) uint8 linear (R 1, G roughness,
     B metallic), float32 (the base colour linear) with float_output; "stats": supermat_uv_stats as a dict.
     progress, errors and Ctrl-C: as Model.image()."""
-    from . import InvalidArgument, Model, _raise, _lib, _step, _input_array, _image, _with_progress
+    from . import InvalidArgument, Model, _check, _lib, _step, _input_array, _image, _with_progress
     lib = _lib()
     pos = _floats("positions", positions, 3)
     uv = _floats("uvs", uvs, 2)
@@ -135,12 +135,7 @@ def bake(positions, uvs, base_color=None, *, indices=None, normals=None, base_co
             m._release()
         if owned is not None:
             owned.close()
-    if caught:
-        raise caught[0]
-    if interrupted:
-        raise KeyboardInterrupt
-    if r != _capi.SUCCESS:
-        _raise(r, err, "bake")
+    _check(r, caught, interrupted, err, "bake")
     st = {name: (list(getattr(stats, name)) if hasattr(getattr(stats, name), "__len__") else getattr(stats, name))
           for name, _ in _capi.supermat_uv_stats._fields_}
     return {"base_color": out_bc, "metallic_roughness": out_mr, "stats": st}
