@@ -482,6 +482,45 @@ static void test_exp(void) {
 #endif
 }
 
+/* GEGLU on each kernel against float64 (h x g/2 (1 + erf(g / sqrt 2))): g over [-14, 14] (past the point where
+   1 + erf underflows), rows whose width leaves SIMD tails, and the extremes (0, +-1e-30, +-Inf, NaN, +-1e30);
+   error measured relative to |h| max(|g|, 1e-30), the scale of the product; 1 and 3 threads the same bits */
+static void test_geglu(int mode) {
+    enum { M = 37, H = 203 };
+    kctx k1, k3;
+    float *h = rvec((size_t)M * 2 * H, 1.0), *y1 = (float *)malloc(sizeof(float) * M * H), *y3 = (float *)malloc(sizeof(float) * M * H);
+    double worst = 0;
+    int m, j, bad = 0;
+    static const float ext[10] = {0.0f, 1e-30f, -1e-30f, INFINITY, -INFINITY, NAN, 1e30f, -1e30f, 87.5f, -87.5f};
+    for (m = 0; m < M; m++)
+        for (j = 0; j < H; j++) {
+            float *g = h + (size_t)m * 2 * H + H + j;
+            *g = m == 0 && j < 10 ? ext[j] : (float)(-14.0 + 28.0 * (m * H + j) / (double)(M * H));
+        }
+    kctx_init(&k1, mode, 1); kctx_init(&k3, mode, 3);
+    supermat__geglu(&k1.X, h, y1, M, H);
+    supermat__geglu(&k3.X, h, y3, M, H);
+    TU_CHECK(memcmp(y1, y3, sizeof(float) * M * H) == 0, "%s GEGLU: 1 and 3 threads differ", KN(mode));
+    for (m = 0; m < M; m++)
+        for (j = 0; j < H; j++) {
+            double a = h[(size_t)m * 2 * H + j], g = h[(size_t)m * 2 * H + H + j], got = y1[(size_t)m * H + j];
+            double ref = a * 0.5 * g * (1.0 + erf(g * 0.70710678118654752));
+            if (ref != ref || isinf(ref)) { /* NaN, 0 x Inf and -Inf: the same class as erff's */
+                if (!(ref != ref ? got != got : got == ref)) { bad++; printf("%s GEGLU: gelu(%g) x %g = %g, float64 %g\n", KN(mode), g, a, got, ref); }
+                continue;
+            }
+            if (got != got) { bad++; continue; }
+            {
+                double sc = fabs(a) * (fabs(g) > 1e-30 ? fabs(g) : 1e-30), e = fabs(got - ref) / (sc > 0 ? sc : 1.0);
+                if (e > worst) worst = e;
+            }
+        }
+    TU_CHECK(bad == 0 && worst < 4e-7, "%s GEGLU vs float64: %d wrong classes, worst %.3g", KN(mode), bad, worst);
+    printf("kernel %s: GEGLU within %.2g of float64 (relative to |h g|), extremes as erff's\n", KN(mode), worst);
+    kctx_free(&k1); kctx_free(&k3);
+    free(h); free(y1); free(y3);
+}
+
 #if SUPERMAT__HAS_NEON
 /* the detail step's streamed low-pass with a synthetic source (6 floats a pixel) and a sink that keeps the rows */
 typedef struct dst_io { int w; float *out; } dst_io;
@@ -970,6 +1009,7 @@ int main(void) {
         test_quantized(avx2, 2);
         test_norms(avx2, 1);
         test_norms(avx2, 2);
+        test_geglu(avx2);
         printf("kernel %s: GEMMs, convolutions, attention, quantized panels and norms against float64\n", KN(avx2));
     }
     return tu_finish("kernels");
