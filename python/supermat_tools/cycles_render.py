@@ -60,6 +60,11 @@ def parse(argv):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=0, help="Cycles threads (0: all)")
     ap.add_argument("--worlds", default=",".join(WORLDS))
+    ap.add_argument("--world-dir", default="", help="the world maps' folder (NAME.exr or NAME.hdr; default: the maps "
+                    "Blender ships, datafiles/studiolights/world)")
+    ap.add_argument("--normals", action="store_true", help="also write truth/<asset>_<v>_normal.npy: the shading "
+                    "normal at the first hit in the camera's frame (x right, y up, the camera looking down -Z), "
+                    "float16 HxWx3, as supermat_tools.gen_data stores it (training data)")
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--bake", default="", help="(inside blender) bake the lit texture into this PNG instead")
     ap.add_argument("--mask", default="", help="(inside blender, --bake) litbake's chart mask (the exposure's texels)")
@@ -71,9 +76,10 @@ def parse(argv):
 # ------------------------------------------------------------------------------------------------------------
 # the driver (plain python3)
 # ------------------------------------------------------------------------------------------------------------
-def view_done(out, asset, v):
+def view_done(out, asset, v, normals=False):
     names = [f"inputs/{asset}_{v}_{look}.png" for look, _, _ in LOOKS]
     names += [f"truth/{asset}_{v}_{m}.png" for m in ("albedo", "roughness", "metallic")]
+    names += [f"truth/{asset}_{v}_normal.npy"] if normals else []
     names += [f"meta/{asset}_{v}.json"]
     return all(os.path.exists(os.path.join(out, n)) for n in names)
 
@@ -83,8 +89,15 @@ def drive(args):
     for sub in ("inputs", "truth", "meta"):
         os.makedirs(os.path.join(args.out, sub), exist_ok=True)
     me = os.path.abspath(__file__)
+    index = {"assets": assets, "views": args.views, "size": args.size, "samples": args.samples,
+             "seed": args.seed, "looks": [look for look, _, _ in LOOKS], "worlds": args.worlds.split(","),
+             "renderer": "Blender Cycles (CPU)", "world_dir": os.path.abspath(args.world_dir) if args.world_dir else "",
+             "normals": args.normals}
+    with open(os.path.join(args.out, "index.json.tmp"), "w") as f:   # written first: a set still rendering (or
+        json.dump(index, f, indent=1)                                  # cut) says what it will hold
+    os.replace(os.path.join(args.out, "index.json.tmp"), os.path.join(args.out, "index.json"))
     for asset in assets:
-        if all(view_done(args.out, asset, v) for v in range(args.views)):
+        if all(view_done(args.out, asset, v, args.normals) for v in range(args.views)):
             print(f"{asset}: done before", file=sys.stderr)
             continue
         base = os.path.join(args.gltf_dir, asset)
@@ -98,15 +111,12 @@ def drive(args):
                "--gltf", gltf, "--asset", asset, "--out", args.out, "--views", str(args.views),
                "--size", str(args.size), "--samples", str(args.samples), "--seed", str(args.seed),
                "--threads", str(args.threads), "--worlds", args.worlds]
+        cmd += ["--world-dir", os.path.abspath(args.world_dir)] if args.world_dir else []
+        cmd += ["--normals"] if args.normals else []
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
-        if r.returncode != 0 or not all(view_done(args.out, asset, v) for v in range(args.views)):
+        if r.returncode != 0 or not all(view_done(args.out, asset, v, args.normals) for v in range(args.views)):
             sys.exit(f"cycles_render: blender failed on {asset} (exit {r.returncode}):\n{r.stdout[-3000:]}")
         print(f"{asset}: {args.views} views in {time.time() - t0:.1f} s", file=sys.stderr)
-    index = {"assets": assets, "views": args.views, "size": args.size, "samples": args.samples,
-             "seed": args.seed, "looks": [look for look, _, _ in LOOKS], "worlds": args.worlds.split(","),
-             "renderer": "Blender Cycles (CPU)"}
-    with open(os.path.join(args.out, "index.json"), "w") as f:
-        json.dump(index, f, indent=1)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -209,7 +219,15 @@ def lin8(np, x):
     return np.clip(np.round(np.clip(x, 0.0, 1.0) * 255.0), 0, 255).astype(np.uint8)
 
 
-def make_world(bpy, scene):
+def world_file(world_dir, name):
+    """The world map NAME in world_dir: NAME.exr (Blender's own maps) or NAME.hdr (Radiance, e.g. Poly Haven's)."""
+    for ext in (".exr", ".hdr"):
+        if os.path.exists(os.path.join(world_dir, name + ext)):
+            return os.path.join(world_dir, name + ext)
+    sys.exit(f"cycles_render: no world map {name}.exr or {name}.hdr in {world_dir}")
+
+
+def make_world(bpy, scene, world_dir=""):
     """An environment-texture world turned by a Mapping node: (texture node, mapping node, maps folder)."""
     world = bpy.data.worlds.new("w")
     scene.world = world
@@ -221,7 +239,7 @@ def make_world(bpy, scene):
     wn.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
     wn.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
     wn.links.new(env.outputs["Color"], wn.nodes["Background"].inputs["Color"])
-    return env, mapping, os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world")
+    return env, mapping, world_dir or os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world")
 
 
 def import_asset(bpy, path):
@@ -255,8 +273,8 @@ def bake_asset(args):
     scene.cycles.use_denoising = False
     if args.threads > 0:
         scene.render.threads_mode, scene.render.threads = "FIXED", args.threads
-    env, mapping, world_dir = make_world(bpy, scene)
-    env.image = bpy.data.images.load(os.path.join(world_dir, args.world + ".exr"))
+    env, mapping, world_dir = make_world(bpy, scene, args.world_dir)
+    env.image = bpy.data.images.load(world_file(world_dir, args.world))
     mapping.inputs["Rotation"].default_value[2] = math.radians(args.world_rotation)
     img = bpy.data.images.new("lit", args.size, args.size, alpha=False, float_buffer=True)
     meshes = [o for o in scene.objects if o.type == "MESH"]
@@ -332,7 +350,10 @@ def render_asset(args):
     scene.camera = cam
     tan_half = 18.0 / 50.0
 
-    env, mapping, world_dir = make_world(bpy, scene)
+    env, mapping, world_dir = make_world(bpy, scene, args.world_dir)
+    passes = ["beauty", "albedo", "rough", "metal"] + (["normal"] if args.normals else [])
+    if args.normals:
+        scene.view_layers[0].use_pass_normal = True
 
     scene.use_nodes = True
     ct = scene.node_tree
@@ -343,7 +364,7 @@ def render_asset(args):
     fo.base_path = tmp
     fo.format.file_format, fo.format.color_depth, fo.format.color_mode = "OPEN_EXR", "32", "RGBA"
     fo.file_slots.clear()
-    for name, sock in (("beauty", "Image"), ("albedo", "albedo"), ("rough", "rough"), ("metal", "metal")):
+    for name, sock in zip(passes, ("Image", "albedo", "rough", "metal", "Normal")):
         fo.file_slots.new(name)
         ct.links.new(rl.outputs[sock], fo.inputs[name])
 
@@ -353,9 +374,9 @@ def render_asset(args):
         az, el = (0.0, 10.0) if v == 0 else (rng.uniform(0, 360), rng.uniform(-10, 40))
         wname = rng.choice(worlds)
         wrot = rng.uniform(0, 360)
-        if view_done(args.out, args.asset, v):
+        if view_done(args.out, args.asset, v, args.normals):
             continue
-        env.image = bpy.data.images.load(os.path.join(world_dir, wname + ".exr"), check_existing=True)
+        env.image = bpy.data.images.load(world_file(world_dir, wname), check_existing=True)
         mapping.inputs["Rotation"].default_value[2] = math.radians(wrot)
         a, e = math.radians(az), math.radians(el)
         d = mathutils.Vector((math.sin(a) * math.cos(e), -math.cos(a) * math.cos(e), math.sin(e)))
@@ -365,7 +386,7 @@ def render_asset(args):
         cam.rotation_euler = (-d).to_track_quat("-Z", "Y").to_euler()
         scene.frame_set(1)
         bpy.ops.render.render(write_still=False)
-        px = {n: read_exr(bpy, np, os.path.join(tmp, f"{n}0001.exr")) for n in ("beauty", "albedo", "rough", "metal")}
+        px = {n: read_exr(bpy, np, os.path.join(tmp, f"{n}0001.exr")) for n in passes}
         alpha = px["beauty"][..., 3]
         cov = np.maximum(alpha, 1e-6)[..., None]
         rgb = px["beauty"][..., :3] / cov                     # straight colour (the film is premultiplied)
@@ -394,6 +415,14 @@ def render_asset(args):
             path = os.path.join(args.out, "truth", f"{stem}_{name}.png")
             Image.fromarray(arr).save(path + ".tmp.png")
             os.replace(path + ".tmp.png", path)
+        if args.normals:    # world-space normals (premultiplied by coverage) into the camera's frame, unit length
+            rot = np.array(cam.matrix_world.to_3x3(), np.float32)   # camera axes as columns, in world space
+            n = px["normal"][..., :3] @ rot
+            n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-6)
+            n[alpha <= 0] = (0.0, 0.0, 1.0)
+            path = os.path.join(args.out, "truth", f"{stem}_normal.npy")
+            np.save(path + ".tmp.npy", n.astype(np.float16))
+            os.replace(path + ".tmp.npy", path)
         meta = {"asset": args.asset, "view": v, "azimuth": az, "elevation": el, "world": wname,
                 "world_rotation": wrot, "exposure": expo, "median_luminance": med, "samples": args.samples,
                 "size": args.size, "blender": bpy.app.version_string}
