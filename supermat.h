@@ -3632,26 +3632,89 @@ static void supermat__groupnorm(supermat__ctx *X, const supermat__t *in, superma
     supermat__put(X, part);
 }
 
-typedef struct supermat__ln_args { const float *x; float *y; int C; float eps; const float *g, *b; int rows, M; } supermat__ln_args;
+/* LayerNorm rows: the sums in float64 over 8 interleaved lanes (channel c adds to lane c mod 8), reduced as
+   ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)); mean first, then the squared deviations (d d added, never
+   fused); y = (float)((x - mean) rstd) g + b.  Every kernel runs these operations in this order (AVX2: two
+   4-lane accumulators, NEON: four 2-lane ones, scalar: 8 doubles; the tails are scalar on all), so LayerNorm
+   gives the same bits on every kernel.  pass 0: the lanes of sum x; 1: of sum (x - mean)^2; 2: the output. */
+static double supermat__ln_reduce(const double *l) { return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7])); }
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static int supermat__ln_avx2(int pass, const float *x, int C, double mean, double rstd, const float *g, const float *b, float *y, double *l) {
+    __m256d a0 = _mm256_setzero_pd(), a1 = _mm256_setzero_pd(), vm = _mm256_set1_pd(mean), vr = _mm256_set1_pd(rstd);
+    int c = 0;
+    for (; c + 8 <= C; c += 8) {
+        __m256d x0 = _mm256_cvtps_pd(_mm_loadu_ps(x + c)), x1 = _mm256_cvtps_pd(_mm_loadu_ps(x + c + 4));
+        if (pass == 0) { a0 = _mm256_add_pd(a0, x0); a1 = _mm256_add_pd(a1, x1); continue; }
+        x0 = _mm256_sub_pd(x0, vm); x1 = _mm256_sub_pd(x1, vm);
+        if (pass == 1) { a0 = _mm256_add_pd(a0, _mm256_mul_pd(x0, x0)); a1 = _mm256_add_pd(a1, _mm256_mul_pd(x1, x1)); continue; }
+        {
+            __m256 v = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_mul_pd(x1, vr)), _mm256_cvtpd_ps(_mm256_mul_pd(x0, vr)));
+            _mm256_storeu_ps(y + c, _mm256_add_ps(_mm256_mul_ps(v, _mm256_loadu_ps(g + c)), _mm256_loadu_ps(b + c)));
+        }
+    }
+    if (pass < 2) { _mm256_storeu_pd(l, a0); _mm256_storeu_pd(l + 4, a1); }
+    return c;
+}
+#endif
+#if SUPERMAT__HAS_NEON
+static int supermat__ln_neon(int pass, const float *x, int C, double mean, double rstd, const float *g, const float *b, float *y, double *l) {
+    float64x2_t a0 = vdupq_n_f64(0.0), a1 = a0, a2 = a0, a3 = a0, vm = vdupq_n_f64(mean), vr = vdupq_n_f64(rstd);
+    int c = 0;
+    for (; c + 8 <= C; c += 8) {
+        float32x4_t f0 = vld1q_f32(x + c), f1 = vld1q_f32(x + c + 4);
+        float64x2_t x0 = vcvt_f64_f32(vget_low_f32(f0)), x1 = vcvt_high_f64_f32(f0), x2 = vcvt_f64_f32(vget_low_f32(f1)), x3 = vcvt_high_f64_f32(f1);
+        if (pass == 0) { a0 = vaddq_f64(a0, x0); a1 = vaddq_f64(a1, x1); a2 = vaddq_f64(a2, x2); a3 = vaddq_f64(a3, x3); continue; }
+        x0 = vsubq_f64(x0, vm); x1 = vsubq_f64(x1, vm); x2 = vsubq_f64(x2, vm); x3 = vsubq_f64(x3, vm);
+        if (pass == 1) {
+            a0 = vaddq_f64(a0, vmulq_f64(x0, x0)); a1 = vaddq_f64(a1, vmulq_f64(x1, x1));
+            a2 = vaddq_f64(a2, vmulq_f64(x2, x2)); a3 = vaddq_f64(a3, vmulq_f64(x3, x3));
+            continue;
+        }
+        {
+            float32x4_t v0 = vcvt_high_f32_f64(vcvt_f32_f64(vmulq_f64(x0, vr)), vmulq_f64(x1, vr));
+            float32x4_t v1 = vcvt_high_f32_f64(vcvt_f32_f64(vmulq_f64(x2, vr)), vmulq_f64(x3, vr));
+            vst1q_f32(y + c, vaddq_f32(vmulq_f32(v0, vld1q_f32(g + c)), vld1q_f32(b + c)));
+            vst1q_f32(y + c + 4, vaddq_f32(vmulq_f32(v1, vld1q_f32(g + c + 4)), vld1q_f32(b + c + 4)));
+        }
+    }
+    if (pass < 2) { vst1q_f64(l, a0); vst1q_f64(l + 2, a1); vst1q_f64(l + 4, a2); vst1q_f64(l + 6, a3); }
+    return c;
+}
+#endif
+static void supermat__ln_row(const supermat__ctx *X, const float *x, float *y, int C, float eps, const float *g, const float *b) {
+    double l[8], mean = 0.0, rstd = 0.0;
+    int pass, c, c0;
+    for (pass = 0; pass < 3; pass++) {
+        c0 = 0;
+        memset(l, 0, sizeof l);
+#if SUPERMAT__HAS_AVX2
+        if (X->avx2) c0 = supermat__ln_avx2(pass, x, C, mean, rstd, g, b, y, l);
+#endif
+#if SUPERMAT__HAS_NEON
+        if (X->neon) c0 = supermat__ln_neon(pass, x, C, mean, rstd, g, b, y, l);
+#endif
+        for (c = c0; c < C; c++) {
+            double d = (double)x[c] - mean;
+            if (pass == 0) l[c & 7] += x[c];
+            else if (pass == 1) { double dd = d * d; l[c & 7] += dd; }
+            else y[c] = (float)(d * rstd) * g[c] + b[c];
+        }
+        if (pass == 0) mean = supermat__ln_reduce(l) / C;
+        if (pass == 1) rstd = 1.0 / sqrt(supermat__ln_reduce(l) / C + (double)eps);
+    }
+    (void)X;
+}
+typedef struct supermat__ln_args { const supermat__ctx *X; const float *x; float *y; int C; float eps; const float *g, *b; int rows, M; } supermat__ln_args;
 static void supermat__ln_task(void *user, int index, int thread) {
     const supermat__ln_args *a = (const supermat__ln_args *)user;
-    int r0 = index * a->rows, r1 = SUPERMAT__MIN(a->M, r0 + a->rows), r, c;
+    int r0 = index * a->rows, r1 = SUPERMAT__MIN(a->M, r0 + a->rows), r;
     (void)thread;
-    for (r = r0; r < r1; r++) {
-        const float *x = a->x + (size_t)r * a->C;
-        float *y = a->y + (size_t)r * a->C;
-        double s = 0.0, ss = 0.0, mean, rstd;
-        for (c = 0; c < a->C; c++) s += x[c];
-        mean = s / a->C;
-        for (c = 0; c < a->C; c++) { double d = x[c] - mean; ss += d * d; }
-        rstd = 1.0 / sqrt(ss / a->C + (double)a->eps);
-        for (c = 0; c < a->C; c++) y[c] = (float)((x[c] - mean) * rstd) * a->g[c] + a->b[c];
-    }
+    for (r = r0; r < r1; r++) supermat__ln_row(a->X, a->x + (size_t)r * a->C, a->y + (size_t)r * a->C, a->C, a->eps, a->g, a->b);
 }
 static void supermat__layernorm(supermat__ctx *X, const float *x, float *y, int M, const supermat__norm *nm) {
     supermat__ln_args a;
     if (!supermat__live(X)) return;
-    a.x = x; a.y = y; a.C = nm->c; a.eps = nm->eps; a.g = nm->g; a.b = nm->b; a.rows = 16; a.M = M;
+    a.X = X; a.x = x; a.y = y; a.C = nm->c; a.eps = nm->eps; a.g = nm->g; a.b = nm->b; a.rows = 16; a.M = M;
     supermat__par(X, (M + 15) / 16, supermat__ln_task, &a);
 }
 

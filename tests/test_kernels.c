@@ -482,6 +482,47 @@ static void test_exp(void) {
 #endif
 }
 
+/* LayerNorm gives the same bits on every kernel this CPU has (the sums' lanes and order are fixed; tails of
+   C mod 8 scalar on all), and each within 2e-6 of float64; rows of 77 and 320 channels, one of them constant */
+static void test_layernorm_bits(void) {
+    static const int Cs[2] = {77, 320};
+    int ci, mode, i;
+    for (ci = 0; ci < 2; ci++) {
+        int C = Cs[ci], M = 19;
+        size_t total = (size_t)M * C;
+        float *x = rvec(total, 3.0), *g = rvec((size_t)C, 1.0), *b = rvec((size_t)C, 1.0), *y0 = (float *)malloc(sizeof(float) * total), *y = (float *)malloc(sizeof(float) * total);
+        double worst = 0;
+        supermat__norm nm;
+        nm.g = g; nm.b = b; nm.c = C; nm.eps = 1e-5f;
+        for (i = 0; i < C; i++) x[i] = 0.75f; /* row 0 constant */
+        for (i = 0; i < (int)total; i++) x[i] += 40.0f; /* an offset the mean must take out */
+        for (mode = 0; mode < NMODES; mode++) {
+            kctx k;
+            int r;
+            if (!mode_ok(mode)) continue;
+            kctx_init(&k, mode, 1);
+            supermat__layernorm(&k.X, x, mode ? y : y0, M, &nm);
+            if (mode) TU_CHECK(memcmp(y, y0, sizeof(float) * total) == 0, "LayerNorm C %d: kernel %s differs from scalar", C, KN(mode));
+            for (r = 0; r < M && !mode; r++) {
+                double s = 0, ss = 0, mean, rstd;
+                int c;
+                for (c = 0; c < C; c++) s += x[(size_t)r * C + c];
+                mean = s / C;
+                for (c = 0; c < C; c++) { double d = x[(size_t)r * C + c] - mean; ss += d * d; }
+                rstd = 1.0 / sqrt(ss / C + 1e-5);
+                for (c = 0; c < C; c++) {
+                    double e = fabs(y0[(size_t)r * C + c] - ((x[(size_t)r * C + c] - mean) * rstd * g[c] + b[c]));
+                    if (e > worst) worst = e;
+                }
+            }
+            kctx_free(&k);
+        }
+        TU_CHECK(worst < 2e-6, "LayerNorm C %d vs float64: %.3g", C, worst);
+        printf("LayerNorm, %d channels: every kernel here the scalar bits, within %.2g of float64\n", C, worst);
+        free(x); free(g); free(b); free(y0); free(y);
+    }
+}
+
 /* GEGLU on each kernel against float64 (h x g/2 (1 + erf(g / sqrt 2))): g over [-14, 14] (past the point where
    1 + erf underflows), rows whose width leaves SIMD tails, and the extremes (0, +-1e-30, +-Inf, NaN, +-1e30);
    error measured relative to |h| max(|g|, 1e-30), the scale of the product; 1 and 3 threads the same bits */
@@ -992,6 +1033,7 @@ int main(void) {
     test_json();
     test_scheduler();
     test_exp();
+    test_layernorm_bits();
     test_neon_twins();
     test_winograd();
     test_same_bits();
