@@ -736,10 +736,13 @@ def map_losses(pa, po, b, squared=False):
     conditional mean where L1 asks for the median, e.g. 0 for a metal that is unlikely) + gradient L1."""
     m = b["mask"]
     w = 0.1 + 0.9 * m
-    err = (lambda d: 4 * d * d) if squared else (lambda d: d.abs())  # noqa: E731
+    sq = lambda d: 4 * d * d  # noqa: E731
+    l1 = lambda d: d.abs()  # noqa: E731
+    err = sq if squared is True else l1
+    err_m = sq if squared else l1   # squared == "metal": the metallic map's errors alone squared
     la = (err(pa - b["alb"]) * w).mean() + grad_l1(pa, b["alb"], m)
     lr = (err(po[:, 1:2] - b["orm"][:, 1:2]) * w).mean() + grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
-    lm = (err(po[:, 2:3] - b["orm"][:, 2:3]) * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
+    lm = (err_m(po[:, 2:3] - b["orm"][:, 2:3]) * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
     lo = ((po[:, 0:1] - 1).abs() * m).mean()
     return la, lr, lm, lo
 
@@ -946,7 +949,7 @@ def phase_rm(args, data):
     roughness, metallic, occlusion and re-render losses; the re-render shades the frozen albedo branch's map),
     batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute, map errors L1 or squared (--rm-loss)."""
     phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH,
-              squared=args.rm_loss == "squared")
+              squared={"l1": False, "squared": True, "metal-squared": "metal"}[args.rm_loss])
 
 
 def init_from(args, allow_mv=False):
@@ -1184,9 +1187,10 @@ def main():
     ap.add_argument("--ft-lr", type=float, default=2e-4)
     ap.add_argument("--rm-steps", type=int, default=600)
     ap.add_argument("--rm-lr", type=float, default=1e-4)
-    ap.add_argument("--rm-loss", default="l1", choices=("l1", "squared"),
+    ap.add_argument("--rm-loss", default="l1", choices=("l1", "squared", "metal-squared"),
                     help="the rm phase's map errors: l1 (asks for the median: 0 for a metal the network is unsure "
-                         "of) or squared (the conditional mean, what PSNR measures)")
+                         "of), squared (the conditional mean, what PSNR measures) or metal-squared (roughness L1, "
+                         "metallic squared)")
     ap.add_argument("--alb-steps", type=int, default=600)
     ap.add_argument("--alb-batch", type=int, default=8)
     ap.add_argument("--alb-lr", type=float, default=1e-4)
