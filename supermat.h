@@ -3636,7 +3636,7 @@ static void supermat__groupnorm(supermat__ctx *X, const supermat__t *in, superma
    ((l0 + l4) + (l1 + l5)) + ((l2 + l6) + (l3 + l7)); mean first, then the squared deviations (d d added, never
    fused); y = (float)((x - mean) rstd) g + b.  Every kernel runs these operations in this order (AVX2: two
    4-lane accumulators, NEON: four 2-lane ones, scalar: 8 doubles; the tails are scalar on all), so LayerNorm
-   gives the same bits on every kernel.  pass 0: the lanes of sum x; 1: of sum (x - mean)^2; 2: the output. */
+   gives the same bits on every kernel (where the compiler fuses no scalar multiply-add: ISO C mode does not).  pass 0: the lanes of sum x; 1: of sum (x - mean)^2; 2: the output. */
 static double supermat__ln_reduce(const double *l) { return ((l[0] + l[4]) + (l[1] + l[5])) + ((l[2] + l[6]) + (l[3] + l[7])); }
 #if SUPERMAT__HAS_AVX2
 SUPERMAT__AVX2 static int supermat__ln_avx2(int pass, const float *x, int C, double mean, double rstd, const float *g, const float *b, float *y, double *l) {
