@@ -11,7 +11,12 @@
     roughness 0.3, metallic 1.0) rendered at 48x48, 16 samples, 2 views: the truth maps equal the material
     on every object pixel (within 1/255 inside, where no edge mixes the background), the picture's alpha
     covers the object, one stop under (std-1) is darker than std0 and one over (std+1) brighter, the meta
-    file records the exposure, a second run renders nothing (resumable).
+    file records the exposure, a second run renders nothing (resumable);
+  - training renders (skipped without blender): the sphere lit by a map of a --world-dir (a constant Radiance
+    .hdr written here) with --normals: the camera-frame normals are unit length, face the camera and point up
+    at the top and left at the left; supermat_tools.cycles_data packs 2 views x 4 looks into shards holding the
+    PNGs' bytes and the normals, lists the training maps, and refuses a set without normals or lit by a map
+    outside the training list.
 usage: test_eval_cycles.py WORKDIR
 """
 import base64
@@ -219,6 +224,71 @@ def test_render(work):
     check(r.returncode == 0 and "done before" in r.stdout, "a second run renders nothing")
 
 
+def write_hdr(path, w=16, h=8):
+    """A constant Radiance map (flat RGBE scanlines, every texel 1.0)."""
+    with open(path, "wb") as f:
+        f.write(f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode())
+        f.write(bytes([128, 128, 128, 129]) * (w * h))
+
+
+def test_training(work):
+    if shutil.which("blender") is None:
+        print("skip cycles_render --normals / cycles_data: no blender (Debian: blender)")
+        return
+    hdri = os.path.join(work, "hdri")
+    os.makedirs(hdri, exist_ok=True)
+    write_hdr(os.path.join(hdri, "flat_1k.hdr"))
+    out = os.path.join(work, "cycles_train")
+    cmd = [sys.executable, "-m", "supermat_tools.cycles_render", "--gltf-dir", os.path.join(work, "gltf"),
+           "--assets", "Ball", "--out", out, "--views", "2", "--size", "48", "--samples", "8", "--threads", "2",
+           "--world-dir", hdri, "--worlds", "flat_1k", "--normals"]
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+    check(r.returncode == 0, "cycles_render --world-dir --normals renders the sphere")
+    if r.returncode != 0:
+        print(r.stdout[-3000:])
+        return
+    for v in range(2):
+        n = np.load(os.path.join(out, "truth", f"Ball_{v}_normal.npy")).astype(np.float32)
+        a = np.asarray(Image.open(os.path.join(out, "inputs", f"Ball_{v}_std0.png")).convert("RGBA"))[..., 3] >= 255
+        ys, xs = np.nonzero(a)
+        top, left = a & (np.arange(48)[:, None] < ys.min() + 6), a & (np.arange(48)[None, :] < xs.min() + 6)
+        check(n.shape == (48, 48, 3) and np.abs(np.linalg.norm(n[a], axis=1) - 1).max() < 2e-3,
+              f"view {v}: normals {n.shape}, unit length on the object")
+        check(n[a][:, 2].mean() > 0.6 and n[top][:, 1].mean() > 0.5 and n[left][:, 0].mean() < -0.5,
+              f"view {v}: normals face the camera (z {n[a][:, 2].mean():.2f}), up at the top "
+              f"({n[top][:, 1].mean():.2f}), left at the left ({n[left][:, 0].mean():.2f})")
+        meta = json.load(open(os.path.join(out, "meta", f"Ball_{v}.json")))
+        check(meta["world"] == "flat_1k", f"view {v}: lit by the --world-dir map ({meta['world']})")
+    data = os.path.join(work, "cycles_data")
+    dcmd = [sys.executable, "-m", "supermat_tools.cycles_data", "--set", out, "--hdri-dir", hdri, "--out", data,
+            "--shard", "5"]
+    r = subprocess.run(dcmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+    check(r.returncode == 0 and "8 samples" in r.stdout, "cycles_data packs 2 views x 4 looks")
+    if r.returncode != 0:
+        print(r.stdout[-3000:])
+        return
+    sh = [np.load(os.path.join(data, f)) for f in sorted(os.listdir(data)) if f.startswith("shard_")]
+    check([x["rgba"].shape[0] for x in sh] == [5, 3], "two shards of 5 and 3 samples")
+    rgba = np.concatenate([x["rgba"] for x in sh])
+    nrm = np.concatenate([x["normal"] for x in sh])
+    looks = ("std0", "std-1", "std+1", "filmic0")
+    same = all(np.array_equal(rgba[v * 4 + k], np.asarray(Image.open(os.path.join(out, "inputs", f"Ball_{v}_{lk}.png"))
+                                                          .convert("RGBA"))) for v in range(2) for k, lk in enumerate(looks))
+    check(same, "each sample's rgba is its look's PNG, in asset, view, look order")
+    check(np.array_equal(nrm[5], np.load(os.path.join(out, "truth", "Ball_1_normal.npy"))), "normals carried as written")
+    meta = json.load(open(os.path.join(data, "meta.json")))
+    check(meta["envs"] == ["flat_1k.hdr"], f"meta.json lists the training maps: {meta['envs']}")
+    other = os.path.join(work, "hdri_other")
+    os.makedirs(other, exist_ok=True)
+    write_hdr(os.path.join(other, "elsewhere_1k.hdr"))
+    r = subprocess.run(dcmd[:5] + ["--hdri-dir", other, "--out", data + "2"], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, universal_newlines=True)
+    check(r.returncode != 0 and "outside the training list" in r.stdout, "a set lit by another map is refused")
+    r = subprocess.run(dcmd[:3] + ["--set", os.path.join(work, "cycles"), "--hdri-dir", hdri, "--out", data + "3"],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+    check(r.returncode != 0 and "without --normals" in r.stdout, "a set rendered without normals is refused")
+
+
 def main():
     work = sys.argv[1]
     shutil.rmtree(work, ignore_errors=True)     # a fresh folder: a render left by an earlier run proves nothing
@@ -228,6 +298,7 @@ def main():
     test_score(rng)
     test_cli(work, rng)
     test_render(work)
+    test_training(work)
     print(f"{len(FAILS)} failed")
     sys.exit(1 if FAILS else 0)
 
