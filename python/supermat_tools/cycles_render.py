@@ -25,7 +25,7 @@ extent fills 85 % of the frame (the framing of the project's own renders).
 
 Two halves in one file:
   python3 -m supermat_tools.cycles_render --gltf-dir DIR --out OUT [--assets A,B,...] [--views 8] [--size 256]
-          [--samples 64] [--seed 0] [--threads 0] [--blender blender]
+          [--samples 64] [--seed 0] [--threads 0] [--blender blender] [--world-dir DIR --worlds A,B] [--normals]
       runs blender once per asset (resumable: an asset whose views are all there is skipped; a view is written
       to temporary names and renamed, so an interrupted run never leaves a half view), and writes OUT/index.json;
   blender -b --factory-startup --python cycles_render.py -- --gltf FILE --asset NAME --out OUT ...
