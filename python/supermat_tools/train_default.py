@@ -731,18 +731,20 @@ def phase_latent(args, data, name="latent", cache_name="latents.pt", steps=None,
     ph.finish()
 
 
-def map_losses(pa, po, b, squared=False):
-    """Per map: masked L1 (or 4 x squared error: what PSNR measures; under ambiguity it asks for the
-    conditional mean where L1 asks for the median, e.g. 0 for a metal that is unlikely) + gradient L1."""
+MAPS = ("albedo", "roughness", "metallic")
+
+
+def map_losses(pa, po, b, squared=()):
+    """Per map: masked L1, or for the maps named in `squared` 4 x squared error (what PSNR measures; under
+    ambiguity it asks for the conditional mean where L1 asks for the median, e.g. 0 for a metal that is
+    unlikely); + gradient L1."""
     m = b["mask"]
     w = 0.1 + 0.9 * m
-    sq = lambda d: 4 * d * d  # noqa: E731
-    l1 = lambda d: d.abs()  # noqa: E731
-    err = sq if squared is True else l1
-    err_m = sq if squared else l1   # squared == "metal": the metallic map's errors alone squared
-    la = (err(pa - b["alb"]) * w).mean() + grad_l1(pa, b["alb"], m)
-    lr = (err(po[:, 1:2] - b["orm"][:, 1:2]) * w).mean() + grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
-    lm = (err_m(po[:, 2:3] - b["orm"][:, 2:3]) * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
+    def err(name, d):
+        return 4 * d * d if name in squared else d.abs()
+    la = (err("albedo", pa - b["alb"]) * w).mean() + grad_l1(pa, b["alb"], m)
+    lr = (err("roughness", po[:, 1:2] - b["orm"][:, 1:2]) * w).mean() + grad_l1(po[:, 1:2], b["orm"][:, 1:2], m)
+    lm = (err("metallic", po[:, 2:3] - b["orm"][:, 2:3]) * w).mean() + grad_l1(po[:, 2:3], b["orm"][:, 2:3], m)
     lo = ((po[:, 0:1] - 1).abs() * m).mean()
     return la, lr, lm, lo
 
@@ -774,10 +776,10 @@ def end_to_end_setup(run, src):
     return vae, vae.config.scaling_factor, context(run), x0_coefficient()[0], load_unet(run, src)
 
 
-def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=None, squared=False):
+def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=None, squared=()):
     """End to end (see the phases above); only=RM_BRANCH trains that branch alone (everything else frozen, the
-    albedo map then decoded without gradients: none of its losses reaches the branch); squared: the maps' squared
-    errors instead of L1 (map_losses)."""
+    albedo map then decoded without gradients: none of its losses reaches the branch); squared: the maps (of MAPS)
+    whose squared errors replace L1 (map_losses)."""
     steps = args.e2e_steps if steps is None else steps
     base_lr = args.e2e_lr if lr is None else lr   # (the loop's `lr` is the roughness loss)
     vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
@@ -886,7 +888,7 @@ def phase_joint(args, data, name="joint"):
             po = (vae.decode(x0o / sf).sample.float() / 2 + 0.5).clamp(0, 1)
             # the decoder on the true maps' latents (half albedo, half ORM)
             yt = vae.decode(zt).sample.float() / 2 + 0.5
-        la, lr, lm, lo = map_losses(pa, po, b, squared)
+        la, lr, lm, lo = map_losses(pa, po, b, MAPS if squared else ())
         xt = torch.cat([b["alb"][:h], b["orm"][h:]])
         wt = 0.25 + 0.75 * b["mask"]
         lrec = ((yt - xt).abs() * wt).mean() + 0.5 * grad_l1(yt, xt, wt)
@@ -949,7 +951,7 @@ def phase_rm(args, data):
     roughness, metallic, occlusion and re-render losses; the re-render shades the frozen albedo branch's map),
     batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute, map errors L1 or squared (--rm-loss)."""
     phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH,
-              squared={"l1": False, "squared": True, "metal-squared": "metal"}[args.rm_loss])
+              squared={"l1": (), "squared": MAPS, "metal-squared": ("metallic",)}[args.rm_loss])
 
 
 def init_from(args, allow_mv=False):
