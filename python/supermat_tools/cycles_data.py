@@ -59,10 +59,17 @@ def main():
     index["assets"] = done
     items = [(f"{a}_{v}", look) for a in index["assets"] for v in range(index["views"]) for look in looks]
     os.makedirs(args.out, exist_ok=True)
+    mpath = os.path.join(args.out, "meta.json")
+    if os.path.exists(mpath):   # the shards kept by a resumed run must be of the same set, looks and shard size
+        with open(mpath) as f:
+            old = json.load(f)
+        if (old.get("set"), old.get("looks"), old.get("shard")) != (os.path.abspath(args.set), looks, args.shard):
+            raise SystemExit(f"cycles_data: {args.out} holds shards of another set, looks or shard size: "
+                             "a new --out, or remove it")
     meta = {"size": index["size"], "count": len(items), "shard": args.shard, "views": 1, "renderer": index["renderer"],
             "set": os.path.abspath(args.set), "looks": looks, "envs": envs, "hdri_dir": os.path.abspath(args.hdri_dir),
             "held_out": list(G.HELD_OUT)}
-    with open(os.path.join(args.out, "meta.json"), "w") as f:
+    with open(mpath, "w") as f:
         json.dump(meta, f, indent=1)
     for s in range(0, len(items), args.shard):
         path = os.path.join(args.out, f"shard_{s // args.shard:04d}.npz")

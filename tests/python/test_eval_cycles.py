@@ -278,6 +278,9 @@ def test_training(work):
     check(np.array_equal(nrm[5], np.load(os.path.join(out, "truth", "Ball_1_normal.npy"))), "normals carried as written")
     meta = json.load(open(os.path.join(data, "meta.json")))
     check(meta["envs"] == ["flat_1k.hdr"], f"meta.json lists the training maps: {meta['envs']}")
+    r = subprocess.run(dcmd[:-2] + ["--shard", "4"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                       universal_newlines=True)
+    check(r.returncode != 0 and "another set" in r.stdout, "a folder of other shards is refused, not mixed")
     other = os.path.join(work, "hdri_other")
     os.makedirs(other, exist_ok=True)
     write_hdr(os.path.join(other, "elsewhere_1k.hdr"))
