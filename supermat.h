@@ -6253,28 +6253,137 @@ static double supermat__srgb(double v) { v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0
 SUPERMAT__DEF double supermat_srgb_to_linear(double v) { return supermat__lin(v); }
 SUPERMAT__DEF double supermat_linear_to_srgb(double v) { return supermat__srgb(v); }
 
+/* The sRGB transfer on float rows (the detail and colour steps): x^2.4 = x^2 sqrt(x) x^-0.1 and
+   x^(1/2.4) = sqrt(x) x^(-1/12), so the log / exp pair carries only a small power (its error scaled by 0.1 and
+   1/12). The SIMD rows take ln from Cephes' logf polynomial (the mantissa in [sqrt(1/2), sqrt 2)) and exp from
+   supermat__exp_*; the scalar rows powf. Values are clamped to [0, 1] first, NaN -> 0, as supermat__lin and
+   supermat__srgb (the knees where float64 has them: 0.04045f is below 0.04045, 0.0031308f above 0.0031308); within
+   8e-7 of them, relative (test_kernels: float's rounding of (v + 0.055) / 1.055 raised to 2.4, and powf's). */
+#define SUPERMAT__LOG_POLY(FMA, SET, f) \
+    FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(SET(7.0376836292E-2f), f, SET(-1.1514610310E-1f)), f, SET(1.1676998740E-1f)), f, SET(-1.2420140846E-1f)), f, \
+    SET(1.4249322787E-1f)), f, SET(-1.6668057665E-1f)), f, SET(2.0000714765E-1f)), f, SET(-2.4999993993E-1f)), f, SET(3.3333331174E-1f))
+static float supermat__lin_f(float v) { v = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f); }
+static float supermat__srgb_f(float v) { v = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; return v < 0.0031308f ? v * 12.92f : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f; }
+#if SUPERMAT__HAS_AVX2
+SUPERMAT__AVX2 static __m256 supermat__log_avx2(__m256 x) { /* x > 0 and normal */
+    __m256i b = _mm256_castps_si256(x);
+    __m256i e = _mm256_sub_epi32(_mm256_srli_epi32(b, 23), _mm256_set1_epi32(126));
+    __m256 m = _mm256_castsi256_ps(_mm256_or_si256(_mm256_and_si256(b, _mm256_set1_epi32(0x007fffff)), _mm256_set1_epi32(0x3f000000))); /* [1/2, 1) */
+    __m256 lo = _mm256_cmp_ps(m, _mm256_set1_ps(0.707106781186547524f), _CMP_LT_OQ);
+    __m256 fe = _mm256_sub_ps(_mm256_cvtepi32_ps(e), _mm256_and_ps(lo, _mm256_set1_ps(1.0f)));
+    __m256 f = _mm256_sub_ps(_mm256_add_ps(m, _mm256_and_ps(lo, m)), _mm256_set1_ps(1.0f));
+    __m256 z = _mm256_mul_ps(f, f);
+    __m256 y = _mm256_mul_ps(_mm256_mul_ps(f, z), SUPERMAT__LOG_POLY(_mm256_fmadd_ps, _mm256_set1_ps, f));
+    y = _mm256_fmadd_ps(fe, _mm256_set1_ps(-2.12194440e-4f), y);
+    y = _mm256_fmadd_ps(z, _mm256_set1_ps(-0.5f), y);
+    return _mm256_fmadd_ps(fe, _mm256_set1_ps(0.693359375f), _mm256_add_ps(f, y));
+}
+SUPERMAT__AVX2 static __m256 supermat__xfer_avx2(__m256 v, int enc) {
+    __m256 x, r;
+    v = _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0f)); /* NaN -> 0 */
+    if (enc) {
+        r = _mm256_mul_ps(_mm256_sqrt_ps(v), supermat__exp_avx2(_mm256_mul_ps(_mm256_set1_ps(-1.0f / 12.0f), supermat__log_avx2(v))));
+        r = _mm256_fmsub_ps(_mm256_set1_ps(1.055f), r, _mm256_set1_ps(0.055f));
+        return _mm256_blendv_ps(r, _mm256_mul_ps(v, _mm256_set1_ps(12.92f)), _mm256_cmp_ps(v, _mm256_set1_ps(0.0031308f), _CMP_LT_OQ));
+    }
+    x = _mm256_div_ps(_mm256_add_ps(v, _mm256_set1_ps(0.055f)), _mm256_set1_ps(1.055f));
+    r = _mm256_mul_ps(_mm256_sqrt_ps(x), supermat__exp_avx2(_mm256_mul_ps(_mm256_set1_ps(-0.1f), supermat__log_avx2(x))));
+    r = _mm256_mul_ps(_mm256_mul_ps(x, x), r);
+    return _mm256_blendv_ps(r, _mm256_div_ps(v, _mm256_set1_ps(12.92f)), _mm256_cmp_ps(v, _mm256_set1_ps(0.04045f), _CMP_LE_OQ));
+}
+SUPERMAT__AVX2 static void supermat__xfer_row_avx2(float *v, int n, int enc) {
+    int i = 0;
+    for (; i + 8 <= n; i += 8) _mm256_storeu_ps(v + i, supermat__xfer_avx2(_mm256_loadu_ps(v + i), enc));
+    for (; i < n; i++) v[i] = _mm256_cvtss_f32(supermat__xfer_avx2(_mm256_set1_ps(v[i]), enc));
+}
+#endif
+#if SUPERMAT__HAS_NEON
+static float32x4_t supermat__log_neon(float32x4_t x) { /* x > 0 and normal */
+    uint32x4_t b = vreinterpretq_u32_f32(x);
+    int32x4_t e = vsubq_s32(vreinterpretq_s32_u32(vshrq_n_u32(b, 23)), vdupq_n_s32(126));
+    float32x4_t m = vreinterpretq_f32_u32(vorrq_u32(vandq_u32(b, vdupq_n_u32(0x007fffffu)), vdupq_n_u32(0x3f000000u))); /* [1/2, 1) */
+    uint32x4_t lo = vcltq_f32(m, vdupq_n_f32(0.707106781186547524f));
+    float32x4_t fe = vsubq_f32(vcvtq_f32_s32(e), vbslq_f32(lo, vdupq_n_f32(1.0f), vdupq_n_f32(0.0f)));
+    float32x4_t f = vsubq_f32(vaddq_f32(m, vbslq_f32(lo, m, vdupq_n_f32(0.0f))), vdupq_n_f32(1.0f));
+    float32x4_t z = vmulq_f32(f, f);
+    float32x4_t y = vmulq_f32(vmulq_f32(f, z), SUPERMAT__LOG_POLY(supermat__fma_neon, vdupq_n_f32, f));
+    y = vfmaq_f32(y, fe, vdupq_n_f32(-2.12194440e-4f));
+    y = vfmaq_f32(y, z, vdupq_n_f32(-0.5f));
+    return vfmaq_f32(vaddq_f32(f, y), fe, vdupq_n_f32(0.693359375f));
+}
+static float32x4_t supermat__xfer_neon(float32x4_t v, int enc) {
+    float32x4_t x, r;
+    v = vbslq_f32(vcgtq_f32(v, vdupq_n_f32(0.0f)), v, vdupq_n_f32(0.0f)); /* NaN -> 0 */
+    v = vminq_f32(v, vdupq_n_f32(1.0f));
+    if (enc) {
+        r = vmulq_f32(vsqrtq_f32(v), supermat__exp_neon(vmulq_f32(vdupq_n_f32(-1.0f / 12.0f), supermat__log_neon(v))));
+        r = vsubq_f32(vmulq_f32(vdupq_n_f32(1.055f), r), vdupq_n_f32(0.055f));
+        return vbslq_f32(vcltq_f32(v, vdupq_n_f32(0.0031308f)), vmulq_f32(v, vdupq_n_f32(12.92f)), r);
+    }
+    x = vdivq_f32(vaddq_f32(v, vdupq_n_f32(0.055f)), vdupq_n_f32(1.055f));
+    r = vmulq_f32(vsqrtq_f32(x), supermat__exp_neon(vmulq_f32(vdupq_n_f32(-0.1f), supermat__log_neon(x))));
+    r = vmulq_f32(vmulq_f32(x, x), r);
+    return vbslq_f32(vcleq_f32(v, vdupq_n_f32(0.04045f)), vdivq_f32(v, vdupq_n_f32(12.92f)), r);
+}
+static void supermat__xfer_row_neon(float *v, int n, int enc) {
+    int i = 0;
+    for (; i + 4 <= n; i += 4) vst1q_f32(v + i, supermat__xfer_neon(vld1q_f32(v + i), enc));
+    for (; i < n; i++) v[i] = vgetq_lane_f32(supermat__xfer_neon(vdupq_n_f32(v[i]), enc), 0);
+}
+#endif
+/* n floats in place: to linear light (enc 0) or sRGB-encoded (enc 1), on the kernel X has */
+static void supermat__xfer_n(const supermat__ctx *X, int enc, float *v, int n) {
+    int i;
+#if SUPERMAT__HAS_AVX2
+    if (X->avx2) { supermat__xfer_row_avx2(v, n, enc); return; }
+#endif
+#if SUPERMAT__HAS_NEON
+    if (X->neon) { supermat__xfer_row_neon(v, n, enc); return; }
+#endif
+    for (i = 0; i < n; i++) v[i] = enc ? supermat__srgb_f(v[i]) : supermat__lin_f(v[i]);
+    (void)X;
+}
+
 
 /* The detail and colour steps on one row of albedo (3 floats a pixel). Linear light of the picture: an 8-bit
    picture's 256 values from a table (the same doubles supermat__lin gives for them), a float picture's
-   through supermat__lin. The albedo is a run's raw decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one
-   ([0, 1], srgb 1, supermat_detail). */
+   through supermat__xfer_n, as the albedo's, a block of SUPERMAT__PB pixels at a time. The albedo is a run's raw
+   decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one ([0, 1], srgb 1, supermat_detail). */
+#define SUPERMAT__PB 64
 typedef struct supermat__post {
     const supermat_image *in;
     const supermat_image *wt, *rg; /* detail: the weight and the region (supermat_detail_desc), or NULL */
     int srgb, w;
     float k;           /* chroma_weight */
     const double *lut; /* 256 entries for an 8-bit picture, else NULL */
+    const supermat__ctx *X; /* its kernel flags pick the transfer's rows */
 } supermat__post;
-/* the albedo's linear light, and a linear value encoded back as the albedo is */
-static double supermat__post_alin(const supermat__post *P, float v) { return supermat__lin(P->srgb ? (double)v : v * 0.5 + 0.5); }
-static float supermat__post_aenc(const supermat__post *P, double lin) { return P->srgb ? (float)supermat__srgb(lin) : (float)(supermat__srgb(lin) * 2.0 - 1.0); }
-static double supermat__post_lin(const supermat__post *P, int x, int y, int c) {
+/* pixels x0 .. x0 + n - 1 of row y (n <= SUPERMAT__PB), 3 floats a pixel: the albedo's linear light (alb: the
+   row), the picture's linear light, and linear values encoded back in place as the albedo is */
+static void supermat__post_alin(const supermat__post *P, const float *alb, int x0, int n, float *o) {
+    int i;
+    for (i = 0; i < 3 * n; i++) o[i] = P->srgb ? alb[3 * x0 + i] : alb[3 * x0 + i] * 0.5f + 0.5f;
+    supermat__xfer_n(P->X, 0, o, 3 * n);
+}
+static void supermat__post_lin(const supermat__post *P, int x0, int n, int y, float *o) {
     const supermat_image *in = P->in;
+    int x, c;
     if (P->lut) {
         size_t stride = in->stride ? in->stride : (size_t)in->width * in->channels;
-        return P->lut[((const unsigned char *)in->pixels)[(size_t)y * stride + (size_t)x * in->channels + c]];
+        const unsigned char *p = (const unsigned char *)in->pixels + (size_t)y * stride + (size_t)x0 * in->channels;
+        for (x = 0; x < n; x++)
+            for (c = 0; c < 3; c++) o[3 * x + c] = (float)P->lut[p[(size_t)x * in->channels + c]];
+        return;
     }
-    return supermat__lin(supermat__px(in, x, y, c));
+    for (x = 0; x < n; x++)
+        for (c = 0; c < 3; c++) o[3 * x + c] = supermat__px(in, x0 + x, y, c);
+    supermat__xfer_n(P->X, 0, o, 3 * n);
+}
+static void supermat__post_aenc(const supermat__post *P, float *v, int n) {
+    int i;
+    supermat__xfer_n(P->X, 1, v, 3 * n);
+    if (!P->srgb)
+        for (i = 0; i < 3 * n; i++) v[i] = v[i] * 2.0f - 1.0f;
 }
 static float supermat__post_alpha(const supermat__post *P, int x, int y) {
     float a;
@@ -6288,44 +6397,64 @@ static int supermat__post_writes(const supermat__post *P, int x, int y) {
 }
 /* detail, row y of the planes: alpha x linear albedo, alpha x linear picture, per colour channel */
 static void supermat__detail_in(const supermat__post *P, const float *alb, int y, float *g) {
-    int x, c;
-    for (x = 0; x < P->w; x++) {
-        float a = supermat__post_alpha(P, x, y);
-        for (c = 0; c < 3; c++) {
-            g[SUPERMAT__DC * x + 2 * c] = a > 0.0f ? (float)(a * supermat__post_alin(P, alb[3 * x + c])) : 0.0f;
-            g[SUPERMAT__DC * x + 2 * c + 1] = a > 0.0f ? (float)(a * supermat__post_lin(P, x, y, c)) : 0.0f;
+    float A[3 * SUPERMAT__PB], I[3 * SUPERMAT__PB];
+    int x0, x, c, n;
+    for (x0 = 0; x0 < P->w; x0 += n) {
+        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
+        supermat__post_alin(P, alb, x0, n, A);
+        supermat__post_lin(P, x0, n, y, I);
+        for (x = 0; x < n; x++) {
+            float a = supermat__post_alpha(P, x0 + x, y), *gp = g + SUPERMAT__DC * (size_t)(x0 + x);
+            for (c = 0; c < 3; c++) {
+                gp[2 * c] = a > 0.0f ? a * A[3 * x + c] : 0.0f;
+                gp[2 * c + 1] = a > 0.0f ? a * I[3 * x + c] : 0.0f;
+            }
         }
     }
 }
 /* detail, row y: the albedo from the picture and the ratio of the low-passed planes g (gr: the whole
    picture's, where the picture's low-pass is below 1e-6) */
 static void supermat__detail_out(const supermat__post *P, float *alb, int y, const float *g, const double *gr) {
-    int x, c;
-    for (x = 0; x < P->w; x++) {
-        if (!supermat__post_writes(P, x, y)) continue;
-        for (c = 0; c < 3; c++) {
-            const float *gp = g + SUPERMAT__DC * x + 2 * c;
-            double q = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c];
-            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-            alb[3 * x + c] = supermat__post_aenc(P, supermat__post_lin(P, x, y, c) * q);
-        }
+    float I[3 * SUPERMAT__PB];
+    int x0, x, c, n;
+    for (x0 = 0; x0 < P->w; x0 += n) {
+        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
+        supermat__post_lin(P, x0, n, y, I);
+        for (x = 0; x < n; x++)
+            for (c = 0; c < 3; c++) {
+                const float *gp = g + SUPERMAT__DC * (size_t)(x0 + x) + 2 * c;
+                double q = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c];
+                q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+                I[3 * x + c] = (float)(I[3 * x + c] * q);
+            }
+        supermat__post_aenc(P, I, n);
+        for (x = 0; x < n; x++)
+            if (supermat__post_writes(P, x0 + x, y))
+                for (c = 0; c < 3; c++) alb[3 * (x0 + x) + c] = I[3 * x + c];
     }
 }
 /* chroma_weight (see supermat_session_desc), row y of a run's albedo: the picture's chromaticity with
    weight k, at the albedo's own luminance */
 static void supermat__chroma_row(const supermat__post *P, float *alb, int y) {
     const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722, k = P->k;
-    int x, c;
-    for (x = 0; x < P->w; x++, alb += 3) {
-        double A[3], I[3], la, li;
-        if (!(supermat__post_alpha(P, x, y) > 0.0f)) continue; /* alpha 0 or NaN: as decoded */
-        for (c = 0; c < 3; c++) { A[c] = supermat__lin(alb[c] * 0.5 + 0.5); I[c] = supermat__post_lin(P, x, y, c); }
-        la = kr * A[0] + kg * A[1] + kb * A[2];
-        li = kr * I[0] + kg * I[1] + kb * I[2];
-        for (c = 0; c < 3; c++) {
-            double v = (1.0 - k) * A[c] + k * (la * I[c] + e * A[c]) / (li + e);
-            alb[c] = (float)(supermat__srgb(v) * 2.0 - 1.0); /* supermat__srgb clamps to [0, 1] */
+    float A[3 * SUPERMAT__PB], I[3 * SUPERMAT__PB];
+    int x0, x, c, n;
+    supermat__post Q = *P;
+    Q.srgb = 0; /* a run's raw decode */
+    for (x0 = 0; x0 < P->w; x0 += n) {
+        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
+        supermat__post_alin(&Q, alb, x0, n, A);
+        supermat__post_lin(&Q, x0, n, y, I);
+        for (x = 0; x < n; x++) {
+            float *a = A + 3 * x, *p = I + 3 * x;
+            double la = kr * a[0] + kg * a[1] + kb * a[2], li = kr * p[0] + kg * p[1] + kb * p[2], v[3];
+            for (c = 0; c < 3; c++) v[c] = (1.0 - k) * a[c] + k * (la * p[c] + e * a[c]) / (li + e);
+            for (c = 0; c < 3; c++) a[c] = (float)v[c]; /* encoded below (the transfer clamps to [0, 1]) */
         }
+        supermat__post_aenc(&Q, A, n);
+        for (x = 0; x < n; x++)
+            if (supermat__post_alpha(P, x0 + x, y) > 0.0f) /* alpha 0 or NaN: as decoded */
+                for (c = 0; c < 3; c++) alb[3 * (x0 + x) + c] = A[3 * x + c];
     }
 }
 
@@ -6558,7 +6687,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
             F.S = S; F.resize = resize; F.W = W; F.H = H; F.rows = trows;
             F.chroma = S->chroma > 0.0f && !uv && dec[0].d;
             F.curve = S->rough_n > 0 && !uv && m->branches > 1;
-            F.P.w = S->w; F.P.k = S->chroma;
+            F.P.w = S->w; F.P.k = S->chroma; F.P.X = X;
             for (i = 0; i < V; i++) {
                 int k;
                 F.in = F.P.in = supermat__view_in(rd, i);
@@ -6906,7 +7035,8 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
     memset(&U, 0, sizeof U);
     U.P.in = &d->picture; U.P.wt = d->weight.pixels ? &d->weight : NULL; U.P.rg = d->region.pixels ? &d->region : NULL;
-    U.P.srgb = 1; U.P.w = d->picture.width; U.P.lut = d->picture.format == SUPERMAT_FORMAT_F32 ? NULL : lut;
+    X.avx2 = supermat__cpu_has_avx2(); /* the sRGB transfer's rows (supermat__xfer_n) */
+    U.P.srgb = 1; U.P.w = d->picture.width; U.P.X = &X; U.P.lut = d->picture.format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     U.alb = (unsigned char *)d->albedo.pixels; U.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
     D.src = supermat__udet_src; D.sink = supermat__udet_sink; D.user = &U; U.gr = D.gr;
     if (X.status == SUPERMAT_SUCCESS) supermat__dstream_run(&D);

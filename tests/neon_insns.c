@@ -1,7 +1,7 @@
 /* The work of one NEON pass or of its scalar twin, for counting the instructions it executes under qemu
    (tests/test_neon.sh: qemu-aarch64 -singlestep -d exec,nochain prints a line per executed instruction;
    qemu's wall time says nothing about a real core). Runs PASS in MODE over fixed data REPS times.
-   usage: neon_insns widen_f16|widen_bf16|widen_i8|silu|geglu|layernorm|softmax|groupnorm|lowpass scalar|neon REPS */
+   usage: neon_insns widen_f16|widen_bf16|widen_i8|silu|geglu|srgb|layernorm|softmax|groupnorm|lowpass scalar|neon REPS */
 #define SUPERMAT_IMPLEMENTATION
 #include "../supermat.h"
 #include <stdio.h>
@@ -51,6 +51,11 @@ int main(int argc, char **argv) {
             nm.g = lg; nm.b = lb; nm.c = 256; nm.eps = 1e-5f;
             supermat__layernorm(&X, x, y, 8, &nm);
         } else if (!strcmp(argv[1], "geglu")) supermat__geglu(&X, x, y, 8, N / 16); /* 8 rows of 128 products */
+        else if (!strcmp(argv[1], "srgb")) { /* the detail and colour steps' transfer: 1024 values decoded, then encoded */
+            for (i = 0; i < N / 2; i++) y[i] = (float)i / (float)(N / 2);
+            supermat__xfer_n(&X, 0, y, N / 2);
+            supermat__xfer_n(&X, 1, y, N / 2);
+        }
         else if (!strcmp(argv[1], "softmax")) { /* the attention's online softmax over 2048 scores, in blocks of 64 */
             float m = -INFINITY, l = 0.0f;
             int b;

@@ -562,6 +562,44 @@ static void test_geglu(int mode) {
     free(h); free(y1); free(y3);
 }
 
+/* the sRGB transfer of the detail and colour steps (supermat__xfer_n) against float64 (supermat_srgb_to_linear /
+   _linear_to_srgb): 2^20 values over [-0.05, 1.05], every float within 4 ulp of both knees, subnormals, 0, 1 and
+   the non-finite ones (NaN and -Inf -> 0, +Inf -> 1, as the float64 functions clamp); a length of 2^20 + 3 so the
+   SIMD rows' tails are taken too */
+static void test_srgb(int mode) {
+    enum { N = (1 << 20) + 3 };
+    static const float ext[] = {0.0f, -0.0f, 1.0f, 1e-45f, 1e-39f, -1e-39f, 1e-30f, 1e-7f, 0.5f, 2.0f, -1.0f, INFINITY, -INFINITY, NAN};
+    float *v = (float *)malloc(sizeof(float) * N), *o = (float *)malloc(sizeof(float) * N);
+    kctx k;
+    int enc, i, bad = 0;
+    kctx_init(&k, mode, 1);
+    for (enc = 0; enc < 2; enc++) {
+        double worst = 0;
+        float knee = enc ? 0.0031308f : 0.04045f;
+        int ne = (int)(sizeof ext / sizeof ext[0]);
+        for (i = 0; i < N; i++) v[i] = (float)(-0.05 + 1.1 * i / (double)(N - 1));
+        for (i = 0; i < ne; i++) v[i] = ext[i];
+        {
+            float lo = knee, hi = knee;
+            v[ne] = knee;
+            for (i = 0; i < 4; i++) { lo = nextafterf(lo, 0.0f); hi = nextafterf(hi, 1.0f); v[ne + 1 + 2 * i] = lo; v[ne + 2 + 2 * i] = hi; }
+        }
+        memcpy(o, v, sizeof(float) * N);
+        supermat__xfer_n(&k.X, enc, o, N);
+        for (i = 0; i < N; i++) {
+            double ref = enc ? supermat_linear_to_srgb(v[i]) : supermat_srgb_to_linear(v[i]), e;
+            if (v[i] != v[i]) ref = 0.0;
+            e = fabs(o[i] - ref) / (ref > 1e-30 ? ref : 1e-30);
+            if (!(o[i] >= 0.0f && o[i] <= 1.0f) || (ref == 0.0 && o[i] != 0.0f)) { bad++; if (bad < 5) printf("%s sRGB %s(%g) = %g, float64 %g\n", KN(mode), enc ? "encode" : "decode", v[i], o[i], ref); continue; }
+            if (ref > 0.0 && e > worst) worst = e;
+        }
+        TU_CHECK(bad == 0 && worst < 8e-7, "%s sRGB %s vs float64: %d out of range, worst %.3g", KN(mode), enc ? "encode" : "decode", bad, worst);
+        printf("kernel %s: sRGB %s within %.2g of float64 (relative), extremes clamped\n", KN(mode), enc ? "encode" : "decode", worst);
+    }
+    kctx_free(&k);
+    free(v); free(o);
+}
+
 #if SUPERMAT__HAS_NEON
 /* the detail step's streamed low-pass with a synthetic source (6 floats a pixel) and a sink that keeps the rows */
 typedef struct dst_io { int w; float *out; } dst_io;
@@ -1052,6 +1090,7 @@ int main(void) {
         test_norms(avx2, 1);
         test_norms(avx2, 2);
         test_geglu(avx2);
+        test_srgb(avx2);
         printf("kernel %s: GEMMs, convolutions, attention, quantized panels and norms against float64\n", KN(avx2));
     }
     return tu_finish("kernels");

@@ -65,6 +65,32 @@ echo "== $cl /TC /W4 /WX, no -m flags: tests/supermat_impl.c (the clang branch)"
   "/FI$src/tests/msvc/mingw_as_msvc.h" "/Fo$work/clang_cl_impl.obj" -- "$src/tests/supermat_impl.c"
 echo "msvc: the MSVC branch compiles warning-free (/W4 /WX) as C and C++ (clang-cl, MSVC mode); plain clang-cl too"
 
+# Windows on ARM64 (clang's MinGW target, MinGW-w64's headers, which build for ARM64 only in GNU mode here):
+# tests/msvc/woa_impl.c, both implementations, #errors unless the NEON passes and the Win32 pool were taken; the
+# object must hold NEON arithmetic (fmla on .4s) and call the Win32 threads. Compiled, not run (no ARM64 wine here).
+clang=$(command -v clang-14 || command -v clang || true)
+clang_inc=$("${clang:-false}" -print-resource-dir 2>/dev/null || true)/include
+if [ -n "$clang" ] && [ -f "$clang_inc/arm_neon.h" ]; then
+  for lang in "c -std=c99" "c++ -std=c++11"; do
+    echo "== $clang --target=aarch64-w64-mingw32 -x $lang -Wall -Wextra -pedantic -Werror: tests/msvc/woa_impl.c"
+    # shellcheck disable=SC2086
+    "$clang" --target=aarch64-w64-mingw32 -x $lang -O2 -Wall -Wextra -pedantic -Werror -nostdinc -isystem "$clang_inc" \
+      -isystem "$inc" -c "$src/tests/msvc/woa_impl.c" -o "$work/woa_impl.o"
+  done
+  llvm_objdump=$(command -v llvm-objdump-14 || command -v llvm-objdump || true)
+  if [ -n "$llvm_objdump" ]; then
+    n=$("$llvm_objdump" -d "$work/woa_impl.o" | grep -cE 'fmla[[:space:]]+v[0-9]+\.4s' || true)
+    [ "$n" -gt 0 ] || { echo "FAIL: no NEON fmla in the Windows-on-ARM object"; exit 1; }
+    for f in CreateThread SleepConditionVariableSRW; do
+      "$llvm_objdump" -t "$work/woa_impl.o" | grep -q "__imp_$f" || { echo "FAIL: the Windows-on-ARM object does not call $f"; exit 1; }
+    done
+    echo "  fmla .4s: $n; CreateThread, SleepConditionVariableSRW imported"
+  fi
+  echo "msvc: Windows on ARM64 (clang, MinGW target) compiles warning-free as C and C++ with NEON and the Win32 pool"
+else
+  echo "note: no clang with arm_neon.h: Windows on ARM64 not compiled"
+fi
+
 # 2. the same branch run (MinGW-w64 gcc, wine)
 mcc=$(command -v x86_64-w64-mingw32-gcc || true)
 wine=$(command -v wine64 || true)

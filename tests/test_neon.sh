@@ -36,7 +36,7 @@ run "$work/test_golden" "$tiny" auto 2 "$data/golden/single_box_40" | tail -n 1 
 "$cc" -std=c99 -O2 -Wall -Wextra -pedantic -Werror -static -I"$src/tests" -o "$work/neon_insns" "$src/tests/neon_insns.c" -lm
 insns() { "$qemu" -singlestep -d exec,nochain -D /dev/stdout "$work/neon_insns" "$@" | grep -c '^Trace'; }
 echo "instructions a call (aarch64 under qemu): pass, scalar, NEON, ratio"
-for p in widen_f16 widen_bf16 widen_i8 silu geglu layernorm softmax groupnorm lowpass; do
+for p in widen_f16 widen_bf16 widen_i8 silu geglu srgb layernorm softmax groupnorm lowpass; do
   s0=$(insns $p scalar 0); s2=$(insns $p scalar 2); n0=$(insns $p neon 0); n2=$(insns $p neon 2)
   sc=$(( (s2 - s0) / 2 )); ne=$(( (n2 - n0) / 2 ))
   [ "$ne" -gt 0 ] && [ "$sc" -gt "$ne" ] || { echo "FAIL: $p: NEON $ne instructions, scalar $sc"; exit 1; }

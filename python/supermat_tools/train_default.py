@@ -776,14 +776,23 @@ def end_to_end_setup(run, src):
     return vae, vae.config.scaling_factor, context(run), x0_coefficient()[0], load_unet(run, src)
 
 
-def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=None, squared=()):
+def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=None, squared=(), distil=()):
     """End to end (see the phases above); only=RM_BRANCH trains that branch alone (everything else frozen, the
     albedo map then decoded without gradients: none of its losses reaches the branch); squared: the maps (of MAPS)
-    whose squared errors replace L1 (map_losses)."""
+    whose squared errors replace L1 (map_losses); distil: the maps of the second branch ("roughness",
+    "metallic") whose targets are the starting model's own maps of the same batch instead of the truth (a frozen
+    copy of the UNet run beside it: that map is kept where it was while the others learn; the re-render loss
+    then shades the same targets)."""
     steps = args.e2e_steps if steps is None else steps
     base_lr = args.e2e_lr if lr is None else lr   # (the loop's `lr` is the roughness loss)
     vae, sf, ctx, coef, unet = end_to_end_setup(args.out, src)
     params = branch_only(unet, only) if only else list(unet.parameters())
+    teacher = None
+    if distil:
+        teacher = load_unet(args.out, src).to(DEV).eval()
+        for p in teacher.parameters():
+            p.requires_grad_(False)
+        print(f"{name}: {', '.join(distil)} distilled from {src}", flush=True)
     if only:
         print(f"{name}: from {src}, {sum(p.numel() for p in params)} trainable parameters", flush=True)
     envs = [TorchEnv(R.EnvLight(os.path.join(args.hdri_dir, e))) for e in data.meta["envs"]]
@@ -804,6 +813,14 @@ def phase_e2e(args, data, name="e2e", src="latent", steps=None, lr=None, only=No
             with torch.set_grad_enabled(only != RM_BRANCH):
                 pa = (vae.decode(x0a / sf).sample.float() / 2 + 0.5).clamp(0, 1)
             po = (vae.decode(x0o / sf).sample.float() / 2 + 0.5).clamp(0, 1)
+        if teacher is not None:
+            with torch.no_grad(), amp():
+                pt = (vae.decode(unet_forward(teacher, zi, ctx, coef)[1] / sf).sample.float() / 2 + 0.5).clamp(0, 1)
+            orm = b["orm"].clone()
+            for ch, m in ((1, "roughness"), (2, "metallic")):
+                if m in distil:
+                    orm[:, ch:ch + 1] = pt[:, ch:ch + 1]
+            b = dict(b, orm=orm)
         la, lr, lm, lo = map_losses(pa, po, b, squared)
         lrr = rerender_loss(envs, ph.rng, b, pa, po)
         loss = la + lr + lm + 0.1 * lo + args.rerender_weight * lrr
@@ -949,9 +966,11 @@ def phase_rm(args, data):
     """The roughness / metallic expert branch alone (the replicated last up block and conv_out of branch 1),
     everything else frozen, so that the albedo stays bit-identical: --rm-steps end to end (the e2e phase's
     roughness, metallic, occlusion and re-render losses; the re-render shades the frozen albedo branch's map),
-    batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute, map errors L1 or squared (--rm-loss)."""
+    batch --e2e-batch, lr --rm-lr, colour permutations as --e2e-permute, map errors L1 or squared (--rm-loss), one
+    map distilled from the starting model (--rm-distil)."""
     phase_e2e(args, data, "rm", unet_source(args.out), args.rm_steps, args.rm_lr, only=RM_BRANCH,
-              squared={"l1": (), "squared": MAPS, "metal-squared": ("metallic",)}[args.rm_loss])
+              squared={"l1": (), "squared": MAPS, "metal-squared": ("metallic",)}[args.rm_loss],
+              distil=() if args.rm_distil == "none" else (args.rm_distil,))
 
 
 def init_from(args, allow_mv=False):
@@ -1193,6 +1212,9 @@ def main():
                     help="the rm phase's map errors: l1 (asks for the median: 0 for a metal the network is unsure "
                          "of), squared (the conditional mean, what PSNR measures) or metal-squared (roughness L1, "
                          "metallic squared)")
+    ap.add_argument("--rm-distil", default="none", choices=("none", "roughness", "metallic"),
+                    help="the rm phase: this map's target is the starting model's own map of the batch instead of "
+                         "the truth (kept where it was while the other map learns)")
     ap.add_argument("--alb-steps", type=int, default=600)
     ap.add_argument("--alb-batch", type=int, default=8)
     ap.add_argument("--alb-lr", type=float, default=1e-4)
