@@ -6346,8 +6346,8 @@ static void supermat__xfer_n(const supermat__ctx *X, int enc, float *v, int n) {
 
 
 /* The detail and colour steps on one row of albedo (3 floats a pixel). Linear light of the picture: an 8-bit
-   picture's 256 values from a table (the same doubles supermat__lin gives for them), a float picture's
-   through supermat__xfer_n, as the albedo's, a block of SUPERMAT__PB pixels at a time. The albedo is a run's raw
+   picture's 256 values from a table made by supermat__xfer_n (so a float picture of the values v / 255 gives
+   the same bits), a float picture's through supermat__xfer_n, as the albedo's, a block of SUPERMAT__PB pixels at a time. The albedo is a run's raw
    decode ([-1, 1], srgb 0) or a caller's sRGB-encoded one ([0, 1], srgb 1, supermat_detail). */
 #define SUPERMAT__PB 64
 typedef struct supermat__post {
@@ -6355,7 +6355,7 @@ typedef struct supermat__post {
     const supermat_image *wt, *rg; /* detail: the weight and the region (supermat_detail_desc), or NULL */
     int srgb, w;
     float k;           /* chroma_weight */
-    const double *lut; /* 256 entries for an 8-bit picture, else NULL */
+    const float *lut;  /* 256 entries for an 8-bit picture (supermat__post_lut), else NULL */
     const supermat__ctx *X; /* its kernel flags pick the transfer's rows */
 } supermat__post;
 /* pixels x0 .. x0 + n - 1 of row y (n <= SUPERMAT__PB), 3 floats a pixel: the albedo's linear light (alb: the
@@ -6372,12 +6372,18 @@ static void supermat__post_lin(const supermat__post *P, int x0, int n, int y, fl
         size_t stride = in->stride ? in->stride : (size_t)in->width * in->channels;
         const unsigned char *p = (const unsigned char *)in->pixels + (size_t)y * stride + (size_t)x0 * in->channels;
         for (x = 0; x < n; x++)
-            for (c = 0; c < 3; c++) o[3 * x + c] = (float)P->lut[p[(size_t)x * in->channels + c]];
+            for (c = 0; c < 3; c++) o[3 * x + c] = P->lut[p[(size_t)x * in->channels + c]];
         return;
     }
     for (x = 0; x < n; x++)
         for (c = 0; c < 3; c++) o[3 * x + c] = supermat__px(in, x0 + x, y, c);
     supermat__xfer_n(P->X, 0, o, 3 * n);
+}
+/* the linear light of the 256 8-bit values, as supermat__px reads them (v / 255) */
+static void supermat__post_lut(const supermat__ctx *X, float *lut) {
+    int i;
+    for (i = 0; i < 256; i++) lut[i] = (float)i / 255.0f;
+    supermat__xfer_n(X, 0, lut, 256);
 }
 static void supermat__post_aenc(const supermat__post *P, float *v, int n) {
     int i;
@@ -6674,7 +6680,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
          succeeded */
         int T = X->thr.max_threads > 1 ? X->thr.max_threads : 1, detail = S->detail > 0.0f && !uv && dec[0].d;
         float *rows[SUPERMAT__MAXBRANCH] = {NULL}, *trows;
-        double lut[256];
+        float lut[256];
         supermat__dstream D;
         supermat__fin F;
         memset(&F, 0, sizeof F);
@@ -6683,7 +6689,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
         trows = supermat__get(X, (size_t)S->w * 6 * T);
         if (detail) supermat__dstream_get(X, &D, S->w, S->h, S->detail);
         if (supermat__live(X)) {
-            for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
+            supermat__post_lut(X, lut);
             F.S = S; F.resize = resize; F.W = W; F.H = H; F.rows = trows;
             F.chroma = S->chroma > 0.0f && !uv && dec[0].d;
             F.curve = S->rough_n > 0 && !uv && m->branches > 1;
@@ -7015,9 +7021,8 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     supermat__ctx X;
     supermat__dstream D;
     supermat__udet U;
-    double lut[256];
+    float lut[256];
     unsigned char *mem;
-    int i;
     supermat_result r = supermat__detail_plan(d, &need, 1, err);
     if (r) return r;
     al = supermat__resolve_allocator(&d->allocator);
@@ -7032,10 +7037,10 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     X.base = (char *)mem; X.cap = need;
     X.neon = supermat__cpu_has_neon(); /* the low-pass's sums on NEON where there is NEON (the same bits) */
     supermat__dstream_get(&X, &D, d->picture.width, d->picture.height, d->sigma);
-    for (i = 0; i < 256; i++) lut[i] = supermat__lin((float)i / 255.0f); /* as supermat__px reads an 8-bit value */
+    X.avx2 = supermat__cpu_has_avx2(); /* the sRGB transfer's rows (supermat__xfer_n) */
+    supermat__post_lut(&X, lut);
     memset(&U, 0, sizeof U);
     U.P.in = &d->picture; U.P.wt = d->weight.pixels ? &d->weight : NULL; U.P.rg = d->region.pixels ? &d->region : NULL;
-    X.avx2 = supermat__cpu_has_avx2(); /* the sRGB transfer's rows (supermat__xfer_n) */
     U.P.srgb = 1; U.P.w = d->picture.width; U.P.X = &X; U.P.lut = d->picture.format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     U.alb = (unsigned char *)d->albedo.pixels; U.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
     D.src = supermat__udet_src; D.sink = supermat__udet_sink; D.user = &U; U.gr = D.gr;
