@@ -81,8 +81,9 @@ if [ -n "$clang" ] && [ -f "$clang_inc/arm_neon.h" ]; then
   if [ -n "$llvm_objdump" ]; then
     n=$("$llvm_objdump" -d "$work/woa_impl.o" | grep -cE 'fmla[[:space:]]+v[0-9]+\.4s' || true)
     [ "$n" -gt 0 ] || { echo "FAIL: no NEON fmla in the Windows-on-ARM object"; exit 1; }
+    syms=$("$llvm_objdump" -t "$work/woa_impl.o")   # (not piped into grep -q: under pipefail its early exit fails the pipe)
     for f in CreateThread SleepConditionVariableSRW; do
-      "$llvm_objdump" -t "$work/woa_impl.o" | grep -q "__imp_$f" || { echo "FAIL: the Windows-on-ARM object does not call $f"; exit 1; }
+      grep -q "__imp_$f" <<<"$syms" || { echo "FAIL: the Windows-on-ARM object does not call $f"; exit 1; }
     done
     echo "  fmla .4s: $n; CreateThread, SleepConditionVariableSRW imported"
   fi
