@@ -6445,19 +6445,17 @@ static void supermat__chroma_row(const supermat__post *P, float *alb, int y) {
     const double e = 0.002, kr = 0.2126, kg = 0.7152, kb = 0.0722, k = P->k;
     float A[3 * SUPERMAT__PB], I[3 * SUPERMAT__PB];
     int x0, x, c, n;
-    supermat__post Q = *P;
-    Q.srgb = 0; /* a run's raw decode */
-    for (x0 = 0; x0 < P->w; x0 += n) {
+    for (x0 = 0; x0 < P->w; x0 += n) { /* a run's raw decode: P->srgb is 0 */
         n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
-        supermat__post_alin(&Q, alb, x0, n, A);
-        supermat__post_lin(&Q, x0, n, y, I);
+        supermat__post_alin(P, alb, x0, n, A);
+        supermat__post_lin(P, x0, n, y, I);
         for (x = 0; x < n; x++) {
             float *a = A + 3 * x, *p = I + 3 * x;
             double la = kr * a[0] + kg * a[1] + kb * a[2], li = kr * p[0] + kg * p[1] + kb * p[2], v[3];
             for (c = 0; c < 3; c++) v[c] = (1.0 - k) * a[c] + k * (la * p[c] + e * a[c]) / (li + e);
             for (c = 0; c < 3; c++) a[c] = (float)v[c]; /* encoded below (the transfer clamps to [0, 1]) */
         }
-        supermat__post_aenc(&Q, A, n);
+        supermat__post_aenc(P, A, n);
         for (x = 0; x < n; x++)
             if (supermat__post_alpha(P, x0 + x, y) > 0.0f) /* alpha 0 or NaN: as decoded */
                 for (c = 0; c < 3; c++) alb[3 * (x0 + x) + c] = A[3 * x + c];
