@@ -84,6 +84,8 @@
  *                           chromaticity at the network's luminance; for small networks
  *   session_desc.roughness_knots  not a speed lever and not official: the roughness map through a
  *                           monotone calibration curve; for networks whose roughness is too narrow
+ *   session_desc.metallic_knots  not a speed lever and not official: the metallic map through one; for
+ *                           networks that leave a floor of metal on dielectrics
  *
  * WHAT IT DOES NOT DO
  *   - No file I/O, no image decoding: give it pixels; it resamples them to the model's work size (the
@@ -186,8 +188,9 @@
  *   the default model records 1/64 and 1, an official conversion neither); pipeline.bake_detail_sigma
  *   (supermat / supermat-mv), the detail step supermat_uv.h's bake applies to textures baked from this
  *   model's views (supermat_uv_bake_desc.detail_sigma; the multi-view default records 1/32);
- *   pipeline.roughness_curve (supermat / supermat-mv), the calibration curve a run puts the roughness map
- *   through (session_desc.roughness_knots; a comma list as supermat_parse_curve reads it). So the shortest
+ *   pipeline.roughness_curve and pipeline.metallic_curve (supermat / supermat-mv), the calibration curves a run
+ *   puts the roughness and metallic maps through (session_desc.roughness_knots / metallic_knots; comma lists as
+ *   supermat_parse_curve reads them). So the shortest
  *   program runs the model as it was measured, and `supermat image` / `mesh` set nothing more.
  *
  * PRE-PACKED MODELS (supermat_model_write_packed, `supermat pack`)
@@ -380,7 +383,8 @@ typedef struct supermat_model_desc {
     uint32_t _end_canary;
 } supermat_model_desc;
 
-/* the most knots a calibration curve has (pipeline.roughness_curve, session_desc.roughness_knots) */
+/* the most knots a calibration curve has (pipeline.roughness_curve / metallic_curve, session_desc.roughness_knots /
+   metallic_knots) */
 #define SUPERMAT_CURVE_MAX_KNOTS 33
 
 typedef struct supermat_model_info {
@@ -410,6 +414,8 @@ typedef struct supermat_model_info {
                                       from this model's views; 0 = none */
     int roughness_knots;           /* pipeline.roughness_curve: its knots (session_desc.roughness_knots); 0 = none */
     float roughness_curve[SUPERMAT_CURVE_MAX_KNOTS];
+    int metallic_knots;            /* pipeline.metallic_curve: its knots (session_desc.metallic_knots); 0 = none */
+    float metallic_curve[SUPERMAT_CURVE_MAX_KNOTS];
 } supermat_model_info;
 
 typedef struct supermat_model supermat_model;
@@ -518,10 +524,16 @@ typedef struct supermat_session_desc {
        an official one none); SUPERMAT_CURVE_OFF = none. */
     int roughness_knots;
     const float *roughness_curve;
+    /* supermat / supermat-mv, not in the official computation: the metallic map through a calibration curve,
+       as the roughness above (the same knots' rules, the same pixels, after the roughness's). For a network
+       that leaves a floor of metal on dielectrics, or whose metal is too faint (fitted as above). 0 = the
+       model's (supermat_model_info.metallic_knots / metallic_curve); SUPERMAT_CURVE_OFF = none. */
+    int metallic_knots;
+    const float *metallic_curve;
     uint32_t _end_canary;
 } supermat_session_desc;
 
-/* session_desc.roughness_knots: no curve, whatever the model file records */
+/* session_desc.roughness_knots / metallic_knots: no curve, whatever the model file records */
 #define SUPERMAT_CURVE_OFF (-1)
 
 /* Arena bytes a session with this desc would allocate (the whole run), without allocating. */
@@ -622,7 +634,8 @@ typedef struct supermat_detail_desc {
    supermat_detail, its pixels are not read. */
 SUPERMAT_API supermat_result supermat_detail_memory(const supermat_detail_desc *desc, size_t *bytes, supermat_error *err);
 SUPERMAT_API supermat_result supermat_detail(const supermat_detail_desc *desc, supermat_error *err);
-/* A calibration curve as text (metadata pipeline.roughness_curve, the tool's --roughness-curve): 2 to
+/* A calibration curve as text (metadata pipeline.roughness_curve / metallic_curve, the tool's --roughness-curve /
+   --metallic-curve): 2 to
    SUPERMAT_CURVE_MAX_KNOTS numbers separated by commas (spaces around them allowed), each in [0, 1], each
    >= the one before. *count gets the number (knots: room for SUPERMAT_CURVE_MAX_KNOTS); else
    INVALID_ARGUMENT with what is wrong. */
@@ -4069,7 +4082,8 @@ static int supermat__meta_str(supermat__loader *L, const char *key, char *buf, s
     }
     return 0;
 }
-/* >>curve: the roughness calibration curve (session_desc.roughness_knots, pipeline.roughness_curve) */
+/* >>curve: the roughness and metallic calibration curves (session_desc.roughness_knots / metallic_knots,
+   pipeline.roughness_curve / metallic_curve) */
 /* 0 when n knots make a curve, else -1 and why */
 static int supermat__curve_ok(const float *k, int n, char *why, size_t cap) {
     int i;
@@ -5138,14 +5152,20 @@ static supermat_result supermat__model_create(const supermat_model_desc *desc, s
         m->info.bake_detail_sigma = (float)supermat__meta_num(&L, "pipeline.bake_detail_sigma", 0, 1, 0, 0);
         if (L.r) goto done;
         {
+            static const char *const key[2] = {"pipeline.roughness_curve", "pipeline.metallic_curve"}, *const map[2] = {"roughness", "metallic"};
             char cv[1024], why[160];
-            if (!supermat__meta_str(&L, "pipeline.roughness_curve", cv, sizeof cv, 0)) {
-                if (m->info.kind == SUPERMAT_KIND_UV_REFINE) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata pipeline.roughness_curve on a uv-refine model, which makes no roughness map"); goto done; }
-                if (supermat__curve_read(cv, m->info.roughness_curve, &m->info.roughness_knots, why, sizeof why)) {
-                    L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.roughness_curve' = '%.64s': %s", cv, why);
-                    goto done;
-                }
-            } else if (L.r) goto done;
+            int c;
+            for (c = 0; c < 2; c++) {
+                float *k = c ? m->info.metallic_curve : m->info.roughness_curve;
+                int *n = c ? &m->info.metallic_knots : &m->info.roughness_knots;
+                if (!supermat__meta_str(&L, key[c], cv, sizeof cv, 0)) {
+                    if (m->info.kind == SUPERMAT_KIND_UV_REFINE) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata %s on a uv-refine model, which makes no %s map", key[c], map[c]); goto done; }
+                    if (supermat__curve_read(cv, k, n, why, sizeof why)) {
+                        L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata '%s' = '%.64s': %s", key[c], cv, why);
+                        goto done;
+                    }
+                } else if (L.r) goto done;
+            }
         }
         if (ws != floor(ws) || ((int)ws % 8) || (ws > 0 && ws < 8)) { L.r = supermat__fail(err, SUPERMAT_ERROR_MALFORMED_FILE, NULL, "metadata 'pipeline.work_size' = %g: 0 or a multiple of 8 up to 16384", ws); goto done; }
         m->info.work_size = (int)ws;
@@ -5817,8 +5837,8 @@ struct supermat_session {
     int mv_att, mv_stride;
     float detail;               /* detail_sigma */
     float chroma;               /* chroma_weight */
-    int rough_n;                /* the roughness curve's knots (0 = none) */
-    float rough[SUPERMAT_CURVE_MAX_KNOTS];
+    int curve_n[2];             /* the roughness and metallic curves' knots (0 = none) */
+    float curve[2][SUPERMAT_CURVE_MAX_KNOTS];
 };
 
 /* the network's size along one axis of `len` pixels: `work` (0 = the model's work size, else the picture's;
@@ -5832,6 +5852,12 @@ static float supermat__step_value(float v, float model) {
     return v == 0.0f ? model : v < 0.0f ? 0.0f : v;
 }
 
+/* the session's curve c (0 roughness, 1 metallic): the desc's n knots k, else (n 0) the model's mn knots mk */
+static void supermat__session_curve(supermat_session *S, int c, int n, const float *k, int mn, const float *mk) {
+    S->curve_n[c] = 0;
+    if (n > 0) { S->curve_n[c] = n; memcpy(S->curve[c], k, sizeof(float) * (size_t)n); }
+    else if (n == 0 && mn > 0) { S->curve_n[c] = mn; memcpy(S->curve[c], mk, sizeof(float) * (size_t)mn); }
+}
 static void supermat__session_options(supermat_session *S, const supermat_session_desc *d) {
     S->ww = supermat__work_len(d, d->work_width, d->width);
     S->wh = supermat__work_len(d, d->work_height, d->height);
@@ -5840,9 +5866,8 @@ static void supermat__session_options(supermat_session *S, const supermat_sessio
     S->mv_att = (int)d->mv_attention; S->mv_stride = d->mv_key_stride;
     S->detail = supermat__step_value(d->detail_sigma, d->model->info.detail_sigma);
     S->chroma = supermat__step_value(d->chroma_weight, d->model->info.chroma_weight);
-    S->rough_n = 0;
-    if (d->roughness_knots > 0) { S->rough_n = d->roughness_knots; memcpy(S->rough, d->roughness_curve, sizeof(float) * (size_t)S->rough_n); }
-    else if (d->roughness_knots == 0 && d->model->info.roughness_knots > 0) { S->rough_n = d->model->info.roughness_knots; memcpy(S->rough, d->model->info.roughness_curve, sizeof S->rough); }
+    supermat__session_curve(S, 0, d->roughness_knots, d->roughness_curve, d->model->info.roughness_knots, d->model->info.roughness_curve);
+    supermat__session_curve(S, 1, d->metallic_knots, d->metallic_curve, d->model->info.metallic_knots, d->model->info.metallic_curve);
 }
 
 static int supermat__views(const supermat_session_desc *d) {
@@ -6560,10 +6585,11 @@ static void supermat__fin_row(void *user, int y, float *g, int thread) {
     }
     if (S->m->branches > 1 && F->dec[1]) {
         supermat__fin_get(F, 1, y, row[1]);
-        if (F->curve) /* the roughness curve: channel 1 of the second branch */
-            for (x = 0; x < S->w; x++)
-                if (F->in->channels < 4 || supermat__px(F->in, x, y, 3) > 0.0f)
-                    row[1][3 * x + 1] = 2.0f * supermat__curve_at(S->rough, S->rough_n, row[1][3 * x + 1] / 2.0f + 0.5f) - 1.0f;
+        for (k = 0; k < 2; k++) /* the roughness and metallic curves: channels 1 and 2 of the second branch */
+            if (F->curve && S->curve_n[k] > 0)
+                for (x = 0; x < S->w; x++)
+                    if (F->in->channels < 4 || supermat__px(F->in, x, y, 3) > 0.0f)
+                        row[1][3 * x + 1 + k] = 2.0f * supermat__curve_at(S->curve[k], S->curve_n[k], row[1][3 * x + 1 + k] / 2.0f + 0.5f) - 1.0f;
     }
     for (k = 0; k < 5; k++)
         if (F->out[k]) supermat__write_row(F->out[k], row[branch[k]], chan[k], k < 3 ? F->in : NULL, S->w, y);
@@ -6690,7 +6716,7 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
             supermat__post_lut(X, lut);
             F.S = S; F.resize = resize; F.W = W; F.H = H; F.rows = trows;
             F.chroma = S->chroma > 0.0f && !uv && dec[0].d;
-            F.curve = S->rough_n > 0 && !uv && m->branches > 1;
+            F.curve = (S->curve_n[0] > 0 || S->curve_n[1] > 0) && !uv && m->branches > 1;
             F.P.w = S->w; F.P.k = S->chroma; F.P.X = X;
             for (i = 0; i < V; i++) {
                 int k;
@@ -6718,6 +6744,18 @@ static void supermat__forward(supermat__ctx *X, const supermat_session *S, const
     fl->total = fl->encode + fl->trunk + fl->branch + fl->decode;
 }
 
+/* the desc's curve for `map` (roughness or metallic): n knots k */
+static supermat_result supermat__check_curve(const supermat_session_desc *d, const char *map, int n, const float *k, supermat_error *err) {
+    char why[160];
+    if (n < SUPERMAT_CURVE_OFF)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s_knots %d: 0 (the model's curve), SUPERMAT_CURVE_OFF or 2 to %d knots", map, n, SUPERMAT_CURVE_MAX_KNOTS);
+    if (n <= 0) return SUPERMAT_SUCCESS;
+    if (d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s_curve: a UV-refine model makes no %s map", map, map);
+    if (!k) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s_knots %d but %s_curve is NULL", map, n, map);
+    if (supermat__curve_ok(k, n, why, sizeof why)) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "%s_curve: %s", map, why);
+    return SUPERMAT_SUCCESS;
+}
 static supermat_result supermat__check_session_desc(const supermat_session_desc *d, supermat_error *err) {
     supermat_result r;
     if (!d) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "session desc must not be NULL");
@@ -6768,16 +6806,8 @@ static supermat_result supermat__check_session_desc(const supermat_session_desc 
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight %g: at most 1 (0 = the model's, SUPERMAT_OFF = off)", (double)d->chroma_weight);
         if (d->chroma_weight > 0.0f && d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
             return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "chroma_weight: a UV-refine model has no input picture to take colour from");
-        if (d->roughness_knots < SUPERMAT_CURVE_OFF)
-            return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_knots %d: 0 (the model's curve), SUPERMAT_CURVE_OFF or 2 to %d knots", d->roughness_knots, SUPERMAT_CURVE_MAX_KNOTS);
-        if (d->roughness_knots > 0) {
-            char why[160];
-            if (d->model->info.kind == SUPERMAT_KIND_UV_REFINE)
-                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_curve: a UV-refine model makes no roughness map");
-            if (!d->roughness_curve) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_knots %d but roughness_curve is NULL", d->roughness_knots);
-            if (supermat__curve_ok(d->roughness_curve, d->roughness_knots, why, sizeof why))
-                return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "roughness_curve: %s", why);
-        }
+        if ((r = supermat__check_curve(d, "roughness", d->roughness_knots, d->roughness_curve, err))) return r;
+        if ((r = supermat__check_curve(d, "metallic", d->metallic_knots, d->metallic_curve, err))) return r;
     }
     return SUPERMAT_SUCCESS;
 }

@@ -61,8 +61,9 @@ typedef struct cli_levers {
     size_t max_memory;        /* --max-memory, 0 = none */
     float detail;             /* --detail: -1 = the command's default (image 1/64, views off) */
     float chroma;             /* --chroma: -1 = the command's default (image 1, views off) */
-    int rough_knots;          /* --roughness-curve: 0 = not given (the model's), SUPERMAT_CURVE_OFF = off, else */
-    float rough_curve[SUPERMAT_CURVE_MAX_KNOTS]; /* its knots */
+    int knots[2];             /* --roughness-curve, --metallic-curve: 0 = not given (the model's), SUPERMAT_CURVE_OFF
+                                 = off, else the knots in curve[] */
+    float curve[2][SUPERMAT_CURVE_MAX_KNOTS];
 } cli_levers;
 static void cli_levers_init(cli_levers *lv) {
     memset(lv, 0, sizeof *lv);

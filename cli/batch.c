@@ -520,6 +520,7 @@ static const cli_optdef cli_opts_batch_image[] = {
     {CLI_O_DETAIL, "--detail", "F|off", "as `supermat image`", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "W|off", "as `supermat image`", NULL, NULL},
     {CLI_O_ROUGH_CURVE, "--roughness-curve", "LIST|off", "as `supermat image`", NULL, NULL},
+    {CLI_O_METAL_CURVE, "--metallic-curve", "LIST|off", "as `supermat image`", NULL, NULL},
     CLI_OPTS(cli_opts_machine),
     CLI_END};
 static const cli_optdef cli_opts_batch[] = {

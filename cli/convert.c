@@ -49,7 +49,7 @@ static int cli_convert_from(const char *from, const char *outp, const sm_pipelin
     rc = cli_out_close(&o, ok || o.err); /* a failed write: cli_out_close says why */
     if (!ok && rc == CLI_OK) rc = CLI_FAIL;
     if (rc == CLI_OK) { /* what changed, in the file's order */
-        char ws[80] = "", ds[48] = "", cs[48] = "", bs[48] = "", rs[32] = "", all[280];
+        char ws[80] = "", ds[48] = "", cs[48] = "", bs[48] = "", rs[32] = "", ms[32] = "", all[320];
         if (pe->work_size < 0) snprintf(ws, sizeof ws, ", no work size (each picture at its own size)");
         else if (pe->work_size > 0) snprintf(ws, sizeof ws, ", work size %dx%d", pe->work_size, pe->work_size);
         if (pe->detail_sigma == 0.0f) snprintf(ds, sizeof ds, ", detail off");
@@ -59,7 +59,8 @@ static int cli_convert_from(const char *from, const char *outp, const sm_pipelin
         if (pe->bake_detail_sigma == 0.0f) snprintf(bs, sizeof bs, ", bake detail off");
         else if (pe->bake_detail_sigma > 0.0f) snprintf(bs, sizeof bs, ", bake detail %.9g", (double)pe->bake_detail_sigma);
         if (pe->roughness_curve) snprintf(rs, sizeof rs, ", roughness curve %s", pe->roughness_curve[0] ? "set" : "off");
-        snprintf(all, sizeof all, "%s%s%s%s%s", ws, ds, cs, bs, rs); /* ", a, b": the first comma left out */
+        if (pe->metallic_curve) snprintf(ms, sizeof ms, ", metallic curve %s", pe->metallic_curve[0] ? "set" : "off");
+        snprintf(all, sizeof all, "%s%s%s%s%s%s", ws, ds, cs, bs, rs, ms); /* ", a, b": the first comma left out */
         printf("wrote %s (%.1f MiB): %s with%s\n", outp, cli_mib((double)nsize), from, all + 1);
     }
     return rc;
@@ -67,11 +68,13 @@ static int cli_convert_from(const char *from, const char *outp, const sm_pipelin
 
 /* `supermat convert`: its options and --help */
 enum { CLI_CONV_KIND = 1, CLI_CONV_UNET, CLI_CONV_BASE, CLI_CONV_OUT, CLI_CONV_WEIGHTS, CLI_CONV_PACKED, CLI_CONV_THREADS,
-       CLI_CONV_WORK_SIZE, CLI_CONV_DETAIL, CLI_CONV_CHROMA, CLI_CONV_BAKE_DETAIL, CLI_CONV_ROUGH_CURVE, CLI_CONV_FROM };
+       CLI_CONV_WORK_SIZE, CLI_CONV_DETAIL, CLI_CONV_CHROMA, CLI_CONV_BAKE_DETAIL, CLI_CONV_ROUGH_CURVE, CLI_CONV_METAL_CURVE,
+       CLI_CONV_FROM };
 static const cli_optdef cli_opts_convert[] = {
     CLI_TEXT("usage: supermat convert --unet FILE.pth --base DIR --out FILE.safetensors [options]\n"
              "       supermat convert --from MODEL.safetensors [--work-size N|native] [--detail F|off] [--chroma W|off]\n"
-             "                        [--bake-detail F|off] [--roughness-curve LIST|off] --out FILE.safetensors\n"
+             "                        [--bake-detail F|off] [--roughness-curve LIST|off] [--metallic-curve LIST|off]\n"
+             "                        --out FILE.safetensors\n"
              "\n"
              "Turns an official SuperMat checkpoint (torch.save format) plus a Stable Diffusion 2.1 folder in\n"
              "diffusers layout (unet/config.json, vae/, text_encoder/, scheduler/) into the one model file that\n"
@@ -109,9 +112,10 @@ static const cli_optdef cli_opts_convert[] = {
                                                          "through by default (their --roughness-curve): K0,...,Kn-1 the values at 0,\n"
                                                          "1/(n-1), ..., 1, 2 to 33 knots in [0, 1], never falling. Default: none recorded;\n"
                                                          "not for uv-refine", NULL, NULL},
+    {CLI_CONV_METAL_CURVE, "--metallic-curve", "LIST|off", "the same for the metallic map (their --metallic-curve)", NULL, NULL},
     {CLI_CONV_FROM, "--from", "MODEL", "instead of a checkpoint: an already converted model file (pre-packed or not),\n"
-                                       "written again with the --work-size, --detail, --chroma, --bake-detail and\n"
-                                       "--roughness-curve given\n"
+                                       "written again with the --work-size, --detail, --chroma, --bake-detail,\n"
+                                       "--roughness-curve and --metallic-curve given\n"
                                        "(at least one; `off` removes that step's key) and nothing else changed (its\n"
                                        "tensors and other metadata byte for byte; the file written is checked to load)", NULL, NULL},
     CLI_TEXT("\nProgress is printed on stderr when it is a terminal.\n"),
@@ -123,7 +127,7 @@ static int cli_convert(int argc, char **argv) {
     char err[1024];
     int m, r, packed = 0;
     float detail = -1.0f, chroma = -1.0f, bake = -1.0f; /* -1: not given, 0: off */
-    const char *curve = NULL;                           /* --roughness-curve: NULL not given, "" off */
+    const char *curve[2] = {NULL, NULL};                /* --roughness-curve, --metallic-curve: NULL not given, "" off */
     struct stat st;
     cli_argp P;
     memset(&d, 0, sizeof d);
@@ -164,14 +168,15 @@ static int cli_convert(int argc, char **argv) {
         case CLI_CONV_CHROMA:
             if (cli_parse_unit(cmd, "--chroma", v, "a weight", &chroma)) return CLI_USAGE;
             break;
-        case CLI_CONV_ROUGH_CURVE: {
+        case CLI_CONV_ROUGH_CURVE:
+        case CLI_CONV_METAL_CURVE: {
             float k[SUPERMAT_CURVE_MAX_KNOTS];
-            int n;
+            int n, c = m == CLI_CONV_METAL_CURVE;
             supermat_error e;
-            if (!strcmp(v, "off")) { curve = ""; break; }
+            if (!strcmp(v, "off")) { curve[c] = ""; break; }
             if (supermat_parse_curve(v, k, &n, &e) != SUPERMAT_SUCCESS)
-                return cli_usage_error(cmd, "--roughness-curve: 'off' or a list of knots (0.2,0.5,0.8): %s", e.message);
-            curve = v;
+                return cli_usage_error(cmd, "--%s-curve: 'off' or a list of knots (0.2,0.5,0.8): %s", c ? "metallic" : "roughness", e.message);
+            curve[c] = v;
             break;
         }
         case CLI_CONV_BAKE_DETAIL:
@@ -184,19 +189,23 @@ static int cli_convert(int argc, char **argv) {
         sm_pipeline_edit pe;
         if (d.checkpoint || d.base_dir || d.kind || d.dtype || packed || d.threads)
             return cli_usage_error(cmd, "--from rewrites a model file's pipeline keys only: --unet, --base, --kind, --weights, --packed and --threads are for a checkpoint");
-        if (!d.work_size && detail < 0.0f && chroma < 0.0f && bake < 0.0f && !curve)
-            return cli_usage_error(cmd, "--from needs --work-size N|native, --detail F|off, --chroma W|off, --bake-detail F|off or --roughness-curve LIST|off");
+        if (!d.work_size && detail < 0.0f && chroma < 0.0f && bake < 0.0f && !curve[0] && !curve[1])
+            return cli_usage_error(cmd, "--from needs --work-size N|native, --detail F|off, --chroma W|off, --bake-detail F|off, "
+                                        "--roughness-curve LIST|off or --metallic-curve LIST|off");
         if (!d.output) return cli_usage_error(cmd, "--out FILE is required");
         pe.work_size = d.work_size;
         pe.detail_sigma = detail;
         pe.chroma_weight = chroma;
         pe.bake_detail_sigma = bake;
-        pe.roughness_curve = curve;
+        pe.roughness_curve = curve[0];
+        pe.metallic_curve = curve[1];
         return cli_convert_from(from, d.output, &pe);
     }
-    if (d.kind && !strcmp(d.kind, "uv-refine") && curve && curve[0])
-        return cli_usage_error(cmd, "--roughness-curve: a uv-refine model makes no roughness map");
-    d.roughness_curve = curve && curve[0] ? curve : NULL;
+    for (m = 0; m < 2; m++)
+        if (d.kind && !strcmp(d.kind, "uv-refine") && curve[m] && curve[m][0])
+            return cli_usage_error(cmd, "--%s-curve: a uv-refine model makes no %s map", m ? "metallic" : "roughness", m ? "metallic" : "roughness");
+    d.roughness_curve = curve[0] && curve[0][0] ? curve[0] : NULL;
+    d.metallic_curve = curve[1] && curve[1][0] ? curve[1] : NULL;
     if (d.kind && !strcmp(d.kind, "uv-refine") && (detail > 0.0f || chroma > 0.0f || bake > 0.0f))
         return cli_usage_error(cmd, "--%s: a uv-refine model has no input picture for the %s step",
                                detail > 0.0f ? "detail" : chroma > 0.0f ? "chroma" : "bake-detail",

@@ -269,6 +269,7 @@ static const cli_optdef cli_opts_image[] = {
                                         "they measured closer to ground truth on validation assets (docs/quality.md);\n"
                                         "with `--detail off --chroma off` the albedo is the network's alone", NULL, NULL},
     {CLI_O_ROUGH_CURVE, "--roughness-curve", "LIST|off", CLI_HELP_ROUGH_CURVE, NULL, NULL},
+    {CLI_O_METAL_CURVE, "--metallic-curve", "LIST|off", CLI_HELP_METAL_CURVE, NULL, NULL},
     CLI_TEXT("\noptions:\n"),
     {CLI_IMAGE_MODEL, "--model", "FILE|NAME", "a model file made by `supermat convert`, or a name: official (the official\n"
                                                 "network, `supermat download official`), default (see NAMED MODELS and\n"

@@ -30,6 +30,19 @@ static const cli_optdef cli_opts_info[] = {
     CLI_OPTS(cli_opts_levers),
     CLI_END};
 
+/* info's line for a calibration curve (map roughness or metallic, n knots k) */
+static void cli_info_curve(const char *map, const float *k, int n) {
+    int i;
+    if (n <= 0) { printf("%-13s the network's (--%s-curve LIST: through a calibration curve)\n", map, map); return; }
+    printf("%-13s through the curve", map);
+    for (i = 0; i < n; i++) { /* the shortest text that reads back as the same float */
+        char t[32];
+        int p = 6;
+        do snprintf(t, sizeof t, "%.*g", p++, (double)k[i]); while (p <= 9 && strtof(t, NULL) != k[i]);
+        printf("%s%s", i ? "," : " ", t);
+    }
+    printf(" (values at 0 .. 1; --%s-curve off: the network's)\n", map);
+}
 static int cli_info(int argc, char **argv) {
     const char *cmd = "info", *path = NULL, *v;
     int i, m, threads = 0, ntens = 0, counts[SUPERMAT_DTYPE_COUNT];
@@ -128,18 +141,8 @@ static int cli_info(int argc, char **argv) {
         else printf("colour        none (--chroma W: the albedo takes the picture's colour)\n");
         if (mi.bake_detail_sigma > 0.0f) printf("bake detail   %g of the texture's larger side: `mesh` keeps the input texture's detail (--detail off: no)\n", (double)mi.bake_detail_sigma);
         else printf("bake detail   none (`mesh --detail F`: the baked albedo keeps the input texture's detail)\n");
-        if (mi.roughness_knots > 0) {
-            int k;
-            printf("roughness     through the curve");
-            for (k = 0; k < mi.roughness_knots; k++) { /* the shortest text that reads back as the same float */
-                char t[32];
-                int p = 6;
-                do snprintf(t, sizeof t, "%.*g", p++, (double)mi.roughness_curve[k]); while (p <= 9 && strtof(t, NULL) != mi.roughness_curve[k]);
-                printf("%s%s", k ? "," : " ", t);
-            }
-            printf(" (values at 0 .. 1; --roughness-curve off: the network's)\n");
-        } else
-            printf("roughness     the network's (--roughness-curve LIST: through a calibration curve)\n");
+        cli_info_curve("roughness", mi.roughness_curve, mi.roughness_knots);
+        cli_info_curve("metallic", mi.metallic_curve, mi.metallic_knots);
     }
     printf("kernel        %s\n", cli_kernel_name(mi.kernel));
     printf("build         %s\n", supermat_build_optimized() == 1 ? "optimised" :

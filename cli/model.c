@@ -310,7 +310,7 @@ int supermat_cli_default_model(char *path, size_t cap, const char **from) {
 /* The options the commands that run a model share: their ids (a command's own options count from 1),
    their tables (spliced into each command's with CLI_OPTS) and cli_run_value, which reads their values. */
 enum {
-    CLI_O_FLOAT = 100, CLI_O_NATIVE, CLI_O_WORK_SIZE, CLI_O_DETAIL, CLI_O_CHROMA, CLI_O_ROUGH_CURVE,
+    CLI_O_FLOAT = 100, CLI_O_NATIVE, CLI_O_WORK_SIZE, CLI_O_DETAIL, CLI_O_CHROMA, CLI_O_ROUGH_CURVE, CLI_O_METAL_CURVE,
     CLI_O_THREADS, CLI_O_KERNEL, CLI_O_MAX_MEMORY, CLI_O_WEIGHTS, CLI_O_COMPUTE, CLI_O_CONV
 };
 #define CLI_KERNEL_VALUES "auto | scalar | avx2 | avx512 | neon | amx"
@@ -337,12 +337,12 @@ static const cli_optdef cli_opts_work[] = {
     {CLI_O_WORK_SIZE, "--work-size", "N", "at N x N (a multiple of 8)", NULL, NULL},
     CLI_END};
 
-/* --roughness-curve off|K0,K1,...: the knots as supermat_parse_curve reads them */
-static int cli_parse_rough_curve(const char *cmd, const char *v, cli_levers *lv) {
+/* --roughness-curve (c 0) / --metallic-curve (c 1) off|K0,K1,...: the knots as supermat_parse_curve reads them */
+static int cli_parse_curve(const char *cmd, int c, const char *v, cli_levers *lv) {
     supermat_error e;
-    if (!strcmp(v, "off")) { lv->rough_knots = SUPERMAT_CURVE_OFF; return 0; }
-    if (supermat_parse_curve(v, lv->rough_curve, &lv->rough_knots, &e) != SUPERMAT_SUCCESS) {
-        cli_usage_error(cmd, "--roughness-curve: 'off' or a list of knots (0.2,0.5,0.8): %s", e.message);
+    if (!strcmp(v, "off")) { lv->knots[c] = SUPERMAT_CURVE_OFF; return 0; }
+    if (supermat_parse_curve(v, lv->curve[c], &lv->knots[c], &e) != SUPERMAT_SUCCESS) {
+        cli_usage_error(cmd, "--%s-curve: 'off' or a list of knots (0.2,0.5,0.8): %s", c ? "metallic" : "roughness", e.message);
         return -1;
     }
     return 0;
@@ -352,6 +352,8 @@ static int cli_parse_rough_curve(const char *cmd, const char *v, cli_levers *lv)
     "off: the network's roughness (default: the model file's curve, `supermat info`\n" \
     "shows it: the default model has one, an official one none; supermat.h,\n" \
     "session_desc.roughness_knots)"
+#define CLI_HELP_METAL_CURVE "the metallic map through a calibration curve, as --roughness-curve\n" \
+    "(default: the model file's; supermat.h, session_desc.metallic_knots)"
 
 /* the value of a shared option (id, v): 1 when id is one, -1 after a usage message, 0 when it is none.
    A NULL pointer: the command does not take that option (its table does not list it). */
@@ -366,7 +368,8 @@ static int cli_run_value(const char *cmd, int id, const char *v, int *want_float
         return 1;
     case CLI_O_DETAIL: return cli_parse_unit(cmd, "--detail", v, "a fraction of the picture's size", &lv->detail) ? -1 : 1;
     case CLI_O_CHROMA: return cli_parse_unit(cmd, "--chroma", v, "a weight", &lv->chroma) ? -1 : 1;
-    case CLI_O_ROUGH_CURVE: return cli_parse_rough_curve(cmd, v, lv) ? -1 : 1;
+    case CLI_O_ROUGH_CURVE: return cli_parse_curve(cmd, 0, v, lv) ? -1 : 1;
+    case CLI_O_METAL_CURVE: return cli_parse_curve(cmd, 1, v, lv) ? -1 : 1;
     case CLI_O_THREADS: return cli_parse_int(cmd, "--threads", v, 0, 1024, threads) ? -1 : 1;
     case CLI_O_KERNEL: return cli_parse_kernel(cmd, v, kernel) ? -1 : 1;
     case CLI_O_WEIGHTS: return cli_parse_weights(cmd, v, lv) ? -1 : 1;
@@ -405,6 +408,8 @@ static void cli_session_opts(supermat_session_desc *sd, int work_opt, const cli_
     sd->work_width = sd->work_height = cli_work(work_opt);
     sd->detail_sigma = cli_step(lv->detail);
     sd->chroma_weight = cli_step(lv->chroma);
-    sd->roughness_knots = lv->rough_knots;
-    sd->roughness_curve = lv->rough_knots > 0 ? lv->rough_curve : NULL;
+    sd->roughness_knots = lv->knots[0];
+    sd->roughness_curve = lv->knots[0] > 0 ? lv->curve[0] : NULL;
+    sd->metallic_knots = lv->knots[1];
+    sd->metallic_curve = lv->knots[1] > 0 ? lv->curve[1] : NULL;
 }

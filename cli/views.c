@@ -222,6 +222,7 @@ static const cli_optdef cli_opts_views[] = {
     {CLI_O_DETAIL, "--detail", "F|off", "each view's albedo keeps that view's detail, as `supermat image --detail`\n(default: the model's; off for\nthe official and default models)", NULL, NULL},
     {CLI_O_CHROMA, "--chroma", "W|off", "each view's albedo takes that view's colour, as `supermat image --chroma`\n(default: the model's; off for the official and default models)", NULL, NULL},
     {CLI_O_ROUGH_CURVE, "--roughness-curve", "LIST|off", "each view's roughness through the curve, as `supermat image --roughness-curve`\n(default: the model's; none for the official and default models)", NULL, NULL},
+    {CLI_O_METAL_CURVE, "--metallic-curve", "LIST|off", "each view's metallic through the curve, as `supermat image --metallic-curve`\n(default: the model's; none for the official and default models)", NULL, NULL},
     CLI_TEXT("\noptions:\n"),
     {CLI_VIEWS_MODEL, "--model", "FILE|NAME", "a supermat-mv model file made by `supermat convert`, or official (the\n"
                                                 "official SuperMatMV, `supermat download official`) (required)", NULL, NULL},

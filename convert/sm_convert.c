@@ -1985,14 +1985,14 @@ static int sm__pipeline_step_check(const char *key, float v, int uv, char *err, 
     return 0;
 }
 
-/* pipeline.roughness_curve: the knots of `text` (supermat_parse_curve) written "K0,K1,..." into out, each the
-   shortest "%.Ng" (N = 6 to 9) that reads back as the same float; 0 or an error */
-static int sm__curve_text(const char *text, char *out, size_t out_cap, char *err, size_t cap) {
+/* pipeline.roughness_curve / metallic_curve (key): the knots of `text` (supermat_parse_curve) written "K0,K1,..."
+   into out, each the shortest "%.Ng" (N = 6 to 9) that reads back as the same float; 0 or an error */
+static int sm__curve_text(const char *key, const char *text, char *out, size_t out_cap, char *err, size_t cap) {
     float k[SUPERMAT_CURVE_MAX_KNOTS];
     supermat_error e;
     size_t len = 0;
     int n, i;
-    if (supermat_parse_curve(text, k, &n, &e) != SUPERMAT_SUCCESS) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.roughness_curve: %s", e.message);
+    if (supermat_parse_curve(text, k, &n, &e) != SUPERMAT_SUCCESS) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: %s", key, e.message);
     out[0] = 0;
     for (i = 0; i < n && len < out_cap; i++) { /* the shortest text that reads back as the same float */
         char t[32];
@@ -2466,11 +2466,14 @@ int sm_convert(const sm_convert_desc *d, char *err, size_t cap) {
     if (d->detail_sigma > 0.0f) sm__meta_add(ms, "pipeline.detail_sigma", "%.9g", (double)d->detail_sigma);
     if (d->chroma_weight > 0.0f) sm__meta_add(ms, "pipeline.chroma_weight", "%.9g", (double)d->chroma_weight);
     if (d->bake_detail_sigma > 0.0f) sm__meta_add(ms, "pipeline.bake_detail_sigma", "%.9g", (double)d->bake_detail_sigma);
-    if (d->roughness_curve && d->roughness_curve[0]) {
+    for (i = 0; i < 2; i++) {
+        static const char *const key[2] = {"pipeline.roughness_curve", "pipeline.metallic_curve"};
+        const char *curve = i ? d->metallic_curve : d->roughness_curve;
         char ct[SM__CURVE_TEXT];
-        if (kind == SM__KIND_UV) { r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "pipeline.roughness_curve: a uv-refine model makes no roughness map"); goto done; }
-        if ((r = sm__curve_text(d->roughness_curve, ct, sizeof ct, err, cap)) != 0) goto done;
-        sm__meta_add(ms, "pipeline.roughness_curve", "%s", ct);
+        if (!curve || !curve[0]) continue;
+        if (kind == SM__KIND_UV) { r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model makes no %s map", key[i], i ? "metallic" : "roughness"); goto done; }
+        if ((r = sm__curve_text(key[i], curve, ct, sizeof ct, err, cap)) != 0) goto done;
+        sm__meta_add(ms, key[i], "%s", ct);
     }
 
     /* UNet config, checked against the checkpoint */
@@ -2695,9 +2698,9 @@ static int sm__member_end(const supermat_json_tok *tok, int key) {
 }
 int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *edit, unsigned char **header,
                        size_t *header_size, size_t *data_offset, char *err, size_t cap) {
-#define SM__PK 5 /* the pipeline keys, in the converter's order */
+#define SM__PK 6 /* the pipeline keys, in the converter's order */
     static const char *const keys[SM__PK] = {"pipeline.work_size", "pipeline.detail_sigma", "pipeline.chroma_weight",
-                                             "pipeline.bake_detail_sigma", "pipeline.roughness_curve"};
+                                             "pipeline.bake_detail_sigma", "pipeline.roughness_curve", "pipeline.metallic_curve"};
     const unsigned char *f = (const unsigned char *)file;
     const char *js;
     supermat_json_tok *tok = NULL;
@@ -2718,10 +2721,12 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
     if (edit->work_size < -1 || edit->work_size > 16384 || (edit->work_size > 0 && edit->work_size % 8))
         return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "work size %d: a multiple of 8 up to 16384, or -1 (none)", edit->work_size);
     snprintf(val[0], sizeof val[0], "%d", edit->work_size < 0 ? 0 : edit->work_size);
-    op[4] = 0;
-    if (edit->roughness_curve) {
-        op[4] = edit->roughness_curve[0] ? 1 : -1;
-        if (op[4] > 0 && (r = sm__curve_text(edit->roughness_curve, val[4], sizeof val[4], err, cap)) != 0) return r;
+    for (k = 4; k < SM__PK; k++) {
+        const char *curve = k == 4 ? edit->roughness_curve : edit->metallic_curve;
+        op[k] = 0;
+        if (!curve) continue;
+        op[k] = curve[0] ? 1 : -1;
+        if (op[k] > 0 && (r = sm__curve_text(keys[k], curve, val[k], sizeof val[k], err, cap)) != 0) return r;
     }
     for (k = 1; k < 4; k++) {
         float v = k == 1 ? edit->detail_sigma : k == 2 ? edit->chroma_weight : edit->bake_detail_sigma;
@@ -2730,7 +2735,7 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
         op[k] = v > 0.0f ? 1 : -1;
         snprintf(val[k], sizeof val[k], "%.9g", (double)v);
     }
-    if (!op[0] && !op[1] && !op[2] && !op[3] && !op[4]) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: no key to rewrite");
+    if (!op[0] && !op[1] && !op[2] && !op[3] && !op[4] && !op[5]) return sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "sm_pipeline_header: no key to rewrite");
     /* the header */
     if (size < 8) return sm__err(err, cap, SUPERMAT_ERROR_MALFORMED_FILE, "%zu bytes: too short for a safetensors file", size);
     hlen = sm__u64(f);
@@ -2751,13 +2756,13 @@ int sm_pipeline_header(const void *file, size_t size, const sm_pipeline_edit *ed
         r = sm__err(err, cap, SUPERMAT_ERROR_UNSUPPORTED, "not a supermat model file (no supermat.format_version in its metadata)");
         goto done;
     }
-    if (op[1] > 0 || op[2] > 0 || op[3] > 0 || op[4] > 0) { /* supermat.h refuses the detail, colour and bake detail steps and a roughness curve for a uv-refine model */
-        static const char *const step[SM__PK] = {"", "detail", "colour", "bake detail", "roughness curve"};
+    if (op[1] > 0 || op[2] > 0 || op[3] > 0 || op[4] > 0 || op[5] > 0) { /* supermat.h refuses the detail, colour and bake detail steps and the curves for a uv-refine model */
+        static const char *const step[SM__PK] = {"", "detail", "colour", "bake detail", "roughness curve", "metallic curve"};
         char kind[32];
         i = supermat_json_find(js, tok, meta, "supermat.kind");
         if (i >= 0 && supermat_json_string(js, &tok[i], kind, sizeof kind) >= 0 && !strcmp(kind, "uv-refine")) {
-            k = op[1] > 0 ? 1 : op[2] > 0 ? 2 : op[3] > 0 ? 3 : 4;
-            if (k == 4) r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model makes no roughness map for the %s", keys[k], step[k]);
+            k = op[1] > 0 ? 1 : op[2] > 0 ? 2 : op[3] > 0 ? 3 : op[4] > 0 ? 4 : 5;
+            if (k >= 4) r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model makes no %s map for the %s", keys[k], k == 4 ? "roughness" : "metallic", step[k]);
             else r = sm__err(err, cap, SUPERMAT_ERROR_INVALID_ARGUMENT, "%s: a uv-refine model has no input picture for the %s step", keys[k], step[k]);
             goto done;
         }

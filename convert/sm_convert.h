@@ -71,6 +71,8 @@ typedef struct sm_convert_desc {
                                the roughness map through (supermat_session_desc.roughness_knots): NULL or "" =
                                not recorded (none), else 2 to 33 knots as supermat_parse_curve reads them
                                (each recorded as the shortest printf "%.Ng" that reads back as the same float); not for uv-refine */
+    const char *metallic_curve; /* metadata pipeline.metallic_curve, the same for the metallic map
+                               (supermat_session_desc.metallic_knots) */
 } sm_convert_desc;
 
 /* Converts. 0 on success, else a negative supermat_result and a message in err. Output tensors: the
@@ -89,14 +91,15 @@ typedef struct sm_pipeline_edit {
     float bake_detail_sigma; /* pipeline.bake_detail_sigma: < 0 = kept as it is, 0 = off (the key removed), (0, 1] = set */
     const char *roughness_curve; /* pipeline.roughness_curve: NULL = kept as it is, "" = off (the key removed), else set
                                     (as sm_convert_desc.roughness_curve) */
+    const char *metallic_curve;  /* pipeline.metallic_curve: the same */
 } sm_pipeline_edit;
 /* `file` is the whole model file in memory (a supermat model file: its metadata has supermat.format_version);
    at least one key of `edit` must change something. A key that is set replaces its value in place; a key
    added goes after the pipeline.* key before it (work_size, detail_sigma, chroma_weight, bake_detail_sigma,
-   roughness_curve: the
+   roughness_curve, metallic_curve: the
    converter's order), else before the one after it, else first in the metadata; a key removed takes one comma
    with it. Every other byte of the header is kept (the other metadata, its order, the tensors' entries). A
-   detail, colour or bake detail step or a roughness curve is refused for a uv-refine file (no input picture). Returns 0 and a malloc'ed new header
+   detail, colour or bake detail step or a roughness or metallic curve is refused for a uv-refine file (no input picture). Returns 0 and a malloc'ed new header
    (*header, *header_size bytes: the 8-byte length and the JSON); the new file is that header followed by
    file[*data_offset .. size), the tensor bytes as they are. The header keeps its length (padded with
    spaces) or grows by a multiple of 64 bytes, so every tensor, and a pre-packed file's panels, keeps its

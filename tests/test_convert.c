@@ -1306,7 +1306,7 @@ static int tc_ws_header(const void *f, size_t n, int ws, unsigned char **h, size
     sm_pipeline_edit e;
     e.work_size = ws;
     e.detail_sigma = e.chroma_weight = e.bake_detail_sigma = -1.0f;
-    e.roughness_curve = NULL;
+    e.roughness_curve = e.metallic_curve = NULL;
     return sm_pipeline_header(f, n, &e, h, hs, off, err, cap);
 }
 static void test_work_size_header(void) {
@@ -1404,7 +1404,7 @@ static void test_work_size_header(void) {
    members expected, NULL = refused; tc_pe: the bake detail kept */
 #define TC_PE_HEAD "{\"__metadata__\":{"
 #define TC_PE_TAIL "},\"t\":{\"dtype\":\"F32\",\"shape\":[1],\"data_offsets\":[0,4]}}"
-static const char *tc_pe_curve; /* sm_pipeline_edit.roughness_curve of the tc_peb cases (NULL: kept) */
+static const char *tc_pe_curve, *tc_pe_mcurve; /* sm_pipeline_edit.roughness_curve / metallic_curve of the tc_peb cases (NULL: kept) */
 static void tc_peb(const char *what, const char *in, size_t pad, int ws, float det, float chr, float bake, const char *want) {
     tc_buf b;
     sm_pipeline_edit e;
@@ -1421,6 +1421,7 @@ static void tc_peb(const char *what, const char *in, size_t pad, int ws, float d
     e.chroma_weight = chr;
     e.bake_detail_sigma = bake;
     e.roughness_curve = tc_pe_curve;
+    e.metallic_curve = tc_pe_mcurve;
     err[0] = 0;
     r = sm_pipeline_header(b.p, b.n, &e, &h, &hs, &off, err, sizeof err);
     if (!want) {
@@ -1523,6 +1524,33 @@ static void test_pipeline_header(void) {
     tc_pe_curve = "0.5";
     tc_peb("a roughness curve of one knot refused", base, 256, 0, kept, kept, kept, NULL);
     tc_pe_curve = NULL;
+    /* the metallic curve: after the roughness curve */
+#define MC "\"pipeline.metallic_curve\":\"0,0.25,1\""
+#define MC0 "\"pipeline.metallic_curve\":\"0,1\""
+    tc_pe_mcurve = "0, 0.25 ,1.0";
+    tc_peb("metallic curve added after the roughness curve", FV "," KD "," WS "," RC "," UX, 256, 0, kept, kept, kept,
+           FV "," KD "," WS "," RC "," MC "," UX);
+    tc_peb("metallic curve added after the bake detail", FV "," KD "," WS "," BD "," UX, 256, 0, kept, kept, kept,
+           FV "," KD "," WS "," BD "," MC "," UX);
+    tc_peb("metallic curve added right after the roughness curve, wherever it is", FV "," KD "," WS "," UX "," RC, 256, 0, kept, kept, kept,
+           FV "," KD "," WS "," UX "," RC "," MC);
+    tc_peb("metallic curve replaced in place", FV "," KD "," MC0 "," WS "," UX, 256, 0, kept, kept, kept, FV "," KD "," MC "," WS "," UX);
+    tc_peb("a uv-refine file: no metallic curve", FV ",\"supermat.kind\":\"uv-refine\"", 256, 0, kept, kept, kept, NULL);
+    tc_pe_curve = " 0.1, 0.50,0.9";
+    tc_peb("both curves added in the converter's order", base, 256, 0, kept, kept, kept, FV "," KD "," WS "," RC "," MC "," UX);
+    tc_pe_curve = "";
+    tc_peb("roughness curve removed, metallic curve set", FV "," KD "," WS "," RC "," MC0 "," UX, 256, 0, kept, kept, kept, FV "," KD "," WS "," MC "," UX);
+    tc_pe_curve = NULL;
+    tc_pe_mcurve = "";
+    tc_peb("metallic curve removed", FV "," KD "," WS "," RC "," MC "," UX, 256, 0, kept, kept, kept, FV "," KD "," WS "," RC "," UX);
+    tc_peb("metallic curve removed alone is something to rewrite", base, 256, 0, kept, kept, kept, base);
+    tc_pe_mcurve = "0.9,0.1";
+    tc_peb("a falling metallic curve refused", base, 256, 0, kept, kept, kept, NULL);
+    tc_pe_mcurve = "0,2";
+    tc_peb("a metallic curve above 1 refused", base, 256, 0, kept, kept, kept, NULL);
+    tc_pe_mcurve = NULL;
+#undef MC
+#undef MC0
 #undef RC
 #undef FV
 #undef KD

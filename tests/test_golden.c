@@ -107,11 +107,12 @@ static void run_case(supermat_model *model, const char *dir, int inject, double 
     sd.model = model; sd.width = W; sd.height = H; sd.threads = threads; sd.views = V;
     /* The goldens were dumped at the picture's own size without the detail and colour steps. The tiny official
        files record no pipeline, so their sessions leave every field 0 (the official computation by default); a
-       file that records one (the default models: work size, detail, colour, roughness curve) is run that way explicitly. */
-    if (info.work_size || info.detail_sigma > 0.0f || info.chroma_weight > 0.0f || info.roughness_knots > 0) {
+       file that records one (the default models: work size, detail, colour, roughness curve; a metallic curve) is run that
+       way explicitly. */
+    if (info.work_size || info.detail_sigma > 0.0f || info.chroma_weight > 0.0f || info.roughness_knots > 0 || info.metallic_knots > 0) {
         sd.work_width = sd.work_height = SUPERMAT_WORK_NATIVE;
         sd.detail_sigma = sd.chroma_weight = SUPERMAT_OFF;
-        sd.roughness_knots = SUPERMAT_CURVE_OFF;
+        sd.roughness_knots = sd.metallic_knots = SUPERMAT_CURVE_OFF;
     }
     TU_CHECK(supermat_session_create(&sd, &s, &err) == SUPERMAT_SUCCESS, "session_create: %s", err.message);
     memset(&rd, 0, sizeof rd);

@@ -27,6 +27,9 @@
      view. Malformed curves in the file (too few / many knots, falling, out of [0, 1], NaN, not numbers,
      not a string, longer than the reader takes, on a uv-refine file) are MALFORMED_FILE naming the key;
      in a session desc INVALID_ARGUMENT; supermat_parse_curve reads what the file reader reads.
+   - pipeline.metallic_curve / session_desc.metallic_knots: the same checks for the metallic map (the default
+     model with a 5-knot curve added to its file: roughness, with the file's roughness curve, and albedo
+     bit-identical to the run without it), each file also reporting no curve for the other map.
    usage: test_pipeline DEFAULT_MODEL TINY_MODEL [TINY_UV_MODEL]
    (TINY_UV_MODEL: default tiny_uv_refine_bc.safetensors beside TINY_MODEL, as the tiny fixture writes it;
    the multi-view default: supermat_mv_default.safetensors beside DEFAULT_MODEL, skipped where absent) */
@@ -58,7 +61,9 @@ static supermat_model *create(const unsigned char *data, size_t size, supermat_c
 }
 
 /* the session fields under test */
-typedef struct fields { int ww, wh; float detail, chroma; int rk; const float *rc; } fields; /* rk, rc: roughness_knots / curve */
+typedef struct fields { int ww, wh; float detail, chroma; int rk; const float *rc; } fields; /* rk, rc: roughness_knots / curve
+                                                                                          (metallic_knots / curve: g_curve_map) */
+static int g_curve_map; /* the map fields.rk / rc are for: 0 roughness, 1 metallic */
 
 /* float maps of one run: albedo RGBA, roughness and metallic 1 channel (width x height of the picture) */
 typedef struct maps { float *albedo, *rough, *metal; size_t n; } maps;
@@ -95,7 +100,8 @@ static supermat_result run_f32(const supermat_model *m, const fields *p, int w, 
     memset(&sd, 0, sizeof sd);
     sd.model = m; sd.width = w; sd.height = h;
     sd.work_width = p->ww; sd.work_height = p->wh; sd.detail_sigma = p->detail; sd.chroma_weight = p->chroma;
-    sd.roughness_knots = p->rk; sd.roughness_curve = p->rc;
+    if (g_curve_map) { sd.metallic_knots = p->rk; sd.metallic_curve = p->rc; }
+    else { sd.roughness_knots = p->rk; sd.roughness_curve = p->rc; }
     if ((r = supermat_session_create(&sd, &s, err))) return r;
     memset(&rd, 0, sizeof rd);
     rd.input.pixels = (void *)px; rd.input.width = w; rd.input.height = h; rd.input.channels = ch;
@@ -559,7 +565,8 @@ static void test_bake_detail(const supermat_model *def, const supermat_model *ti
            cases, mvsize ? "; the multi-view default records 1/32" : "");
 }
 
-/* ---- pipeline.roughness_curve and session_desc.roughness_knots ---------------------------------------- */
+/* ---- pipeline.roughness_curve / metallic_curve, session_desc.roughness_knots / metallic_knots ------------ */
+#define CMAP(o) (g_curve_map ? (o).metal : (o).rough)
 /* the curve through (i / (n - 1), k[i]) at x, in double */
 static double curve64(const float *k, int n, double x) {
     double t;
@@ -576,13 +583,17 @@ static double curve_err(const maps *on, const maps *off, const unsigned char *im
     double worst = 0.0;
     size_t i;
     for (i = 0; i < on->n; i++) {
-        double want = img[i * 4 + 3] > 0 ? curve64(k, n, off->rough[i]) : off->rough[i], d = fabs(on->rough[i] - want);
+        double want = img[i * 4 + 3] > 0 ? curve64(k, n, CMAP(*off)[i]) : CMAP(*off)[i], d = fabs(CMAP(*on)[i] - want);
         if (d > worst) worst = d;
     }
     return worst;
 }
-static void test_rough_curve(const supermat_model *def, const supermat_model *tiny, const unsigned char *tdata, size_t tsize,
-                             const char *tiny_path, const char *uv_path, const unsigned char *img, const unsigned char *sq) {
+/* the curve of map c (0 roughness, 1 metallic); def: the default model (for the metallic, with a curve added to
+   its file: it records none) */
+static void test_curve(int c, const supermat_model *def, const supermat_model *tiny, const unsigned char *tdata, size_t tsize,
+                       const char *tiny_path, const char *uv_path, const unsigned char *img, const unsigned char *sq) {
+    const char *map = c ? "metallic" : "roughness";
+    char key[40];
     static const char *const bad[] = {"", "0.5", "0.5,0.4", "0,x", "0,1.5", "-0.1,1", "nan,1", "0;1", "0,1,", ",0,1", "0 1"};
     static const float c03[2] = {0.3f, 0.3f}, ident[2] = {0.0f, 1.0f}, falling[3] = {0.2f, 0.5f, 0.4f};
     char members[1400], list[1200];
@@ -592,35 +603,40 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
     float k[SUPERMAT_CURVE_MAX_KNOTS];
     int n = 0, i, cases = 0;
     size_t p;
-    if (def) { /* the default model's curve: 9 knots, never falling, and a run goes through it */
+    g_curve_map = c;
+    snprintf(key, sizeof key, "pipeline.%s_curve", map);
+    if (def) { /* the default model's curve (roughness: 9 knots; metallic: the one added), never falling, and a run goes through it */
         fields p0 = {0, 0, 0.0f, 0.0f, 0, NULL}, poff = {0, 0, 0.0f, 0.0f, SUPERMAT_CURVE_OFF, NULL}, pex = {0, 0, 0.0f, 0.0f, 0, NULL},
                pc = {0, 0, 0.0f, 0.0f, 2, c03}, pid = {0, 0, 0.0f, 0.0f, 2, ident};
-        maps a = maps_new(PW, PH), off = maps_new(PW, PH), ex = maps_new(PW, PH), c = maps_new(PW, PH), id = maps_new(PW, PH);
+        maps a = maps_new(PW, PH), off = maps_new(PW, PH), ex = maps_new(PW, PH), cc = maps_new(PW, PH), id = maps_new(PW, PH);
         double e1, e2 = 0.0, e3;
+        const float *kk;
+        int kn;
         supermat_model_get_info(def, &info);
-        TU_CHECK(info.roughness_knots == 9, "default model: %d roughness knots, want 9 (pipeline.roughness_curve)", info.roughness_knots);
-        for (i = 1; i < info.roughness_knots; i++) TU_CHECK(info.roughness_curve[i] >= info.roughness_curve[i - 1], "default model: the curve falls at knot %d", i + 1);
-        pex.rk = info.roughness_knots; pex.rc = info.roughness_curve;
+        kk = c ? info.metallic_curve : info.roughness_curve; kn = c ? info.metallic_knots : info.roughness_knots;
+        TU_CHECK(kn == (c ? 5 : 9), "default model: %d %s knots, want %d (%s)", kn, map, c ? 5 : 9, key);
+        for (i = 1; i < kn; i++) TU_CHECK(kk[i] >= kk[i - 1], "default model: the %s curve falls at knot %d", map, i + 1);
+        pex.rk = kn; pex.rc = kk;
         TU_CHECK(run_f32(def, &p0, PW, PH, img, 4, &a, &err) == SUPERMAT_SUCCESS, "curve: fields 0: %s", err.message);
         TU_CHECK(run_f32(def, &poff, PW, PH, img, 4, &off, &err) == SUPERMAT_SUCCESS, "curve: SUPERMAT_CURVE_OFF: %s", err.message);
         TU_CHECK(run_f32(def, &pex, PW, PH, img, 4, &ex, &err) == SUPERMAT_SUCCESS, "curve: the model's curve explicit: %s", err.message);
-        TU_CHECK(run_f32(def, &pc, PW, PH, img, 4, &c, &err) == SUPERMAT_SUCCESS, "curve: constant 0.3: %s", err.message);
+        TU_CHECK(run_f32(def, &pc, PW, PH, img, 4, &cc, &err) == SUPERMAT_SUCCESS, "curve: constant 0.3: %s", err.message);
         TU_CHECK(run_f32(def, &pid, PW, PH, img, 4, &id, &err) == SUPERMAT_SUCCESS, "curve: identity: %s", err.message);
-        e1 = curve_err(&a, &off, img, info.roughness_curve, info.roughness_knots);
-        TU_CHECK(e1 <= 1e-6, "the model's curve: %.3g from the float64 curve of the CURVE_OFF run (<= 1e-6)", e1);
-        TU_CHECK(memcmp(a.rough, off.rough, a.n * sizeof(float)) != 0, "the model's curve changed nothing");
-        TU_CHECK(!memcmp(a.albedo, off.albedo, a.n * 4 * sizeof(float)) && !memcmp(a.metal, off.metal, a.n * sizeof(float)),
-                 "the roughness curve changed the albedo or the metallic map");
-        TU_CHECK(maps_same(&a, &ex), "roughness_knots 0 and the model's curve given explicitly: not bit-identical");
-        e3 = curve_err(&c, &off, img, c03, 2);
-        TU_CHECK(e3 <= 1e-6, "constant 0.3 curve: %.3g from 0.3 / the network's roughness (<= 1e-6)", e3);
-        for (p = 0; p < id.n; p++) { double d = fabs(id.rough[p] - off.rough[p]); if (d > e2) e2 = d; }
+        e1 = curve_err(&a, &off, img, kk, kn);
+        TU_CHECK(e1 <= 1e-6, "the model's %s curve: %.3g from the float64 curve of the CURVE_OFF run (<= 1e-6)", map, e1);
+        TU_CHECK(memcmp(CMAP(a), CMAP(off), a.n * sizeof(float)) != 0, "the model's %s curve changed nothing", map);
+        TU_CHECK(!memcmp(a.albedo, off.albedo, a.n * 4 * sizeof(float)) && !memcmp(c ? a.rough : a.metal, c ? off.rough : off.metal, a.n * sizeof(float)),
+                 "the %s curve changed the albedo or the %s map", map, c ? "roughness" : "metallic");
+        TU_CHECK(maps_same(&a, &ex), "%s_knots 0 and the model's curve given explicitly: not bit-identical", map);
+        e3 = curve_err(&cc, &off, img, c03, 2);
+        TU_CHECK(e3 <= 1e-6, "constant 0.3 curve: %.3g from 0.3 / the network's %s (<= 1e-6)", e3, map);
+        for (p = 0; p < id.n; p++) { double d = fabs(CMAP(id)[p] - CMAP(off)[p]); if (d > e2) e2 = d; }
         TU_CHECK(e2 <= 1e-6, "identity curve: %.3g from the CURVE_OFF run (<= 1e-6)", e2);
-        printf("roughness curve: default model %d knots, run within %.2g of float64 (alpha > 0; alpha 0 unchanged); explicit == 0; "
-               "constant %.2g, identity %.2g\n", info.roughness_knots, e1, e3, e2);
-        maps_free(&a); maps_free(&off); maps_free(&ex); maps_free(&c); maps_free(&id);
+        printf("%s curve: default model %d knots, run within %.2g of float64 (alpha > 0; alpha 0 unchanged); explicit == 0; "
+               "constant %.2g, identity %.2g\n", map, kn, e1, e3, e2);
+        maps_free(&a); maps_free(&off); maps_free(&ex); maps_free(&cc); maps_free(&id);
     }
-    if (tiny) { supermat_model_get_info(tiny, &info); TU_CHECK(info.roughness_knots == 0, "tiny model: %d roughness knots, want none", info.roughness_knots); }
+    if (tiny) { supermat_model_get_info(tiny, &info); TU_CHECK((c ? info.metallic_knots : info.roughness_knots) == 0, "tiny model: %d %s knots, want none", c ? info.metallic_knots : info.roughness_knots, map); }
     /* the session desc's guards (the tiny model at Q x Q, its own size) */
     if (tiny) {
         static const struct { int knots; const float *k; const char *what; } g[] = {
@@ -632,8 +648,8 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
         for (i = 0; i < (int)(sizeof g / sizeof g[0]); i++, cases++) {
             f.rk = g[i].knots; f.rc = g[i].k;
             r = run_f32(tiny, &f, Q, Q, sq, 4, &o, &err);
-            TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "rough"), "session with %s: %s (%s), want INVALID_ARGUMENT naming the curve",
-                     g[i].what, supermat_result_string(r), err.message);
+            TU_CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, map), "session with %s (%s): %s (%s), want INVALID_ARGUMENT naming the curve",
+                     g[i].what, map, supermat_result_string(r), err.message);
         }
         memcpy(kn, nanc, sizeof kn);
         kn[1] = (float)nan("");
@@ -650,13 +666,13 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
         supermat_model *m = NULL;
         size_t fn = 0;
         unsigned char *f;
-        snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", bad[i]);
+        snprintf(members, sizeof members, "\"%s\":\"%s\"", key, bad[i]);
         f = with_meta(tdata, tsize, members, &fn);
         memset(&md, 0, sizeof md);
         md.data = f; md.size = fn;
         r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
-        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "pipeline.roughness_curve"),
-                 "tiny + roughness curve '%s': %s (%s), want MALFORMED_FILE naming the key", bad[i], supermat_result_string(r), err.message);
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, key),
+                 "tiny + %s '%s': %s (%s), want MALFORMED_FILE naming the key", key, bad[i], supermat_result_string(r), err.message);
         TU_CHECK(supermat_parse_curve(bad[i], k, &n, &err) == SUPERMAT_ERROR_INVALID_ARGUMENT && n == 0, "supermat_parse_curve('%s') accepted it", bad[i]);
         supermat_model_destroy(m);
         free(f);
@@ -669,16 +685,16 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
             supermat_model *m = NULL;
             size_t fn = 0;
             unsigned char *f;
-            if (i == 0) snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", list);
+            if (i == 0) snprintf(members, sizeof members, "\"%s\":\"%s\"", key, list);
             else if (i == 1) { memset(list, ' ', 1100); list[0] = '0'; list[1098] = ','; list[1099] = '1'; list[1100] = 0;
-                               snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", list); }
-            else snprintf(members, sizeof members, "\"pipeline.roughness_curve\":0.5");
+                               snprintf(members, sizeof members, "\"%s\":\"%s\"", key, list); }
+            else snprintf(members, sizeof members, "\"%s\":0.5", key);
             f = with_meta(tdata, tsize, members, &fn);
             memset(&md, 0, sizeof md);
             md.data = f; md.size = fn;
             r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
-            TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "pipeline.roughness_curve"),
-                     "tiny + roughness curve of %s: %s (%s), want MALFORMED_FILE naming the key", what[i], supermat_result_string(r), err.message);
+            TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, key),
+                     "tiny + %s of %s: %s (%s), want MALFORMED_FILE naming the key", key, what[i], supermat_result_string(r), err.message);
             supermat_model_destroy(m);
             free(f);
         }
@@ -692,33 +708,38 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
             size_t fn = 0;
             unsigned char *f;
             const char *t = ok[i].text ? ok[i].text : list;
-            snprintf(members, sizeof members, "\"pipeline.roughness_curve\":\"%s\"", t);
+            snprintf(members, sizeof members, "\"%s\":\"%s\"", key, t);
             f = with_meta(tdata, tsize, members, &fn);
             memset(&md, 0, sizeof md);
             md.data = f; md.size = fn;
             r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
+            const float *kk;
+            int kn, kother;
             memset(&info, 0, sizeof info);
             if (m) supermat_model_get_info(m, &info);
-            TU_CHECK(r == SUPERMAT_SUCCESS && info.roughness_knots == ok[i].n && info.roughness_curve[0] == ok[i].first && info.roughness_curve[ok[i].n - 1] == ok[i].last,
-                     "tiny + roughness curve '%.40s': %s (%s), %d knots %g..%g, want %d %g..%g", t, supermat_result_string(r), err.message, info.roughness_knots,
-                     (double)info.roughness_curve[0], (double)info.roughness_curve[info.roughness_knots > 0 ? info.roughness_knots - 1 : 0], ok[i].n, (double)ok[i].first, (double)ok[i].last);
-            TU_CHECK(supermat_parse_curve(t, k, &n, &err) == SUPERMAT_SUCCESS && n == ok[i].n && !memcmp(k, info.roughness_curve, sizeof(float) * (size_t)n),
+            kk = c ? info.metallic_curve : info.roughness_curve; kn = c ? info.metallic_knots : info.roughness_knots;
+            kother = c ? info.roughness_knots : info.metallic_knots;
+            TU_CHECK(r == SUPERMAT_SUCCESS && kn == ok[i].n && kk[0] == ok[i].first && kk[ok[i].n - 1] == ok[i].last && kother == 0,
+                     "tiny + %s '%.40s': %s (%s), %d knots %g..%g (the other curve %d), want %d %g..%g (0)", key, t, supermat_result_string(r), err.message, kn,
+                     (double)kk[0], (double)kk[kn > 0 ? kn - 1 : 0], kother, ok[i].n, (double)ok[i].first, (double)ok[i].last);
+            TU_CHECK(supermat_parse_curve(t, k, &n, &err) == SUPERMAT_SUCCESS && n == ok[i].n && !memcmp(k, kk, sizeof(float) * (size_t)n),
                      "supermat_parse_curve('%.40s') reads another curve than the file reader", t);
             supermat_model_destroy(m);
             free(f);
         }
     }
-    { /* uv-refine: no roughness map */
+    { /* uv-refine: no roughness / metallic map */
         size_t uvsize = 0, fn = 0;
         unsigned char *uv = tu_load(uv_path, &uvsize), *f = NULL;
         supermat_model_desc md;
         supermat_model *m = NULL;
-        if (uv) f = with_meta(uv, uvsize, "\"pipeline.roughness_curve\":\"0,1\"", &fn);
+        snprintf(members, sizeof members, "\"%s\":\"0,1\"", key);
+        if (uv) f = with_meta(uv, uvsize, members, &fn);
         memset(&md, 0, sizeof md);
         md.data = f; md.size = fn;
         r = f ? supermat_model_create(&md, &m, &err) : SUPERMAT_ERROR_INVALID_ARGUMENT;
-        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, "roughness_curve") && strstr(err.message, "uv-refine"),
-                 "uv-refine + a roughness curve: %s (%s), want MALFORMED_FILE", supermat_result_string(r), err.message);
+        TU_CHECK(r == SUPERMAT_ERROR_MALFORMED_FILE && strstr(err.message, key) && strstr(err.message, "uv-refine"),
+                 "uv-refine + %s: %s (%s), want MALFORMED_FILE", key, supermat_result_string(r), err.message);
         supermat_model_destroy(m);
         free(f); free(uv);
         cases++;
@@ -735,7 +756,8 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
             float *rough[2][2], cams[2 * 16];
             double worst = 0.0;
             int pass, v, changed = 0;
-            f = with_meta(mv, mvsize, "\"pipeline.roughness_curve\":\"0.1,0.8,0.9\"", &fn);
+            snprintf(members, sizeof members, "\"%s\":\"0.1,0.8,0.9\"", key);
+            f = with_meta(mv, mvsize, members, &fn);
             memset(&md, 0, sizeof md);
             md.data = f; md.size = fn;
             TU_CHECK(f && supermat_model_create(&md, &m, &err) == SUPERMAT_SUCCESS, "tiny multi-view + curve: %s", err.message);
@@ -755,7 +777,9 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
                     in[v].pixels = (void *)sq; in[v].width = Q; in[v].height = Q; in[v].channels = 4;
                     ro[v].pixels = rough[pass][v]; ro[v].channels = 1; ro[v].format = SUPERMAT_FORMAT_F32;
                 }
-                rd.input_views = in; rd.cameras = cams; rd.roughness_views = ro;
+                rd.input_views = in; rd.cameras = cams;
+                if (c) rd.metallic_views = ro;
+                else rd.roughness_views = ro;
                 r = supermat_session_create(&sd, &s, &err);
                 if (!r) r = supermat_run(s, &rd, &err);
                 TU_CHECK(r == SUPERMAT_SUCCESS, "tiny multi-view run (%s): %s", pass ? "no curve" : "curve", err.message);
@@ -768,15 +792,15 @@ static void test_rough_curve(const supermat_model *def, const supermat_model *ti
                         if (d > worst) worst = d;
                         changed += rough[0][v][p] != rough[1][v][p];
                     }
-            TU_CHECK(m && m0 && worst <= 1e-6 && changed > 0, "tiny multi-view + curve: %.3g from the float64 curve of the run without (<= 1e-6), %d pixels changed", worst, changed);
-            printf("roughness curve: tiny multi-view, 2 views through the file's curve within %.2g (%d pixels changed)\n", worst, changed);
+            TU_CHECK(m && m0 && worst <= 1e-6 && changed > 0, "tiny multi-view + %s: %.3g from the float64 curve of the run without (<= 1e-6), %d pixels changed", key, worst, changed);
+            printf("%s curve: tiny multi-view, 2 views through the file's curve within %.2g (%d pixels changed)\n", map, worst, changed);
             if (m && m0) for (pass = 0; pass < 2; pass++) for (v = 0; v < 2; v++) free(rough[pass][v]);
             supermat_model_destroy(m); supermat_model_destroy(m0);
             free(f); free(mv);
             cases++;
         } else printf("(no %s: the multi-view curve not checked)\n", mvp);
     }
-    printf("roughness curve: %d file / session / parser cases refused or read as written\n", cases);
+    printf("%s curve: %d file / session / parser cases refused or read as written\n", map, cases);
 }
 
 int main(int argc, char **argv) {
@@ -797,7 +821,15 @@ int main(int argc, char **argv) {
     odd = maps_new(PW, PH);
     test_info(def, tiny);
     test_bake_detail(def, tiny, tdata, tsize, argv[1], uv_path);
-    test_rough_curve(def, tiny, tdata, tsize, argv[2], uv_path, img, sq);
+    test_curve(0, def, tiny, tdata, tsize, argv[2], uv_path, img, sq);
+    { /* the metallic curve: the default model with one added to its file (it records none) */
+        size_t fn = 0;
+        unsigned char *f = ddata ? with_meta(ddata, dsize, "\"pipeline.metallic_curve\":\"0,0.02,0.3,0.8,1\"", &fn) : NULL;
+        supermat_model *defm = f ? create(f, fn, SUPERMAT_CONV_DIRECT, "default model + metallic curve") : NULL;
+        test_curve(1, defm, tiny, tdata, tsize, argv[2], uv_path, img, sq);
+        supermat_model_destroy(defm);
+        free(f);
+    }
     if (def) { test_zero_is_model(def, img, &odd); test_sizes(def, tiny, img, &odd); }
     test_guards(tdata, tsize, sq);
     test_prepacked(ddata, dsize, sq);

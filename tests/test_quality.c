@@ -14,7 +14,7 @@
 
    For each stem the model computes all three maps (DETAIL_SIGMA: session_desc.detail_sigma; CHROMA_WEIGHT:
    session_desc.chroma_weight; WORK_SIZE N: the network at N x N, session_desc.work_width / work_height, the
-   maps resampled back to the picture's size; ROUGH_CURVE off: SUPERMAT_CURVE_OFF; all four `model`: what the
+   maps resampled back to the picture's size; ROUGH_CURVE off: SUPERMAT_CURVE_OFF for the roughness and the metallic curve; all four `model`: what the
    quick start and `supermat image` run); they are quantised to 8 bits
    exactly as `supermat image` writes its PNGs (rintf(clamp(v) * 255)), so the comparison is the one a
    user gets from the files. PSNR per map = 10 log10(1 / MSE), MSE over the pixels whose input alpha is
@@ -166,7 +166,7 @@ int main(int argc, char **argv) {
     supermat_result r;
     float detail = 0.0f, chroma = 0.0f; /* 0: the model file's (session_desc's zero), SUPERMAT_OFF: off */
     int work = 0;                        /* 0: the model file's, SUPERMAT_WORK_NATIVE: the picture's own size */
-    int curve = 0;                       /* 0: the model file's roughness curve, SUPERMAT_CURVE_OFF: none */
+    int curve = 0;                       /* 0: the model file's roughness and metallic curves, SUPERMAT_CURVE_OFF: none */
 
     if (argc < 4 || argc > 8) {
         printf("usage: %s MODEL.safetensors SLICE_DIR FLOOR.txt [DETAIL_SIGMA|off|model [CHROMA_WEIGHT|off|model [WORK_SIZE|native|model [ROUGH_CURVE|off|model]]]]\n", argv[0]);
@@ -244,7 +244,7 @@ int main(int argc, char **argv) {
             memset(&sd, 0, sizeof sd);
             sd.model = model; sd.width = w; sd.height = h; sd.detail_sigma = detail; sd.chroma_weight = chroma;
             sd.work_width = sd.work_height = work;
-            sd.roughness_knots = curve;
+            sd.roughness_knots = sd.metallic_knots = curve;
             r = supermat_session_create(&sd, &sess, &err);
             TU_CHECK(r == SUPERMAT_SUCCESS, "%s: session %dx%d: %s [%s]", stems[s], w, h, err.message, supermat_result_string(r));
             if (r != SUPERMAT_SUCCESS) { sess = NULL; ok = 0; }

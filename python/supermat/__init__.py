@@ -11,8 +11,8 @@ target supermat_shared) and gives the maps `supermat image` writes, as numpy arr
     maps["roughness"]   # (H, W) uint8, linear
     maps["metallic"]    # (H, W) uint8, linear
 
-The model file's pipeline (its work size, detail and colour steps, roughness curve) is applied unless an
-argument says otherwise, so the maps are `supermat image`'s, byte for byte. supermat.bake() does the same for
+The model file's pipeline (its work size, detail and colour steps, roughness and metallic curves) is applied
+unless an argument says otherwise, so the maps are `supermat image`'s, byte for byte. supermat.bake() does the same for
 a textured mesh (supermat_uv.h, `supermat mesh`). Where the library and the default
 model are looked for: supermat._paths (or supermat.library_path(), supermat.default_model_path()).
 """
@@ -215,8 +215,8 @@ class Model:
 
     @property
     def info(self):
-        """supermat_model_info as a dict: kind, work_size, detail_sigma, chroma_weight, roughness_curve (the
-        pipeline the file records), model_bytes, unet_params, ..."""
+        """supermat_model_info as a dict: kind, work_size, detail_sigma, chroma_weight, roughness_curve,
+        metallic_curve (the pipeline the file records), model_bytes, unet_params, ..."""
         i = self._info
         out = {}
         for name, _ in _capi.supermat_model_info._fields_:
@@ -224,6 +224,7 @@ class Model:
             out[name] = list(v) if hasattr(v, "__len__") else v
         out["kind"] = self.kind
         out["roughness_curve"] = list(i.roughness_curve[:max(i.roughness_knots, 0)])
+        out["metallic_curve"] = list(i.metallic_curve[:max(i.metallic_knots, 0)])
         for name, table in (("kernel", _capi.KERNELS), ("weights", _capi.WEIGHTS), ("conv", _capi.CONVS),
                             ("compute", _capi.COMPUTES)):
             out[name] = {v: k for k, v in table.items()}.get(out[name], out[name])
@@ -274,7 +275,7 @@ class Model:
 
     # ---- one picture ----
     def image(self, array, work_size=None, outputs=MAPS, progress=None, *, detail=None, chroma=None,
-              roughness_curve=None, threads=None, max_memory=0):
+              roughness_curve=None, metallic_curve=None, threads=None, max_memory=0):
         """One picture -> its maps, as `supermat image` makes them: a dict name -> numpy array.
 
         array: (H, W, 3) RGB or (H, W, 4) RGBA (straight alpha), uint8 (0..255) or float32 (0..1), sRGB-encoded
@@ -289,8 +290,8 @@ class Model:
         work_size: None = the model file's (the default model's 256), "native" = the picture's own size
         (multiples of 8), N = N x N (--native, --work-size N). detail, chroma: None = the file's, "off" (or
         False), or a value (--detail, --chroma). roughness_curve: None = the file's, "off", or the knots (a
-        list, or the CLI's text "0.2,0.5,0.8"). threads: None = the model's. max_memory: bytes this call's
-        session may take (0 = no limit).
+        list, or the CLI's text "0.2,0.5,0.8"); metallic_curve the same (--metallic-curve). threads: None = the
+        model's. max_memory: bytes this call's session may take (0 = no limit).
         progress: a callable progress(fraction, what) called between layers (on the calling thread, with the
         GIL); a true return value stops the run with supermat.Cancelled, an exception stops it and is raised
         again here. Ctrl-C (KeyboardInterrupt) stops a run between two layers, with or without a callable.
@@ -317,14 +318,17 @@ class Model:
         sd.work_width = sd.work_height = _work(work_size)
         sd.detail_sigma = _step("detail", detail)
         sd.chroma_weight = _step("chroma", chroma)
-        knots = _curve(lib, roughness_curve)
-        if knots is None:
-            sd.roughness_knots = 0
-        elif knots == _capi.CURVE_OFF:
-            sd.roughness_knots = _capi.CURVE_OFF
-        else:
-            sd.roughness_knots = len(knots)
-            sd.roughness_curve = knots
+        curves = []  # the knot arrays stay alive until the run
+        for name, v in (("roughness", roughness_curve), ("metallic", metallic_curve)):
+            knots = _curve(lib, name + "_curve", v)
+            if knots is None:
+                setattr(sd, name + "_knots", 0)
+            elif isinstance(knots, int):
+                setattr(sd, name + "_knots", _capi.CURVE_OFF)
+            else:
+                setattr(sd, name + "_knots", len(knots))
+                setattr(sd, name + "_curve", knots)
+                curves.append(knots)
         sd.max_memory = int(max_memory)
 
         dtype = np.uint8 if fmt == _capi.FORMAT_U8 else np.float32
@@ -457,8 +461,8 @@ def _step(what, v):
     raise InvalidArgument("%s=%r: None (the model's), 'off' or a value > 0" % (what, v), _capi.ERROR_INVALID_ARGUMENT)
 
 
-def _curve(lib, v):
-    """roughness_curve -> None (the file's), CURVE_OFF, or a ctypes float array of knots."""
+def _curve(lib, what, v):
+    """roughness_curve / metallic_curve (what) -> None (the file's), CURVE_OFF, or a ctypes float array of knots."""
     if v is None:
         return None
     if v is False or v == "off":
@@ -469,11 +473,11 @@ def _curve(lib, v):
         err = _capi.supermat_error()
         r = lib.supermat_parse_curve(v.encode(), knots, n, err)
         if r != _capi.SUCCESS:
-            _raise(r, err, "roughness_curve")
+            _raise(r, err, what)
         return (_capi.c_float * n.value)(*knots[:n.value])
     vals = [float(x) for x in v]
     if not vals:
-        raise InvalidArgument("roughness_curve=[]: None (the model's), 'off' or 2 to %d knots" % _capi.CURVE_MAX_KNOTS,
+        raise InvalidArgument("%s=[]: None (the model's), 'off' or 2 to %d knots" % (what, _capi.CURVE_MAX_KNOTS),
                               _capi.ERROR_INVALID_ARGUMENT)
     return (_capi.c_float * len(vals))(*vals)
 

@@ -82,7 +82,8 @@ class supermat_model_info(Structure):
                 ("model_bytes", c_size_t), ("prepacked", c_int), ("prepacked_bytes", c_size_t),
                 ("work_size", c_int), ("detail_sigma", c_float), ("chroma_weight", c_float),
                 ("bake_detail_sigma", c_float), ("roughness_knots", c_int),
-                ("roughness_curve", c_float * CURVE_MAX_KNOTS)]
+                ("roughness_curve", c_float * CURVE_MAX_KNOTS), ("metallic_knots", c_int),
+                ("metallic_curve", c_float * CURVE_MAX_KNOTS)]
 
 
 class supermat_session_desc(Structure):
@@ -92,6 +93,7 @@ class supermat_session_desc(Structure):
                 ("vae_tile", c_int), ("vae_overlap", c_int), ("skip_background", c_int), ("mv_attention", c_int),
                 ("mv_key_stride", c_int), ("max_memory", c_size_t), ("detail_sigma", c_float),
                 ("chroma_weight", c_float), ("roughness_knots", c_int), ("roughness_curve", POINTER(c_float)),
+                ("metallic_knots", c_int), ("metallic_curve", POINTER(c_float)),
                 ("_end_canary", c_uint32)]
 
 

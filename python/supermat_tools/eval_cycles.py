@@ -202,6 +202,8 @@ def main():
     ap.add_argument("--fit-set", default="", help="fit on every asset of this set instead of the validation part")
     ap.add_argument("--curves", default="", help="also score each model with the curves of this JSON file "
                     "(--fit's), as NAME+curves")
+    ap.add_argument("--curve-maps", default="roughness,metallic", help="the maps --curves puts through their curve "
+                    "(default both)")
     args = ap.parse_args()
 
     parts = PARTS if args.part != "all" else {"all": PARTS["validation"] + PARTS["heldout"]}
@@ -235,13 +237,16 @@ def main():
                 json.dump(fits, f, indent=1)
             print(f"{name}: curves fitted on the validation part: " +
                   "; ".join(f"{m} " + " ".join(f"{v:.3f}" for v in c) for m, c in curves.items()))
-            print(f"{name}: to record the roughness curve in the model file: supermat convert --from {path} "
-                  f"--roughness-curve {','.join(f'{v:.3f}' for v in curves['roughness'])} --out NEW.safetensors")
+            print(f"{name}: to record the curves in the model file (on top of any it records): supermat convert "
+                  f"--from {path} --roughness-curve {','.join(f'{v:.3f}' for v in curves['roughness'])} "
+                  f"--metallic-curve {','.join(f'{v:.3f}' for v in curves['metallic'])} --out NEW.safetensors")
         if args.curves:
             c = json.load(open(args.curves))[name]
-            preds[name + "+curves"] = lambda it, p=p, c=c: dict(
-                p[it["stem"]], roughness=apply_curve(p[it["stem"]]["roughness"], c["roughness"]),
-                metallic=apply_curve(p[it["stem"]]["metallic"], c["metallic"]))
+            cm = [m for m in args.curve_maps.split(",") if m]
+            if not set(cm) <= {"roughness", "metallic"}:
+                ap.error(f"--curve-maps {args.curve_maps}: roughness, metallic or both")
+            preds[name + "+curves"] = lambda it, p=p, c=c, cm=cm: dict(
+                p[it["stem"]], **{m: apply_curve(p[it["stem"]][m], c[m]) for m in cm})
     h, w = items[0]["mask"].shape
 
     def const(it, metal):

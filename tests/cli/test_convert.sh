@@ -170,9 +170,9 @@ check "convert --from with all three: each changed" \
 check "convert --from with all three: says what it set" grep -q "with work size 64x64, detail 0.25, colour off$" "$T/out"
 check "convert --from with all three: the tensor bytes the original's" cmp -s <(tensors "$T/tiny_dc.safetensors") <(tensors "$T/from_all.safetensors")
 run convert --from "$T/tiny_dc.safetensors" --out "$T/never.safetensors"
-check "convert --from with none of --work-size, --detail, --chroma, --bake-detail, --roughness-curve exits 2" [ $RC -eq 2 ]
-check "convert --from with none of --work-size, --detail, --chroma, --bake-detail, --roughness-curve: the message names them" \
-    grep -q -- "--from needs --work-size N|native, --detail F|off, --chroma W|off, --bake-detail F|off or --roughness-curve LIST|off" "$T/err"
+check "convert --from with none of --work-size, --detail, --chroma, --bake-detail, --roughness-curve, --metallic-curve exits 2" [ $RC -eq 2 ]
+check "convert --from with none of the pipeline options: the message names them" \
+    grep -q -- "--from needs --work-size N|native, --detail F|off, --chroma W|off, --bake-detail F|off, --roughness-curve LIST|off or --metallic-curve LIST|off" "$T/err"
 run convert --kind uv-refine --unet "$DATA/tiny/uv_refine_bc.pth" --base "$DATA/tiny/base" --out "$T/tiny_uv.safetensors" --work-size native
 run convert --from "$T/tiny_uv.safetensors" --detail 1/64 --out "$T/never.safetensors"
 check "convert --from a uv-refine file --detail 1/64 exits 1" [ $RC -eq 1 ]

@@ -10,9 +10,10 @@
 # change the bits, --kernel scalar, --compute int8 (maps with AVX512_VNNI, else exit 1 naming it; int4 exits 2),
 # the f16 model; a PNG write that fails (a file size limit) exits 1 and leaves no file; --max-memory refused
 # before allocating with the sizes in the message; --detail and --chroma (the defaults change the albedo only,
-# explicit values, bad values exit 2, refine refuses both); --roughness-curve (convert --from records it, info
-# shows it, image applies the file's or the command line's within 1e-6 of 0.1 + 0.8 r where alpha > 0 and
-# nowhere else, off, bad lists exit 2, a uv-refine file refuses it); the picture's alpha kept in the maps (RGBA and gray +
+# explicit values, bad values exit 2, refine refuses both); --roughness-curve and --metallic-curve (convert
+# --from records them, info shows them, image applies the file's or the command line's within 1e-6 of
+# 0.1 + 0.8 x where alpha > 0 and nowhere else, the other maps untouched, both in one file each on its own map,
+# off, bad lists exit 2, a uv-refine file refuses them); the picture's alpha kept in the maps (RGBA and gray +
 # alpha PNGs, the channels otherwise those of --alpha drop, the same PNGs with --float) or dropped.
 # (Input formats and bad pictures are in test_inputs.sh, the overwrite policy in test_usage.sh.)
 set -eu
@@ -214,47 +215,63 @@ check "image --chroma bad: nothing written" bash -c "! ls '$T/chroma_bad'/*.png 
 run refine --chroma 1 --map "$SPHERE" --mask "$SPHERE" --position "$SPHERE" --out "$T/chroma_refine"
 check "refine --chroma exits 2 (a UV map has no picture)" [ $RC -eq 2 ]
 
-# ---- --roughness-curve: the roughness map through a calibration curve (pipeline.roughness_curve) ----------
-# convert --from records it (info shows it), image applies the file's by default, --roughness-curve off is the
+# ---- --roughness-curve, --metallic-curve: a map through a calibration curve (pipeline.roughness_curve /
+# metallic_curve) ------------------------------------------------------------------------------------------
+# convert --from records it (info shows it), image applies the file's by default, --MAP-curve off is the
 # network's map, a curve on the command line replaces the file's; every pixel either through the curve (the
-# sphere's 2128 pixels of alpha > 0) or unchanged (alpha 0); malformed lists are usage errors
-RCM=$T/tiny_rcurve.safetensors
-run convert --from "$MODEL" --roughness-curve 0.1,0.9 --out "$RCM"
-check "convert --from --roughness-curve 0.1,0.9 exits 0" [ $RC -eq 0 ]
-run info "$RCM"
-check "info shows the recorded curve" grep -Eq '^roughness +through the curve 0.1,0.9 ' "$T/out"
-run info "$MODEL"
-check "info: a file without a curve says the network's" grep -Eq "^roughness +the network's" "$T/out"
-run image --model "$RCM" --float --out "$T/rc_on" "$SPHERE"
-check "image with the file's curve exits 0" [ $RC -eq 0 ]
-run image --model "$RCM" --roughness-curve off --float --out "$T/rc_off" "$SPHERE"
-check "image --roughness-curve off exits 0" [ $RC -eq 0 ]
-run image --model "$MODEL" --roughness-curve 0.1,0.9 --float --out "$T/rc_cli" "$SPHERE"
-check "image --roughness-curve 0.1,0.9 on a file without one exits 0" [ $RC -eq 0 ]
-check "image: the command line's curve = the file's" cmp -s "$T/rc_cli/sphere_64_roughness.pfm" "$T/rc_on/sphere_64_roughness.pfm"
-check "image --roughness-curve off: albedo and metallic as with the curve" bash -c "cmp -s '$T/rc_on/sphere_64_albedo.png' '$T/rc_off/sphere_64_albedo.png' && cmp -s '$T/rc_on/sphere_64_metallic.png' '$T/rc_off/sphere_64_metallic.png'"
+# sphere's 2128 pixels of alpha > 0) or unchanged (alpha 0); the other two maps untouched; malformed lists are
+# usage errors
 # pfm_vals FILE: the floats of a 64x64 gray PFM, one a line
 pfm_vals() { tail -c +15 "$1" | od -An -v -f | tr -s ' ' '\n' | sed '/^$/d'; }
-through=$(paste <(pfm_vals "$T/rc_on/sphere_64_roughness.pfm") <(pfm_vals "$T/rc_off/sphere_64_roughness.pfm") |
-    awk '{ x = $2 < 0 ? 0 : $2 > 1 ? 1 : $2; w = 0.1 + 0.8 * x; c = ($1 - w) < 1e-6 && (w - $1) < 1e-6; u = $1 == $2
-           if (c) n++; if (!c && !u) other++ } END { printf "%d %d %d\n", NR, n, other }')
-check "image: every roughness value through 0.1 + 0.8 r (within 1e-6) or unchanged, >= 2128 through it (4096 total, 0 other): $through" \
-    awk -v t="$through" 'BEGIN { split(t, a, " "); exit !(a[1] == 4096 && a[2] >= 2128 && a[3] == 0) }'
-for bad in 0.5 0.6,0.4 0,x 0,1.5 nan,1 "0;1" off,1; do
-    run image --model "$MODEL" --roughness-curve "$bad" --out "$T/rc_bad" "$SPHERE"
-    check "image --roughness-curve $bad exits 2" [ $RC -eq 2 ]
-    check "image --roughness-curve $bad explains" grep -q -- "--roughness-curve" "$T/err"
-done
-check "image --roughness-curve bad: nothing written" bash -c "! ls '$T/rc_bad'/*.png >/dev/null 2>&1"
-run convert --from "$MODEL" --roughness-curve 0.9,0.1 --out "$T/never.safetensors"
-check "convert --from --roughness-curve 0.9,0.1 (falling) exits 2" [ $RC -eq 2 ]
-run convert --from "$RCM" --roughness-curve off --out "$T/tiny_rcurve_off.safetensors"
-check "convert --from --roughness-curve off exits 0" [ $RC -eq 0 ]
-run info "$T/tiny_rcurve_off.safetensors"
-check "convert --from --roughness-curve off: the key removed" grep -Eq "^roughness +the network's" "$T/out"
-check "convert --from --roughness-curve off: the header keeps its length" [ "$(stat -c %s "$T/tiny_rcurve_off.safetensors")" = "$(stat -c %s "$RCM")" ]
 setup_tiny_uv
-run convert --from "$UV" --roughness-curve 0,1 --out "$T/never.safetensors"
-check "convert --from a uv-refine file --roughness-curve exits 1 (no roughness map)" [ $RC -eq 1 ]
+for map in roughness metallic; do
+    other=metallic; [ $map = metallic ] && other=roughness
+    RCM=$T/tiny_${map}_curve.safetensors
+    run convert --from "$MODEL" --$map-curve 0.1,0.9 --out "$RCM"
+    check "convert --from --$map-curve 0.1,0.9 exits 0" [ $RC -eq 0 ]
+    run info "$RCM"
+    check "info shows the recorded $map curve" grep -Eq "^$map +through the curve 0.1,0.9 " "$T/out"
+    check "info: the $other map without a curve says the network's" grep -Eq "^$other +the network's" "$T/out"
+    run info "$MODEL"
+    check "info: a file without a $map curve says the network's" grep -Eq "^$map +the network's" "$T/out"
+    run image --model "$RCM" --float --out "$T/${map}_on" "$SPHERE"
+    check "image with the file's $map curve exits 0" [ $RC -eq 0 ]
+    run image --model "$RCM" --$map-curve off --float --out "$T/${map}_off" "$SPHERE"
+    check "image --$map-curve off exits 0" [ $RC -eq 0 ]
+    run image --model "$MODEL" --$map-curve 0.1,0.9 --float --out "$T/${map}_cli" "$SPHERE"
+    check "image --$map-curve 0.1,0.9 on a file without one exits 0" [ $RC -eq 0 ]
+    check "image: the command line's $map curve = the file's" cmp -s "$T/${map}_cli/sphere_64_$map.pfm" "$T/${map}_on/sphere_64_$map.pfm"
+    check "image --$map-curve off: albedo and $other as with the curve" \
+        bash -c "cmp -s '$T/${map}_on/sphere_64_albedo.png' '$T/${map}_off/sphere_64_albedo.png' && cmp -s '$T/${map}_on/sphere_64_$other.pfm' '$T/${map}_off/sphere_64_$other.pfm'"
+    through=$(paste <(pfm_vals "$T/${map}_on/sphere_64_$map.pfm") <(pfm_vals "$T/${map}_off/sphere_64_$map.pfm") |
+        awk '{ x = $2 < 0 ? 0 : $2 > 1 ? 1 : $2; w = 0.1 + 0.8 * x; c = ($1 - w) < 1e-6 && (w - $1) < 1e-6; u = $1 == $2
+               if (c) n++; if (!c && !u) other++ } END { printf "%d %d %d\n", NR, n, other }')
+    check "image: every $map value through 0.1 + 0.8 x (within 1e-6) or unchanged, >= 2128 through it (4096 total, 0 other): $through" \
+        awk -v t="$through" 'BEGIN { split(t, a, " "); exit !(a[1] == 4096 && a[2] >= 2128 && a[3] == 0) }'
+    for bad in 0.5 0.6,0.4 0,x 0,1.5 nan,1 "0;1" off,1; do
+        run image --model "$MODEL" --$map-curve "$bad" --out "$T/${map}_bad" "$SPHERE"
+        check "image --$map-curve $bad exits 2" [ $RC -eq 2 ]
+        check "image --$map-curve $bad explains" grep -q -- "--$map-curve" "$T/err"
+    done
+    check "image --$map-curve bad: nothing written" bash -c "! ls '$T/${map}_bad'/*.png >/dev/null 2>&1"
+    run convert --from "$MODEL" --$map-curve 0.9,0.1 --out "$T/never.safetensors"
+    check "convert --from --$map-curve 0.9,0.1 (falling) exits 2" [ $RC -eq 2 ]
+    run convert --from "$RCM" --$map-curve off --out "$T/tiny_${map}_curve_off.safetensors"
+    check "convert --from --$map-curve off exits 0" [ $RC -eq 0 ]
+    run info "$T/tiny_${map}_curve_off.safetensors"
+    check "convert --from --$map-curve off: the key removed" grep -Eq "^$map +the network's" "$T/out"
+    check "convert --from --$map-curve off: the header keeps its length" [ "$(stat -c %s "$T/tiny_${map}_curve_off.safetensors")" = "$(stat -c %s "$RCM")" ]
+    run convert --from "$UV" --$map-curve 0,1 --out "$T/never.safetensors"
+    check "convert --from a uv-refine file --$map-curve exits 1 (no $map map)" [ $RC -eq 1 ]
+    check "convert --from a uv-refine file --$map-curve: nothing written" [ ! -e "$T/never.safetensors" ]
+done
+# both curves in one file, through one conversion; each map through its own
+run convert --from "$MODEL" --roughness-curve 0.1,0.9 --metallic-curve 0,0.5 --out "$T/tiny_both_curves.safetensors"
+check "convert --from with both curves exits 0" [ $RC -eq 0 ]
+run image --model "$T/tiny_both_curves.safetensors" --float --out "$T/both_on" "$SPHERE"
+check "image with both curves exits 0" [ $RC -eq 0 ]
+check "image with both curves: the roughness as with the roughness curve alone" cmp -s "$T/both_on/sphere_64_roughness.pfm" "$T/roughness_on/sphere_64_roughness.pfm"
+run image --model "$MODEL" --metallic-curve 0,0.5 --float --out "$T/both_m" "$SPHERE"
+check "image with both curves: the metallic as --metallic-curve 0,0.5 alone" cmp -s "$T/both_on/sphere_64_metallic.pfm" "$T/both_m/sphere_64_metallic.pfm"
 
 summary

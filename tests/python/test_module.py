@@ -186,6 +186,20 @@ def test_pipeline_options(model):
     off = model.image(picture(stem), outputs="roughness", roughness_curve="off")["roughness"]
     assert np.array_equal(as_list, full) and np.array_equal(as_text, full)
     assert not np.array_equal(off, full)
+    # the metallic curve (the default model records none): the caller's, on the float maps, is the float64 curve
+    # of the network's metallic where the picture is opaque; the roughness untouched
+    assert model.info["metallic_curve"] == []
+    pic = picture(stem).astype(np.float32) / 255.0
+    plain = model.image(pic, outputs=("roughness", "metallic"))
+    knots = [0.0, 0.02, 0.3, 0.8, 1.0]
+    bent = model.image(pic, outputs=("roughness", "metallic"), metallic_curve=knots)
+    want = np.interp(np.clip(plain["metallic"].astype(np.float64), 0, 1), np.linspace(0, 1, len(knots)), knots)
+    opaque = pic[..., 3] > 0 if pic.shape[2] == 4 else np.ones(pic.shape[:2], bool)
+    assert np.abs(bent["metallic"] - want)[opaque].max() <= 1e-6
+    assert np.array_equal(bent["metallic"][~opaque], plain["metallic"][~opaque])
+    assert not np.array_equal(bent["metallic"], plain["metallic"])
+    assert np.array_equal(bent["roughness"], plain["roughness"])
+    assert np.array_equal(model.image(pic, outputs="metallic", metallic_curve="off")["metallic"], plain["metallic"])
 
 
 # ---- errors ----------------------------------------------------------------------------------------------
@@ -235,6 +249,10 @@ def test_bad_arrays(model):
         model.image(pic, work_size=13)   # the library: not a multiple of 8
     with pytest.raises(supermat.InvalidArgument):
         model.image(pic, roughness_curve="0.5,0.2")   # supermat_parse_curve: falling
+    with pytest.raises(supermat.InvalidArgument, match="metallic_curve"):
+        model.image(pic, metallic_curve=[0.2, 1.5])   # the library: out of [0, 1]
+    with pytest.raises(supermat.InvalidArgument, match="metallic_curve"):
+        model.image(pic, metallic_curve=[])
     with pytest.raises(supermat.InvalidArgument, match="kernel"):
         supermat.Model(kernel="fastest")
 
