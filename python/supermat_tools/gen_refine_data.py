@@ -103,11 +103,12 @@ def layout(n, rng):
     return out
 
 
-def build(rng, size, photos, mode_p, photo):
+def build(rng, size, photos, mode_p, photo, dark=0.0, mrough=0.0):
     parts = [make_part(rng) for _ in range(int(rng.choice([1, 2, 3], p=[0.45, 0.35, 0.2])))]
     charts = [(p, k) for p in parts for k in range(p["charts"])]
     rects = layout(len(charts), rng)
-    mats = {id(p): G.make_material(rng, mode_p=mode_p, photo=photo, photos=photos) for p in parts}
+    mats = {id(p): G.make_material(rng, mode_p=mode_p, photo=photo, photos=photos, dark=dark, mrough=mrough)
+            for p in parts}
     pos, uv, idx = [], [], []
     alb = np.full((size, size, 3), 0.5, np.float32)
     rough = np.full((size, size), 0.5, np.float32)

@@ -17,7 +17,12 @@ streams and evaluated on random object-space points (decals removed, so that not
   surroundings across materials (|r| < 0.3, against r > 0.6 without; 0.05 and 0.74 measured);
 - --dark-metal 1 changes only the metal points' albedo, each material's by one factor per material in
   [1/8, 1] (linear light; checked before the albedo's clip to 1 can matter) with both ends near reached;
-- out-of-range values of either option: gen_data.py exits non-zero, naming the options.
+- cycles_procedural's assets (gen_refine_data.build, 24 of them at 64² texels): both options at 0 give the
+  asset of neither option bit for bit; both at 1 leave the geometry, the UVs and the metal map bit for bit, and
+  the texels with metal 0 (albedo and roughness; all but those where a decal's edge covers metal, which keep
+  some of the metal's colour and roughness: at most 1 % of them), while the metal texels' albedo is darkened
+  or kept (never brighter) and some of it changes;
+- out-of-range values of either option: gen_data.py and cycles_procedural exit non-zero, naming the options.
 """
 import copy
 import os
@@ -123,11 +128,36 @@ check(dark_ok, "--dark-metal 1: only the metal's albedo changes, by one factor p
 check(len(dark_factors) >= 150 and dark_factors.min() < 0.15 and dark_factors.max() > 0.85,
       f"--dark-metal 1: {len(dark_factors)} factors spanning [{dark_factors.min():.3f}, {dark_factors.max():.3f}]")
 
-for opt, val in (("--metal-rough", "1.5"), ("--metal-rough", "-0.1"), ("--dark-metal", "2")):
-    p = subprocess.run([sys.executable, "-m", "supermat_tools.gen_data", "--hdri-dir", HERE, "--out",
+from supermat_tools import gen_refine_data as R  # noqa: E402
+
+mp = [0.42, 0.2, 0.2, 0.18]
+same0 = kept = darker = True
+changed = moved = zeros = 0
+for i in range(24):
+    a = R.build(np.random.default_rng([62000, i]), 64, None, mp, 0.0)
+    z = R.build(np.random.default_rng([62000, i]), 64, None, mp, 0.0, 0.0, 0.0)
+    b = R.build(np.random.default_rng([62000, i]), 64, None, mp, 0.0, 1.0, 1.0)
+    same0 &= all(np.array_equal(x, y) for x, y in zip(a, z))
+    kept &= all(np.array_equal(a[k], b[k]) for k in (0, 1, 2, 3, 6))   # pos, normals, uv, indices, metal
+    dielectric = a[6] == 0
+    moved += int(np.sum(np.any(a[4][dielectric] != b[4][dielectric], -1) | (a[5][dielectric] != b[5][dielectric])))
+    zeros += int(dielectric.sum())
+    darker &= bool(np.all(b[4][~dielectric] <= a[4][~dielectric] + 1e-7))
+    changed += int(np.any(b[4][~dielectric] != a[4][~dielectric]))
+check(same0, "cycles_procedural assets: both options at 0 are the assets of neither option, bit for bit (24 assets)")
+check(kept, "cycles_procedural assets, both options at 1: geometry, UVs and metal map bit for bit")
+check(moved <= 0.01 * zeros,
+      f"... and {zeros - moved} of {zeros} metal-0 texels unchanged ({moved} under decal edges, <= 1 %)")
+check(darker and changed >= 6,
+      f"... and the metal texels' albedo never brighter, darker in {changed} of 24 assets (>= 6)")
+
+for mod, opt, val in (("gen_data", "--metal-rough", "1.5"), ("gen_data", "--metal-rough", "-0.1"),
+                      ("gen_data", "--dark-metal", "2"), ("cycles_procedural", "--dark-metal", "2"),
+                      ("cycles_procedural", "--metal-rough", "-0.5")):
+    p = subprocess.run([sys.executable, "-m", "supermat_tools." + mod, "--hdri-dir", HERE, "--out",
                         os.devnull, "--count", "1", opt, val], capture_output=True, text=True)
     check(p.returncode != 0 and opt in p.stderr + p.stdout,
-          f"gen_data.py {opt} {val}: exit {p.returncode}, message names {opt}")
+          f"{mod}.py {opt} {val}: exit {p.returncode}, message names {opt}")
 
 print("FAILED" if fails else "all passed")
 sys.exit(1 if fails else 0)
