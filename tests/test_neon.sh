@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The aarch64 NEON path, cross-compiled with Debian's gcc-aarch64-linux-gnu (static) and run under
 # qemu-user-static: the kernel tests against float64 (scalar and NEON modes) and the golden tests of
-# the tiny single-view, multi-view and UV-refine models and of the trained default model on the NEON
-# kernel, with the bounds of the x86 runs; the NEON passes against their scalar twins (test_kernels) and the
+# the tiny single-view and UV-refine models and of the trained default model on the NEON kernel, with
+# the bounds of the x86 runs; the NEON passes against their scalar twins (test_kernels) and the
 # instructions each executes against its twin (tests/neon_insns.c). qemu's wall time says nothing about speed.
 # usage: test_neon.sh WORKDIR SRC DATA TINY TINY_MV TINY_UV DEFAULT_MODEL   (exit 77 = skipped)
 set -euo pipefail
-work=$1 src=$2 data=$3 tiny=$4 tiny_mv=$5 tiny_uv=$6 default_model=$7
+work=$1 src=$2 data=$3 tiny=$4 tiny_uv=$6 default_model=$7   # $5, the tiny multi-view model: x86 only
 cc=$(command -v aarch64-linux-gnu-gcc || true)
 qemu=$(command -v qemu-aarch64-static || command -v qemu-aarch64 || true)
 if [ -z "$cc" ] || [ -z "$qemu" ]; then
@@ -24,9 +24,11 @@ echo "$out" | tail -n 4
 # the NEON modes must have run (no SKIP for them), or this test proves nothing
 if echo "$out" | grep -q "no NEON"; then echo "FAIL: the NEON kernel was skipped on aarch64"; exit 1; fi
 echo "$out" | grep -q "kernel neon:" || { echo "FAIL: no NEON kernel line"; exit 1; }
-run "$work/test_golden" "$tiny" neon 2 "$data/golden/single_sphere_64" "$data/golden/single_box_40" "$data/golden/single_ring_48x72" | tail -n 1
+# one golden a model kind (the x86 builds run them all): the non-square single view, the UV refine and the
+# default model's real widths; the multi-view model adds no kernel of its own (its views are attention rows,
+# which test_kernels checks on NEON) and cost 5 of this test's 16 minutes under qemu, so it runs on x86 only
+run "$work/test_golden" "$tiny" neon 2 "$data/golden/single_ring_48x72" | tail -n 1
 run "$work/test_golden" "$tiny" neon:wf4 2 "$data/golden/single_box_40" | tail -n 1
-run "$work/test_golden" "$tiny_mv" neon 2 "$data/golden/mv6_64" | tail -n 1
 run "$work/test_golden" "$tiny_uv" neon 2 "$data/golden/uv_128" | tail -n 1
 run "$work/test_golden" "$default_model" neon 2 "$data/golden/default_obj00_128" | tail -n 1
 run "$work/test_golden" "$tiny" auto 2 "$data/golden/single_box_40" | tail -n 1   # the dispatch picks NEON
