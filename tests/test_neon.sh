@@ -4,9 +4,9 @@
 # the tiny single-view and UV-refine models and of the trained default model on the NEON kernel, with
 # the bounds of the x86 runs; the NEON passes against their scalar twins (test_kernels) and the
 # instructions each executes against its twin (tests/neon_insns.c). qemu's wall time says nothing about speed.
-# usage: test_neon.sh WORKDIR SRC DATA TINY TINY_MV TINY_UV DEFAULT_MODEL   (exit 77 = skipped)
+# usage: test_neon.sh WORKDIR SRC DATA TINY TINY_UV DEFAULT_MODEL   (exit 77 = skipped)
 set -euo pipefail
-work=$1 src=$2 data=$3 tiny=$4 tiny_uv=$6 default_model=$7   # $5, the tiny multi-view model: x86 only
+work=$1 src=$2 data=$3 tiny=$4 tiny_uv=$5 default_model=$6
 cc=$(command -v aarch64-linux-gnu-gcc || true)
 qemu=$(command -v qemu-aarch64-static || command -v qemu-aarch64 || true)
 if [ -z "$cc" ] || [ -z "$qemu" ]; then
