@@ -608,7 +608,8 @@ SUPERMAT_API supermat_result supermat_run(supermat_session *session, const super
 
 /* ---- the detail step alone -------------------------------------------------------------------- */
 /* What session_desc.detail_sigma does to a run's albedo, for an albedo made elsewhere: supermat_uv.h's bake
-   runs it in UV space, on its texture; a run's own step is this same code. Per colour channel, in linear
+   runs it in UV space, on its texture, in the bounded form (`limit`); a run's own step is this same code with
+   limit 0. Per colour channel, in linear
    light, albedo = I x clamp(G(w A) / G(w I), 1/4, 4), with I, A, G and the fallback where G(w I) < 1e-6
    as session_desc.detail_sigma says and s = sigma x max(width, height). The weight w is `weight`'s first
    channel (clamped to [0, 1]) or, without one, the picture's alpha (1 without alpha), and 0 outside
@@ -617,6 +618,15 @@ SUPERMAT_API supermat_result supermat_run(supermat_session *session, const super
 typedef struct supermat_detail_desc {
     uint32_t _start_canary;      /* leave 0 (see supermat_model_desc) */
     float sigma;                 /* the low-pass's sigma as a fraction of max(width, height): (0, 1] */
+    float limit;                 /* 0: the formula above (a run's step). > 1 (at most 1e6): the bounded form,
+                                    the picture's detail held within that ratio: with I~ = G(w I) / G(w), the
+                                    picture's low-pass, albedo = I~ x clamp(G(w A) / G(w I), 1/4, 4) x
+                                    clamp(I / I~, 1/limit, limit), I~ the weighted mean of I over the picture
+                                    where G(w) < 1e-6 and the last ratio 1 where I~ < 1e-6 (without its last
+                                    clamp, the formula above): a shadow, highlight or reflection in the
+                                    picture moves the albedo by at most that ratio (the UV bake's form:
+                                    supermat_uv.h DETAIL). The albedo's floats hold the gain between the two
+                                    passes; without any weight the albedo becomes the picture */
     supermat_image picture;      /* I: 3 or 4 channels, sRGB-encoded (8-bit, or float in [0, 1]), finite */
     supermat_image albedo;       /* A, read and written: F32, 3 channels, sRGB-encoded in [0, 1] (out: clamped),
                                     the picture's size (width / height 0 = it); finite */
@@ -6094,6 +6104,7 @@ typedef struct supermat__dstream {
     float *tmp;         /* a thread's: whole, max(w, h) x DC x SUPERMAT__BOX_LINES floats; streamed, w x DC */
     double *rs;         /* h x DC row sums */
     double gr[3];
+    int empty;          /* no weight anywhere: the second plane of every channel sums to 0 */
     supermat__row_fn src, sink;
     void *user;
     int s, k0, n, dir;  /* a parallel step's pass, first row, rows, (whole) direction */
@@ -6254,6 +6265,8 @@ static void supermat__dstream_run(supermat__dstream *D) {
         double sa = 0.0, si = 0.0;
         for (y = 0; y < D->h; y++) { sa += D->rs[(size_t)y * SUPERMAT__DC + 2 * c]; si += D->rs[(size_t)y * SUPERMAT__DC + 2 * c + 1]; }
         D->gr[c] = sa > 0.0 && si > 0.0 ? sa / si : 1.0;
+        if (c == 0) D->empty = 1;
+        if (si > 0.0) D->empty = 0;
     }
     if (D->whole) {
         for (pass = 0; pass < 3; pass++) {
@@ -6458,6 +6471,58 @@ static void supermat__detail_out(const supermat__post *P, float *alb, int y, con
                 q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
                 I[3 * x + c] = (float)(I[3 * x + c] * q);
             }
+        supermat__post_aenc(P, I, n);
+        for (x = 0; x < n; x++)
+            if (supermat__post_writes(P, x0 + x, y))
+                for (c = 0; c < 3; c++) alb[3 * (x0 + x) + c] = I[3 * x + c];
+    }
+}
+/* supermat_detail_desc.limit, the bounded form, in two low-passes: the first over the run form's planes (w A_c,
+   w I_c), whose clamped ratio q (the level's gain) it keeps in the albedo's floats as they are (not encoded);
+   the second over planes (w I_c, w): the picture's low-pass I~ and the albedo I~ x q x clamp(I / I~) */
+static void supermat__bdetail_in(const supermat__post *P, int y, float *g) {
+    float X[3 * SUPERMAT__PB];
+    int x0, x, c, n;
+    for (x0 = 0; x0 < P->w; x0 += n) {
+        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
+        supermat__post_lin(P, x0, n, y, X);
+        for (x = 0; x < n; x++) {
+            float a = supermat__post_alpha(P, x0 + x, y), *gp = g + SUPERMAT__DC * (size_t)(x0 + x);
+            for (c = 0; c < 3; c++) {
+                gp[2 * c] = a > 0.0f ? a * X[3 * x + c] : 0.0f;
+                gp[2 * c + 1] = a;
+            }
+        }
+    }
+}
+static void supermat__bdetail_gain(const supermat__post *P, float *alb, int y, const float *g, const double *gr) {
+    int x, c;
+    for (x = 0; x < P->w; x++)
+        if (supermat__post_writes(P, x, y))
+            for (c = 0; c < 3; c++) {
+                const float *gp = g + SUPERMAT__DC * (size_t)x + 2 * c;
+                double q = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c];
+                alb[3 * x + c] = (float)(q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q);
+            }
+}
+static void supermat__bdetail_out(const supermat__post *P, float *alb, float limit, int empty, int y, const float *g,
+                                  const double *gr) {
+    float I[3 * SUPERMAT__PB];
+    int x0, x, c, n;
+    for (x0 = 0; x0 < P->w; x0 += n) {
+        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
+        supermat__post_lin(P, x0, n, y, I);
+        for (x = 0; x < n; x++) {
+            int wr = supermat__post_writes(P, x0 + x, y);
+            for (c = 0; c < 3; c++) {
+                const float *gp = g + SUPERMAT__DC * (size_t)(x0 + x) + 2 * c;
+                double low = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c], q;
+                if (!wr || empty) continue; /* without any weight: the picture (the gain is 1) */
+                q = low > 1e-6 ? I[3 * x + c] / low : 1.0;
+                q = q < 1.0 / limit ? 1.0 / limit : q > limit ? limit : q;
+                I[3 * x + c] = (float)(low * alb[3 * (x0 + x) + c] * q);
+            }
+        }
         supermat__post_aenc(P, I, n);
         for (x = 0; x < n; x++)
             if (supermat__post_writes(P, x0 + x, y))
@@ -6995,6 +7060,8 @@ static supermat_result supermat__detail_plan(const supermat_detail_desc *d, size
     if ((r = supermat__canary(d->_start_canary, d->_end_canary, "supermat_detail_desc", err))) return r;
     if (!(d->sigma > 0.0f && d->sigma <= 1.0f))
         return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail sigma %g: from 0 (exclusive) to 1", (double)d->sigma);
+    if (!(d->limit == 0.0f || (d->limit > 1.0f && d->limit <= 1e6f)))
+        return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail limit %g: 0 (the run's form) or above 1, at most 1e6", (double)d->limit);
     pic = &d->picture;
     if (!pic->pixels || !d->albedo.pixels) return supermat__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, NULL, "detail: the picture and the albedo must have pixels");
     w = pic->width; h = pic->height;
@@ -7032,16 +7099,29 @@ SUPERMAT__DEF supermat_result supermat_detail_memory(const supermat_detail_desc 
 }
 /* supermat_detail's rows: the caller's albedo, read and written in place (a row is written only once the
    low-pass has read every row it needs) */
-typedef struct supermat__udet { supermat__post P; unsigned char *alb; size_t astride; const double *gr; } supermat__udet;
+typedef struct supermat__udet {
+    supermat__post P;
+    unsigned char *alb;
+    size_t astride;
+    const double *gr;
+    const int *empty;
+    float limit; /* 0: the run's form; else the bounded form, in two passes (0: the gain, 1: the albedo) */
+    int pass;
+} supermat__udet;
 static void supermat__udet_src(void *user, int y, float *g, int thread) {
     const supermat__udet *U = (const supermat__udet *)user;
+    const float *alb = (const float *)(const void *)(U->alb + (size_t)y * U->astride);
     (void)thread;
-    supermat__detail_in(&U->P, (const float *)(const void *)(U->alb + (size_t)y * U->astride), y, g);
+    if (U->pass) supermat__bdetail_in(&U->P, y, g);
+    else supermat__detail_in(&U->P, alb, y, g);
 }
 static void supermat__udet_sink(void *user, int y, float *g, int thread) {
     const supermat__udet *U = (const supermat__udet *)user;
+    float *alb = (float *)(void *)(U->alb + (size_t)y * U->astride);
     (void)thread;
-    supermat__detail_out(&U->P, (float *)(void *)(U->alb + (size_t)y * U->astride), y, g, U->gr);
+    if (U->pass) supermat__bdetail_out(&U->P, alb, U->limit, *U->empty, y, g, U->gr);
+    else if (U->limit > 0.0f) supermat__bdetail_gain(&U->P, alb, y, g, U->gr);
+    else supermat__detail_out(&U->P, alb, y, g, U->gr);
 }
 SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, supermat_error *err) {
     size_t need = 0;
@@ -7071,8 +7151,13 @@ SUPERMAT__DEF supermat_result supermat_detail(const supermat_detail_desc *d, sup
     U.P.in = &d->picture; U.P.wt = d->weight.pixels ? &d->weight : NULL; U.P.rg = d->region.pixels ? &d->region : NULL;
     U.P.srgb = 1; U.P.w = d->picture.width; U.P.X = &X; U.P.lut = d->picture.format == SUPERMAT_FORMAT_F32 ? NULL : lut;
     U.alb = (unsigned char *)d->albedo.pixels; U.astride = d->albedo.stride ? d->albedo.stride : (size_t)d->picture.width * 3 * sizeof(float);
-    D.src = supermat__udet_src; D.sink = supermat__udet_sink; D.user = &U; U.gr = D.gr;
+    D.src = supermat__udet_src; D.sink = supermat__udet_sink; D.user = &U; U.gr = D.gr; U.empty = &D.empty;
+    U.limit = d->limit;
     if (X.status == SUPERMAT_SUCCESS) supermat__dstream_run(&D);
+    if (X.status == SUPERMAT_SUCCESS && d->limit > 0.0f) { /* the bounded form's second low-pass: the picture's */
+        U.pass = 1; /* its sums set D.empty (no weight anywhere) before any row reaches the sink */
+        supermat__dstream_run(&D);
+    }
     supermat__dstream_put(&X, &D);
     if (!d->scratch) al.free(al.user, mem, need);
     if (X.status) return supermat__fail(err, SUPERMAT_ERROR_INTERNAL, NULL, "detail: internal error (scratch plan)");

@@ -64,7 +64,8 @@
  *      A NULL refine model (or passthrough) skips that refinement.
  *   5b. With a detail step (`detail_sigma`; left 0, the one the view model's file records: 1/32 for the
  *      multi-view default, none for an official file; see DETAIL), the albedo keeps the input texture's
- *      detail: input colour x low-pass(albedo) / low-pass(input colour).
+ *      detail: input colour x low-pass(albedo) / low-pass(input colour), the input's detail bounded
+ *      (`detail_limit`).
  *   6. Gutter fill and output: texels that hold no value (outside the charts, or unseen when nothing
  *      was refined) take the value of a nearest valid texel, up to `gutter` texels away (default 16:
  *      enough for a 1024 texture's mip chain down to 64x64), then the mean of the valid texels.
@@ -75,17 +76,25 @@
  *   A network run at a small size (the default model's 128x128, a 16x16 latent) predicts an albedo
  *   whose level and colour may be right but whose detail is gone, while the input texture (lighting
  *   baked in) has all of it. With detail_sigma = f > 0, at every chart texel, per channel in linear
- *   light: albedo = L x clamp(G(w A) / G(w L), 1/4, 4), where L is the input base colour sampled at the
- *   texel centre (the part's texture, wrap mode and factor, as the views are rendered), A the albedo
+ *   light: albedo = L~ x clamp(G(w A) / G(w L), 1/4, 4) x clamp(L / L~, 1/k, k), with L~ = G(w L) / G(w)
+ *   the input's own low-pass, k = detail_limit (default SUPERMAT_UV_DETAIL_LIMIT, 4), L the input base
+ *   colour sampled at the texel centre (the part's texture, wrap mode and factor, as the views are
+ *   rendered), A the albedo
  *   of steps 4-5, w 1 where A holds a value (seen texels; all chart texels when the albedo was
  *   refined) and 0 elsewhere, and G a low-pass of sigma = f x max(texture width, height) texels: three
  *   passes of a box filter of width 2r + 1, r = round((sqrt(4 sigma^2 + 1) - 1) / 2) (the variance of
  *   a Gaussian of that sigma), rows then columns, zero outside the texture. So the lighting is assumed
  *   smooth at that scale: the network sets the level and colour, the input the detail. Where G(w L) is
- *   below 1e-6 the ratio falls back to the texture's sum(w A) / sum(w L) (1 when either is 0). The
- *   albedo then holds a value at every chart texel, seen or not. Roughness / metallic are not touched.
- *   Measured (docs/mesh.md; the default model, view by view): f = 1/32 chosen on five validation
- *   assets, where it adds 0.39 dB of albedo PSNR over f = 0, then 1.37 dB on the five held-out ones.
+ *   below 1e-6 the ratio falls back to the texture's sum(w A) / sum(w L) (1 when either is 0); where
+ *   G(w) is, L~ is sum(w L) / sum(w), and the detail ratio is 1 where L~ is below 1e-6. The detail ratio's
+ *   bound k keeps what a path tracer bakes into a texture and the network took out (contact shadows,
+ *   occlusion, a metal's reflections of its surroundings: ratios far from 1) from coming back whole;
+ *   detail_limit = SUPERMAT_OFF drops that bound (L x clamp(G(w A) / G(w L), 1/4, 4), the form before
+ *   2026-12-08). The albedo then holds a value at every chart texel, seen or not. Roughness / metallic
+ *   are not touched. Measured (docs/mesh.md; the default model, view by view): f = 1/32 chosen on five
+ *   validation assets, where it adds 0.39 dB of albedo PSNR over f = 0, then 1.37 dB on the five held-out
+ *   ones; k = 4 on six validation assets lit-baked by both the project's renderer and Blender's Cycles
+ *   (within 0.01 dB of the best k there), +2.18 dB on the Cycles-baked held-out four (docs/mesh.md).
  *
  * FRAMES (what the official example inputs show: examples/bag_rendered_6views, examples/axe_uv)
  *   World: positions as given (node transforms already applied), **Z up**, the front of the object
@@ -177,6 +186,7 @@
 #define SUPERMAT_UV_VERSION ((SUPERMAT_UV_VERSION_MAJOR << 16) | (SUPERMAT_UV_VERSION_MINOR << 8) | SUPERMAT_UV_VERSION_PATCH)
 
 #define SUPERMAT_UV_VIEWS 6 /* front (-Y), right (+X), back (+Y), left (-X), top (+Z), bottom (-Z) */
+#define SUPERMAT_UV_DETAIL_LIMIT 4.0f /* supermat_uv_bake_desc.detail_limit's default (DETAIL) */
 
 #ifdef __cplusplus
 extern "C" {
@@ -285,6 +295,10 @@ typedef struct supermat_uv_bake_desc {
                                     model's (supermat_model_info.bake_detail_sigma: the multi-view default
                                     records 1/32, an official file none; none with passthrough);
                                     SUPERMAT_OFF (negative) = off (the official pipeline) */
+    float detail_limit;          /* how far the input texture's detail may move the albedo (see DETAIL): at
+                                    most this ratio above or below its low-pass, 1 < limit <= 1e6; 0 =
+                                    SUPERMAT_UV_DETAIL_LIMIT; SUPERMAT_OFF (negative) = unbounded, the form
+                                    before 2026-12-08: L x clamp(G(w A) / G(w L), 1/4, 4) */
     uint32_t _end_canary;
 } supermat_uv_bake_desc;
 
@@ -926,6 +940,7 @@ static supermat_result supermat_uv__detail(supermat_uv__ctx *C, int tw, int th, 
     size_t need = 0;
     memset(&dd, 0, sizeof dd);
     dd.sigma = C->d.detail_sigma;
+    dd.limit = C->d.detail_limit;
     dd.picture.pixels = (void *)lit; dd.picture.width = tw; dd.picture.height = th; dd.picture.channels = 3; dd.picture.format = SUPERMAT_FORMAT_F32;
     dd.albedo.pixels = albedo; dd.albedo.channels = 3; dd.albedo.format = SUPERMAT_FORMAT_F32;
     dd.weight.pixels = (void *)valid; dd.weight.width = tw; dd.weight.height = th; dd.weight.channels = 1;
@@ -1091,6 +1106,11 @@ static supermat_result supermat_uv__resolve(const supermat_uv_bake_desc *in, sup
     if (d->threads < 0) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "threads %d < 0", d->threads);
     if (!(d->detail_sigma <= 1.0f)) /* NaN too */
         return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "detail_sigma %g: at most 1 (0 = the view model's, SUPERMAT_OFF = off)", (double)d->detail_sigma);
+    if (!(d->detail_limit <= 0.0f || (d->detail_limit > 1.0f && d->detail_limit <= 1e6f))) /* NaN too */
+        return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "detail_limit %g: above 1, at most 1e6 (0 = %g, SUPERMAT_OFF = unbounded)",
+                                 (double)d->detail_limit, (double)SUPERMAT_UV_DETAIL_LIMIT);
+    if (d->detail_limit == 0.0f) d->detail_limit = SUPERMAT_UV_DETAIL_LIMIT;
+    if (d->detail_limit < 0.0f) d->detail_limit = 0.0f; /* SUPERMAT_OFF: supermat_detail's run form */
     if (!d->passthrough) {
         supermat_model_info info;
         if (!d->mv_model) return supermat_uv__fail(err, SUPERMAT_ERROR_INVALID_ARGUMENT, "mv_model is NULL (give a SuperMatMV model, or set passthrough)");

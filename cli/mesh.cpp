@@ -2,7 +2,7 @@
  *
  *   supermat mesh [--model official | --mv-model F] [--refine | --albedo-refine F | --rm-refine F | --no-refine] IN.gltf OUT.gltf
  *                 [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]
- *                 [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]
+ *                 [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off] [--detail-limit R|off]
  *
  * Reads IN (.gltf or .glb) and bakes every mesh its default scene shows (each at the world transform of
  * the first node instancing it; glTF's Y-up frame becomes supermat_uv.h's Z-up one, (x, y, z) -> (x, -z, y)):
@@ -833,6 +833,7 @@ struct supermat_cli_mesh_opts {
     int official = 0; /* --model official */
     int work_opt = -1; /* --work-size: -1 = each model file's own, 0 = native (the view / texture size), N */
     float detail = -1.0f; /* --detail: -1 = 1/32 with networks, off with --passthrough */
+    float detail_limit = 0.0f; /* --detail-limit: 0 = supermat_uv.h's default, SUPERMAT_OFF = unbounded */
     int passthrough = 0, refine = 0, keep_observed = 0, size = 1024, views = 512, threads = 0, gutter = 0,
         edge_reject = 0, supersample = 0, policy = 0; /* policy: 0 refuse existing outputs, 1 --force, 2 --skip-existing */
     int no_refine = 0; /* --no-refine: only the option checks read it (the bake follows from the others) */
@@ -848,7 +849,7 @@ enum {
     MESH_O_MV = 300, MESH_O_ALBEDO_REFINE, MESH_O_RM_REFINE, MESH_O_REFINE, MESH_O_NO_REFINE, MESH_O_PASSTHROUGH,
     MESH_O_KEEP_OBSERVED, MESH_O_TEXTURE_SIZE, MESH_O_VIEWS_SIZE, MESH_O_VIEW_WEIGHT, MESH_O_WORK_SIZE, MESH_O_DETAIL,
     MESH_O_THREADS, MESH_O_GUTTER, MESH_O_EDGE_REJECT, MESH_O_SUPERSAMPLE, MESH_O_MAX_MEMORY, MESH_O_DEBUG_DIR,
-    MESH_O_FORCE, MESH_O_SKIP_EXISTING, MESH_O_ALLOW_OUTSIDE, MESH_O_MODEL
+    MESH_O_FORCE, MESH_O_SKIP_EXISTING, MESH_O_ALLOW_OUTSIDE, MESH_O_MODEL, MESH_O_DETAIL_LIMIT
 };
 /* what every asset of a run shares: `supermat mesh`'s options, and those `batch mesh` passes on */
 extern "C" const cli_optdef supermat_cli_mesh_bake_options[] = {
@@ -881,6 +882,10 @@ extern "C" const cli_optdef supermat_cli_mesh_bake_options[] = {
                                          "low-pass(input), lighting assumed smooth over F x the texture size\n"
                                          "(default: what the view model's file records, 1/32 for the multi-view\n"
                                          "default, none for an official file; off with --passthrough; supermat_uv.h DETAIL)", NULL, NULL},
+    {MESH_O_DETAIL_LIMIT, "--detail-limit", "R|off", "the input's detail moves the albedo at most R times above or below the\n"
+                                                     "input's low-pass (default 4: a shadow, highlight or reflection baked into\n"
+                                                     "the input counts at most 4x); off: unbounded, as before 2026-12-08\n"
+                                                     "(supermat_uv.h DETAIL)", NULL, NULL},
     {MESH_O_THREADS, "--threads", "N", "threads (default 0 = all cores)", NULL, NULL},
     {MESH_O_GUTTER, "--gutter", "N", "texels filled around the baked ones (default 0 = 16; < 0 the whole texture)", NULL, NULL},
     {MESH_O_EDGE_REJECT, "--edge-reject", "N", "view pixels closer than N to a silhouette or depth edge left out (default 0)", NULL, NULL},
@@ -902,6 +907,7 @@ static const cli_optdef mesh_opts[] = {
              "       IN.gltf OUT.gltf\n"
              "       [--passthrough] [--keep-observed] [--debug-dir DIR] [--texture-size N] [--views-size N] [--threads N]\n"
              "       [--gutter N] [--edge-reject N] [--view-weight average|cos] [--supersample N] [--detail F|off]\n"
+             "       [--detail-limit R|off]\n"
              "\n"
              "Bakes albedo and metallicRoughness UV textures for the glTF asset IN (.gltf or .glb) into OUT.\n"
              "No model flags: the view model in the default model's folder (as `supermat image` finds it):\n"
@@ -947,6 +953,13 @@ static int mesh_opt_value(supermat_cli_mesh_opts &o, int id, const char *v) {
         o.detail = w == "off" ? 0.0f : std::strtof(v, &end);
         if (w != "off" && (!end || *end || !(o.detail >= 0.0f && o.detail <= 1.0f))) {
             std::fprintf(stderr, "supermat mesh: --detail: 'off' or a fraction of the texture size from 0 to 1, not '%s'\n", v);
+            return -1;
+        }
+        break;
+    case MESH_O_DETAIL_LIMIT:
+        o.detail_limit = w == "off" ? SUPERMAT_OFF : std::strtof(v, &end);
+        if (w != "off" && (!end || *end || !(o.detail_limit > 1.0f && o.detail_limit <= 1e6f))) {
+            std::fprintf(stderr, "supermat mesh: --detail-limit: 'off' or a ratio above 1 (at most 1e6), not '%s'\n", v);
             return -1;
         }
         break;
@@ -1347,6 +1360,7 @@ static int run_mesh(const supermat_cli_mesh_opts &opt, const char *in, const cha
     bd.view_work_size = bd.refine_work_size = work_opt < 0 ? 0 : work_opt == 0 ? SUPERMAT_WORK_NATIVE : work_opt;
     bd.supersample = supersample;
     bd.detail_sigma = detail < 0.0f ? 0.0f : detail == 0.0f ? SUPERMAT_OFF : detail;
+    bd.detail_limit = opt.detail_limit;
     bd.passthrough = passthrough;
     bd.mv_model = mv; bd.albedo_refine_model = bc; bd.rm_refine_model = rm;
     bd.weight = weight;

@@ -2,14 +2,20 @@
    through the public API, against a float64 reference written here from the formula in supermat.h:
    per channel in linear light, A' = I x clamp(G(w A) / G(w I), 1/4, 4), G three box passes of half-width
    r = round((sqrt(4 s^2 + 1) - 1) / 2), s = sigma x max(w, h), rows then columns, zero outside; where
-   G(w I) < 1e-6 the ratio is sum(w A) / sum(w I). Tolerance: 2e-5 on the sRGB-encoded result (the
+   G(w I) < 1e-6 the ratio is sum(w A) / sum(w I); and the bounded form (limit > 1, the UV bake's):
+   A' = I~ x clamp(G(w A) / G(w I), 1/4, 4) x clamp(I / I~, 1/limit, limit), I~ = G(w I) / G(w) (the weighted
+   mean over the picture where G(w) < 1e-6), the last ratio 1 where I~ < 1e-6, A' = I without any weight.
+   Tolerance: 2e-5 on the sRGB-encoded result (the
    implementation keeps the planes in float, ~6e-8 relative a step, and sums in double).
    - pictures of 8-bit RGBA (w = alpha), float RGB (w = 1), an explicit weight, a region (every region
      pixel written, w 0 outside it), an odd size and a padded albedo stride, a tall picture whose low-pass
      is streamed in rows (its scratch: fewer bytes than the whole plane; at 8000x8000 under 3 a pixel); ratios clipped both ways;
    - pixels outside the written set keep their exact bytes; the threaded run (a pool) gives the serial
      bytes; a caller's scratch gives the allocated run's bytes and allocates nothing;
-   - errors: garbage-filled desc / one canary (INVALID_ARGUMENT naming the struct), sigma 0 / > 1 / NaN, a U8
+   - the bounded form at limits 1.5, 2 and 1e6 (where it is the first form: the same values), streamed and
+     threaded, and with a weight that is 0 everywhere;
+   - errors: garbage-filled desc / one canary (INVALID_ARGUMENT naming the struct), sigma 0 / > 1 / NaN, limit
+     1 / -1 / NaN / 2e6, a U8
      or 4-channel albedo, a size mismatch, a NaN in the picture or the albedo (NONFINITE), a scratch too
      small or misaligned, an allocator that fails (OUT_OF_MEMORY); each leaves the albedo untouched.
    usage: test_detail */
@@ -32,22 +38,27 @@ static double px(const supermat_image *im, int x, int y, int c) {
     return *p / 255.0;
 }
 
-/* the float64 reference: out = the albedo after the step (w x h x 3), written[] = 1 where it writes */
+/* the float64 reference: out = the albedo after the step (w x h x 3), written[] = 1 where it writes;
+   ref_clipped: the ratios its clamp changed */
+static int ref_clipped;
 static void reference(const supermat_detail_desc *d, const float *alb, size_t astride, double *out, unsigned char *written) {
     int w = d->picture.width, h = d->picture.height, c, pass, x, y, k;
     double s = (double)d->sigma * (w > h ? w : h);
     int r = (int)floor((sqrt(4.0 * s * s + 1.0) - 1.0) * 0.5 + 0.5);
     size_t n = (size_t)w * h, i;
     double *ga = (double *)malloc(n * sizeof(double)), *gi = (double *)malloc(n * sizeof(double)), *wt = (double *)malloc(n * sizeof(double));
+    double *gw = (double *)malloc(n * sizeof(double)), lim = d->limit, sw = 0;
     double *t = (double *)malloc((size_t)(w > h ? w : h) * sizeof(double));
     if (r < 1) r = 1;
+    ref_clipped = 0;
     for (y = 0; y < h; y++)
         for (x = 0; x < w; x++) {
             double a;
             int in = !d->region.pixels || px(&d->region, x, y, 0) > 0.0;
             a = d->weight.pixels ? px(&d->weight, x, y, 0) : d->picture.channels == 4 ? px(&d->picture, x, y, 3) : 1.0;
             a = a < 0 ? 0 : a > 1 ? 1 : a;
-            wt[(size_t)y * w + x] = in ? a : 0.0;
+            wt[(size_t)y * w + x] = gw[(size_t)y * w + x] = in ? a : 0.0;
+            sw += in ? a : 0.0;
             written[(size_t)y * w + x] = (unsigned char)(d->region.pixels ? in : a > 0.0);
         }
     for (c = 0; c < 3; c++) {
@@ -60,6 +71,21 @@ static void reference(const supermat_detail_desc *d, const float *alb, size_t as
                 sa += ga[i]; si += gi[i];
             }
         gr = sa > 0 && si > 0 ? sa / si : 1.0;
+        if (c == 0) /* G(w), the bounded form's */
+            for (pass = 0; pass < 3; pass++) {
+                int dir, l;
+                for (dir = 0; dir < 2; dir++)
+                    for (l = 0; l < (dir ? w : h); l++) {
+                        int len = dir ? h : w;
+                        for (k = 0; k < len; k++) t[k] = dir ? gw[(size_t)k * w + l] : gw[(size_t)l * w + k];
+                        for (k = 0; k < len; k++) {
+                            double acc = 0;
+                            int j;
+                            for (j = k - r; j <= k + r; j++) if (j >= 0 && j < len) acc += t[j];
+                            if (dir) gw[(size_t)k * w + l] = acc; else gw[(size_t)l * w + k] = acc;
+                        }
+                    }
+            }
         for (pass = 0; pass < 3; pass++) {
             int dir, m;
             for (dir = 0; dir < 2; dir++)
@@ -82,17 +108,29 @@ static void reference(const supermat_detail_desc *d, const float *alb, size_t as
                 double q, a0 = *((const float *)(const void *)((const unsigned char *)alb + y * astride) + x * 3 + c);
                 i = (size_t)y * w + x;
                 if (!written[i]) { out[i * 3 + c] = a0; continue; }
+                if (lim > 0) { /* the bounded form */
+                    double li = gw[i] > 1e-6 ? gi[i] / gw[i] : sw > 0 ? si / sw : 1.0, p = lin(px(&d->picture, x, y, c)), q0, gain;
+                    if (!(sw > 0)) { out[i * 3 + c] = enc(p); continue; }
+                    gain = gi[i] > 1e-6 ? ga[i] / gi[i] : gr;
+                    gain = gain < 0.25 ? 0.25 : gain > 4 ? 4 : gain;
+                    q0 = q = li > 1e-6 ? p / li : 1.0;
+                    q = q < 1.0 / lim ? 1.0 / lim : q > lim ? lim : q;
+                    ref_clipped += q != q0;
+                    out[i * 3 + c] = enc(li * gain * q);
+                    continue;
+                }
                 q = gi[i] > 1e-6 ? ga[i] / gi[i] : gr;
+                ref_clipped += q < 0.25 || q > 4;
                 q = q < 0.25 ? 0.25 : q > 4 ? 4 : q;
                 out[i * 3 + c] = enc(lin(px(&d->picture, x, y, c)) * q);
             }
     }
-    free(ga); free(gi); free(wt); free(t);
+    free(ga); free(gi); free(wt); free(gw); free(t);
 }
 
 /* one case: the step against the reference, untouched pixels exact; returns the worst difference */
 static double check_case(supermat_detail_desc d, const char *what) {
-    int w = d.picture.width, h = d.picture.height, x, y, c, changed = 0, clipped = 0, same = 1;
+    int w = d.picture.width, h = d.picture.height, x, y, c, changed = 0, same = 1;
     size_t astride = d.albedo.stride ? d.albedo.stride : (size_t)w * 12, n = (size_t)w * h, i;
     float *before = (float *)malloc(astride * h), *alb = (float *)d.albedo.pixels;
     double *ref = (double *)malloc(n * 3 * sizeof(double)), worst = 0;
@@ -114,7 +152,6 @@ static double check_case(supermat_detail_desc d, const char *what) {
                 e = fabs(*a - ref[i * 3 + c]);
                 if (e > worst) worst = e;
                 if (*a != *b) changed++;
-                if (fabs(ref[i * 3 + c] - enc(lin(px(&d.picture, x, y, c)) * 4)) < 1e-12 || fabs(ref[i * 3 + c] - enc(lin(px(&d.picture, x, y, c)) * 0.25)) < 1e-12) clipped++;
             }
     TU_CHECK(worst <= 2e-5, "%s: worst %.3g from the float64 reference (tolerance 2e-5)", what, worst);
     TU_CHECK(same, "%s: pixels outside the written set changed", what);
@@ -123,8 +160,8 @@ static double check_case(supermat_detail_desc d, const char *what) {
         for (y = 0; y < h; y++) if (memcmp((const unsigned char *)alb + y * astride + (size_t)w * 12, (const unsigned char *)before + y * astride + (size_t)w * 12, astride - (size_t)w * 12)) same = 0;
         TU_CHECK(same, "%s: the row padding changed", what);
     }
-    printf("%s: %dx%d sigma %g, worst %.2e from the float64 reference, %d channel values changed, %d clipped ratios\n", what, w, h,
-           (double)d.sigma, worst, changed, clipped);
+    printf("%s: %dx%d sigma %g limit %g, worst %.2e from the float64 reference, %d channel values changed, %d clipped ratios\n", what,
+           w, h, (double)d.sigma, (double)d.limit, worst, changed, ref_clipped);
     memcpy(alb, before, astride * h);
     free(before); free(ref); free(written);
     return worst;
@@ -171,6 +208,38 @@ int main(void) {
     for (y = 0; y < H; y++) for (x = 0; x < W * 3 + 5; x++) albp[y * (W * 3 + 5) + x] = x < W * 3 ? alb[y * W * 3 + x] : -7.0f;
     check_case(d, "odd size, strided picture and albedo");
 
+    /* the bounded form (the UV bake's): clamps that bite both ways at 1.5, fewer at 2; at 1e6 it is the first
+       form without the clamp, so where neither clamps the two agree */
+    d = base; d.limit = 1.5f; check_case(d, "bounded 1.5, 8-bit RGBA, w = alpha");
+    TU_CHECK(ref_clipped > 100, "bounded 1.5: %d ratios clipped (the case must exercise the clamp)", ref_clipped);
+    d.weight.pixels = wt8; d.weight.width = W; d.weight.height = H; d.weight.channels = 1;
+    d.region.pixels = reg8; d.region.width = W; d.region.height = H; d.region.channels = 1; d.limit = 2.0f;
+    check_case(d, "bounded 2, weight + region");
+    d = base; d.picture.pixels = rgbf; d.picture.channels = 3; d.picture.format = SUPERMAT_FORMAT_F32; d.limit = 1e6f;
+    check_case(d, "bounded 1e6, float RGB");
+    TU_CHECK(ref_clipped == 0, "bounded 1e6: %d ratios clipped", ref_clipped);
+    d.limit = 0.0f; check_case(d, "float RGB, w = 1 (again: its clamped gains)"); d.limit = 1e6f;
+    {
+        static float a1[W * H * 3];
+        int agree = 0, total = 0;
+        memcpy(albcopy, alb, sizeof alb);
+        r = supermat_detail(&d, &err);
+        memcpy(a1, alb, sizeof alb); memcpy(alb, albcopy, sizeof alb);
+        d.limit = 0.0f;
+        r = r ? r : supermat_detail(&d, &err);
+        for (i = 0; i < (size_t)W * H * 3; i++) { total++; agree += fabs(alb[i] - a1[i]) <= 2e-5; }
+        memcpy(alb, albcopy, sizeof alb);
+        TU_CHECK(r == SUPERMAT_SUCCESS && agree == total, "bounded 1e6 = the first form: %d of %d values within 2e-5 (%s)", agree, total, err.message);
+        printf("bounded 1e6 against the first form (its gain clamped on %d ratios): %d of %d values within 2e-5\n", ref_clipped, agree, total);
+    }
+    { /* no weight anywhere: the region takes the picture */
+        static unsigned char zero8[W * H];
+        d = base; d.limit = 1.5f;
+        d.weight.pixels = zero8; d.weight.width = W; d.weight.height = H; d.weight.channels = 1;
+        d.region.pixels = reg8; d.region.width = W; d.region.height = H; d.region.channels = 1;
+        check_case(d, "bounded 1.5, a weight of 0 everywhere");
+    }
+
     /* a tall picture: the low-pass streamed in rows (three rings of 2r + 18 rows, fewer than the picture's),
        against the same reference; a pool gives the serial bytes; the scratch is less than the whole plane
        (24 bytes a pixel), and at 8000x8000 with sigma 1/64 under 3 bytes a pixel (before: 8) */
@@ -192,6 +261,25 @@ int main(void) {
         t.picture.pixels = trgba; t.picture.width = TW; t.picture.height = TH; t.picture.channels = 4;
         t.albedo.pixels = talb; t.albedo.channels = 3; t.albedo.format = SUPERMAT_FORMAT_F32;
         check_case(t, "tall 23x160, sigma 1/32 (streamed rows)");
+        t.limit = 1.5f; check_case(t, "tall 23x160, sigma 1/32, bounded 1.5 (streamed rows)");
+        {
+            supermat_pool *bp = NULL;
+            supermat_threading bh;
+            static float bser[TW * TH * 3];
+            memcpy(tkeep, talb, sizeof talb);
+            r = supermat_detail(&t, &err);
+            memcpy(bser, talb, sizeof talb); memcpy(talb, tkeep, sizeof talb);
+            memset(&bh, 0, sizeof bh);
+            if (r == SUPERMAT_SUCCESS && supermat_pool_create(3, NULL, &bp, &bh) == SUPERMAT_SUCCESS) {
+                t.threading = bh;
+                r = supermat_detail(&t, &err);
+                TU_CHECK(r == SUPERMAT_SUCCESS && !memcmp(talb, bser, sizeof talb), "bounded, tall: a pool of 3 threads gives the serial bytes (%s)", err.message);
+                memcpy(talb, tkeep, sizeof talb);
+                supermat_pool_destroy(bp);
+                t.threading.parallel_for = NULL; t.threading.user = NULL; t.threading.max_threads = 0;
+            }
+        }
+        t.limit = 0.0f;
         t.sigma = 1e-4f; check_case(t, "tall 23x160, sigma 1e-4 (streamed rows, r 1)");
         t.sigma = 1.0f / 32.0f;
         r = supermat_detail_memory(&t, &bytes, &err);
@@ -251,7 +339,7 @@ int main(void) {
 
     /* errors: each refused with its result and a message, the albedo untouched */
     memcpy(albcopy, alb, sizeof alb);
-    for (k = 0; k < 16; k++) {
+    for (k = 0; k < 20; k++) {
         supermat_result want = SUPERMAT_ERROR_INVALID_ARGUMENT;
         const char *needle = NULL;
         tu_counting cnt;
@@ -275,6 +363,10 @@ int main(void) {
         case 13: d.scratch = scratch_buf + 4; d.scratch_size = sizeof scratch_buf - 4; needle = "aligned"; break;
         case 14: d.allocator.alloc = tu_count_alloc; d.allocator.free = tu_count_free; d.allocator.user = &cnt; cnt.fail_at = 0; want = SUPERMAT_ERROR_OUT_OF_MEMORY; needle = "memory"; break;
         case 15: d.picture.channels = 2; want = SUPERMAT_ERROR_BAD_IMAGE; needle = "picture"; break;
+        case 16: d.limit = 1.0f; needle = "limit"; break;
+        case 17: d.limit = -1.0f; needle = "limit"; break;
+        case 18: d.limit = nanv; needle = "limit"; break;
+        case 19: d.limit = 2e6f; needle = "limit"; break;
         }
         memset(&err, 0, sizeof err);
         r = supermat_detail(&d, &err);

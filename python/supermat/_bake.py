@@ -30,7 +30,7 @@ def _default_view_model():
 
 def bake(positions, uvs, base_color=None, *, indices=None, normals=None, base_color_factor=None, wrap="repeat",
          model=None, albedo_refine=None, rm_refine=None, passthrough=False, texture_size=1024, view_size=512,
-         detail=None, threads=0, progress=None, float_output=False):
+         detail=None, detail_limit=None, threads=0, progress=None, float_output=False):
     """One textured mesh -> {"base_color", "metallic_roughness", "stats"}, as `supermat mesh` bakes a material.
 
     positions (N, 3) and normals (N, 3, optional): world coordinates, Z up, the object's front facing -Y (a glTF
@@ -44,7 +44,8 @@ def bake(positions, uvs, base_color=None, *, indices=None, normals=None, base_co
     albedo_refine, rm_refine: UV-refine Models (`supermat mesh --refine`), None = no refinement.
     passthrough: no network (albedo = the rendered colour, roughness 0.5, metallic 0): tests the geometry.
     texture_size: the output's side (a multiple of 8; `supermat mesh --size`), view_size: the rendered views'
-    (`--views-size`); detail: None = the view model's, "off", or a value (`--detail`); threads: 0 = all cores.
+    (`--views-size`); detail: None = the view model's, "off", or a value (`--detail`); detail_limit: None = 4 (the
+    library's), "off" (unbounded) or a ratio above 1 (`--detail-limit`); threads: 0 = all cores.
     Returns "base_color" (S, S, 3) uint8 sRGB and "metallic_roughness" (S, S, 3) uint8 linear (R 1, G roughness,
     B metallic), float32 (the base colour linear) with float_output; "stats": supermat_uv_stats as a dict.
     progress, errors and Ctrl-C: as Model.image()."""
@@ -112,6 +113,7 @@ def bake(positions, uvs, base_color=None, *, indices=None, normals=None, base_co
     bd.view_size = int(view_size)
     bd.passthrough = 1 if passthrough else 0
     bd.detail_sigma = _step("detail", detail)
+    bd.detail_limit = _step("detail_limit", detail_limit)
     bd.threads = int(threads)
 
     owned = None   # a model this call loads (model=None), closed at its end

@@ -136,7 +136,7 @@ class supermat_uv_bake_desc(Structure):
                 ("allocator", supermat_allocator), ("max_memory", c_size_t),
                 ("progress", PROGRESS_FN), ("progress_user", c_void_p),
                 ("debug", UV_DEBUG_FN), ("debug_user", c_void_p), ("detail_sigma", c_float),
-                ("_end_canary", c_uint32)]
+                ("detail_limit", c_float), ("_end_canary", c_uint32)]
 
 
 class supermat_uv_output(Structure):

@@ -249,15 +249,17 @@ static void dt_debug(void *user, supermat_uv_debug_kind kind, int index, const f
 static double dt_lin(double s) { s = s < 0 ? 0 : s > 1 ? 1 : s; return s <= 0.04045 ? s / 12.92 : pow((s + 0.055) / 1.055, 2.4); }
 static double dt_srgb(double l) { l = l < 0 ? 0 : l > 1 ? 1 : l; return l <= 0.0031308 ? l * 12.92 : 1.055 * pow(l, 1.0 / 2.4) - 0.055; }
 
-/* bd: a quad bake whose part has a 16x16 RGBA8 texture `tex` (repeat wrap); what: label. Returns the
-   worst 8-bit difference on the chart texels (-1 on failure). */
-static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, float sigma, const char *what) {
+/* bd: a quad bake whose part has a 16x16 RGBA8 texture `tex` (repeat wrap); limit: detail_limit (0 = the
+   default, SUPERMAT_OFF = unbounded); what: label. Returns the worst 8-bit difference on the chart texels (-1
+   on failure). */
+static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, float sigma, float limit, const char *what) {
     static unsigned char alb[DT * DT * 4], mr[DT * DT * 3], off[DT * DT * 4];
-    static double g[DT * DT * 6], t[DT * DT * 6];
+    static double g[DT * DT * 7], t[DT * DT * 7];
+    double lim = limit == 0.0f ? (double)SUPERMAT_UV_DETAIL_LIMIT : limit < 0.0f ? 0.0 : limit;
     supermat_uv_output out;
     supermat_error err;
     supermat_result r;
-    double sum[6] = {0, 0, 0, 0, 0, 0}, worst_in = 0, sg = sigma * DT;
+    double sum[7] = {0, 0, 0, 0, 0, 0, 0}, worst_in = 0, sg = sigma * DT;
     int x, y, c, k, pass, worst = 0, chart = 0, unseen = 0, clipped = 0, changed = 0, rad = (int)floor((sqrt(4.0 * sg * sg + 1.0) - 1.0) * 0.5 + 0.5);
     char msg[400];
     if (rad < 1) rad = 1;
@@ -269,7 +271,7 @@ static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, floa
     r = supermat_uv_bake(&bd, &out, NULL, &err);   /* the same bake without it, for comparison */
     CHECK(r == SUPERMAT_SUCCESS, err.message);
     out.base_color.pixels = alb;
-    bd.detail_sigma = sigma; bd.debug = dt_debug; dt_got = 0;
+    bd.detail_sigma = sigma; bd.detail_limit = limit; bd.debug = dt_debug; dt_got = 0;
     r = supermat_uv_bake(&bd, &out, NULL, &err);
     snprintf(msg, sizeof msg, "%s: detail bake: %s (%s), debug images %x", what, supermat_result_string(r), err.message, dt_got);
     CHECK(r == SUPERMAT_SUCCESS && dt_got == 15, msg);
@@ -290,24 +292,27 @@ static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, floa
         }
     snprintf(msg, sizeof msg, "%s: the input colour at the chart texels, worst %.2g from a float64 bilinear sample", what, worst_in);
     CHECK(worst_in < 1e-5, msg);
-    /* the reference: w = seen (nothing refined here); 3 x (rows, columns) of direct window sums */
-    for (k = 0; k < DT * DT; k++)
+    /* the reference: w = seen (nothing refined here); 3 x (rows, columns) of direct window sums of w A, w L
+       and w */
+    for (k = 0; k < DT * DT; k++) {
+        int w = dt_seen[k] != 0.0f && dt_chart[k] != 0.0f;
         for (c = 0; c < 3; c++) {
-            int w = dt_seen[k] != 0.0f && dt_chart[k] != 0.0f;
-            g[k * 6 + c] = w ? dt_lin(dt_partial[k * 3 + c]) : 0.0;
-            g[k * 6 + 3 + c] = w ? dt_lin(dt_input[k * 3 + c]) : 0.0;
-            sum[c] += g[k * 6 + c]; sum[3 + c] += g[k * 6 + 3 + c];
+            g[k * 7 + c] = w ? dt_lin(dt_partial[k * 3 + c]) : 0.0;
+            g[k * 7 + 3 + c] = w ? dt_lin(dt_input[k * 3 + c]) : 0.0;
+            sum[c] += g[k * 7 + c]; sum[3 + c] += g[k * 7 + 3 + c];
         }
+        g[k * 7 + 6] = w; sum[6] += w;
+    }
     for (pass = 0; pass < 6; pass++) {
         for (y = 0; y < DT; y++)
             for (x = 0; x < DT; x++)
-                for (c = 0; c < 6; c++) {
+                for (c = 0; c < 7; c++) {
                     double a = 0;
                     for (k = -rad; k <= rad; k++) {
                         int xx = pass % 2 ? x : x + k, yy = pass % 2 ? y + k : y;
-                        if (xx >= 0 && xx < DT && yy >= 0 && yy < DT) a += g[(yy * DT + xx) * 6 + c];
+                        if (xx >= 0 && xx < DT && yy >= 0 && yy < DT) a += g[(yy * DT + xx) * 7 + c];
                     }
-                    t[(y * DT + x) * 6 + c] = a;
+                    t[(y * DT + x) * 7 + c] = a;
                 }
         memcpy(g, t, sizeof g);
     }
@@ -316,18 +321,27 @@ static int detail_check(supermat_uv_bake_desc bd, const unsigned char *tex, floa
         chart++;
         unseen += dt_seen[k] == 0.0f;
         for (c = 0; c < 3; c++) {
-            double q = g[k * 6 + 3 + c] > 1e-6 ? g[k * 6 + c] / g[k * 6 + 3 + c] : sum[3 + c] > 0 && sum[c] > 0 ? sum[c] / sum[3 + c] : 1.0;
+            double q = g[k * 7 + 3 + c] > 1e-6 ? g[k * 7 + c] / g[k * 7 + 3 + c] : sum[3 + c] > 0 && sum[c] > 0 ? sum[c] / sum[3 + c] : 1.0;
             int want, d;
-            if (q < 0.25 || q > 4.0) clipped++;
-            q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
-            want = (int)(dt_srgb(dt_lin(dt_input[k * 3 + c]) * q) * 255.0 + 0.5);
+            if (lim > 0.0) { /* bounded: the input's low-pass x the clamped gain x the input's detail, clamped */
+                double li = g[k * 7 + 6] > 1e-6 ? g[k * 7 + 3 + c] / g[k * 7 + 6] : sum[3 + c] / sum[6];
+                double p = dt_lin(dt_input[k * 3 + c]), gain = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+                q = li > 1e-6 ? p / li : 1.0;
+                if (q < 1.0 / lim || q > lim) clipped++;
+                q = q < 1.0 / lim ? 1.0 / lim : q > lim ? lim : q;
+                want = (int)(dt_srgb(li * gain * q) * 255.0 + 0.5);
+            } else {
+                if (q < 0.25 || q > 4.0) clipped++;
+                q = q < 0.25 ? 0.25 : q > 4.0 ? 4.0 : q;
+                want = (int)(dt_srgb(dt_lin(dt_input[k * 3 + c]) * q) * 255.0 + 0.5);
+            }
             d = abs(want - alb[k * 4 + c]);
             if (d > worst) worst = d;
             changed += alb[k * 4 + c] != off[k * 4 + c];
         }
     }
-    snprintf(msg, sizeof msg, "%s: sigma %g (r %d): worst %d/255 from the float64 reference over %d chart texels (%d unseen, %d channels clipped, "
-             "%d differ from the bake without detail)", what, (double)sigma, rad, worst, chart, unseen, clipped, changed);
+    snprintf(msg, sizeof msg, "%s: sigma %g (r %d), limit %g: worst %d/255 from the float64 reference over %d chart texels (%d unseen, %d channels "
+             "clipped, %d differ from the bake without detail)", what, (double)sigma, rad, lim, worst, chart, unseen, clipped, changed);
     CHECK(worst <= 1 && chart > 0 && unseen > 0 && changed > 0, msg);
     printf("%s\n", msg);
     return worst;
@@ -592,8 +606,11 @@ int main(int argc, char **argv) {
             }
         p2.base_color.pixels = pat; p2.uvs = uvw;
         b2.parts = &p2; b2.view_size = 32; b2.supersample = 2; b2.edge_reject = 2;
-        detail_check(b2, pat, 0.1f, "passthrough + detail");
-        detail_check(b2, pat, 1.0f / 32.0f, "passthrough + detail");
+        detail_check(b2, pat, 0.1f, 0.0f, "passthrough + detail");
+        detail_check(b2, pat, 1.0f / 32.0f, 0.0f, "passthrough + detail");
+        detail_check(b2, pat, 0.1f, 2.0f, "passthrough + detail");
+        detail_check(b2, pat, 0.1f, SUPERMAT_OFF, "passthrough + detail (unbounded)");
+        detail_check(b2, pat, 1.0f / 32.0f, SUPERMAT_OFF, "passthrough + detail (unbounded)");
         b2.detail_sigma = 0.1f;
         sweeps(b2, "passthrough + detail");
         bad_sigma[0] = 1.0001f; bad_sigma[1] = 1.5f; bad_sigma[2] = (float)NAN;
@@ -601,6 +618,13 @@ int main(int argc, char **argv) {
             b2.detail_sigma = bad_sigma[i];
             r = supermat_uv_bake(&b2, &out, NULL, &err);
             CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "detail_sigma"), "a bad detail_sigma: INVALID_ARGUMENT");
+        }
+        b2.detail_sigma = 0.1f;
+        bad_sigma[0] = 1.0f; bad_sigma[1] = 2e6f; bad_sigma[2] = (float)NAN;
+        for (i = 0; i < 3; i++) {
+            b2.detail_limit = bad_sigma[i];
+            r = supermat_uv_bake(&b2, &out, NULL, &err);
+            CHECK(r == SUPERMAT_ERROR_INVALID_ARGUMENT && strstr(err.message, "detail_limit"), "a bad detail_limit (1, 2e6, NaN): INVALID_ARGUMENT");
         }
         dt_tex = pat; dt_uvs = uvw;
     }
@@ -638,7 +662,7 @@ int main(int argc, char **argv) {
                 p2.base_color.pixels = (void *)dt_tex; p2.uvs = dt_uvs;
                 b2.parts = &p2; b2.view_size = 32; b2.supersample = 2; b2.view_work_size = 8; b2.edge_reject = 2;
                 b2.mv_model = sv; b2.albedo_refine_model = NULL; b2.rm_refine_model = NULL;
-                detail_check(b2, dt_tex, 0.1f, "single-view model + detail");
+                detail_check(b2, dt_tex, 0.1f, 0.0f, "single-view model + detail");
                 b2.texture_width = b2.texture_height = 0; b2.detail_sigma = 0.1f; b2.view_size = 16;
                 sweeps(b2, "single-view model + detail");
             }
