@@ -6439,19 +6439,21 @@ static float supermat__post_alpha(const supermat__post *P, int x, int y) {
 static int supermat__post_writes(const supermat__post *P, int x, int y) {
     return P->rg ? supermat__px(P->rg, x, y, 0) > 0.0f : supermat__post_alpha(P, x, y) > 0.0f;
 }
-/* detail, row y of the planes: alpha x linear albedo, alpha x linear picture, per colour channel */
+/* detail, row y of the planes, per colour channel: alpha x linear albedo, alpha x linear picture; without an
+   albedo (alb NULL: the bounded form's second low-pass) alpha x linear picture, alpha */
 static void supermat__detail_in(const supermat__post *P, const float *alb, int y, float *g) {
     float A[3 * SUPERMAT__PB], I[3 * SUPERMAT__PB];
     int x0, x, c, n;
     for (x0 = 0; x0 < P->w; x0 += n) {
         n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
-        supermat__post_alin(P, alb, x0, n, A);
+        if (alb) supermat__post_alin(P, alb, x0, n, A);
         supermat__post_lin(P, x0, n, y, I);
         for (x = 0; x < n; x++) {
             float a = supermat__post_alpha(P, x0 + x, y), *gp = g + SUPERMAT__DC * (size_t)(x0 + x);
             for (c = 0; c < 3; c++) {
-                gp[2 * c] = a > 0.0f ? a * A[3 * x + c] : 0.0f;
-                gp[2 * c + 1] = a > 0.0f ? a * I[3 * x + c] : 0.0f;
+                float wi = a > 0.0f ? a * I[3 * x + c] : 0.0f;
+                gp[2 * c] = alb ? (a > 0.0f ? a * A[3 * x + c] : 0.0f) : wi;
+                gp[2 * c + 1] = alb ? wi : a;
             }
         }
     }
@@ -6480,21 +6482,6 @@ static void supermat__detail_out(const supermat__post *P, float *alb, int y, con
 /* supermat_detail_desc.limit, the bounded form, in two low-passes: the first over the run form's planes (w A_c,
    w I_c), whose clamped ratio q (the level's gain) it keeps in the albedo's floats as they are (not encoded);
    the second over planes (w I_c, w): the picture's low-pass I~ and the albedo I~ x q x clamp(I / I~) */
-static void supermat__bdetail_in(const supermat__post *P, int y, float *g) {
-    float X[3 * SUPERMAT__PB];
-    int x0, x, c, n;
-    for (x0 = 0; x0 < P->w; x0 += n) {
-        n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
-        supermat__post_lin(P, x0, n, y, X);
-        for (x = 0; x < n; x++) {
-            float a = supermat__post_alpha(P, x0 + x, y), *gp = g + SUPERMAT__DC * (size_t)(x0 + x);
-            for (c = 0; c < 3; c++) {
-                gp[2 * c] = a > 0.0f ? a * X[3 * x + c] : 0.0f;
-                gp[2 * c + 1] = a;
-            }
-        }
-    }
-}
 static void supermat__bdetail_gain(const supermat__post *P, float *alb, int y, const float *g, const double *gr) {
     int x, c;
     for (x = 0; x < P->w; x++)
@@ -6513,11 +6500,10 @@ static void supermat__bdetail_out(const supermat__post *P, float *alb, float lim
         n = SUPERMAT__MIN(SUPERMAT__PB, P->w - x0);
         supermat__post_lin(P, x0, n, y, I);
         for (x = 0; x < n; x++) {
-            int wr = supermat__post_writes(P, x0 + x, y);
+            if (empty || !supermat__post_writes(P, x0 + x, y)) continue; /* no weight anywhere: the picture */
             for (c = 0; c < 3; c++) {
                 const float *gp = g + SUPERMAT__DC * (size_t)(x0 + x) + 2 * c;
                 double low = gp[1] > 1e-6f ? (double)gp[0] / gp[1] : gr[c], q;
-                if (!wr || empty) continue; /* without any weight: the picture (the gain is 1) */
                 q = low > 1e-6 ? I[3 * x + c] / low : 1.0;
                 q = q < 1.0 / limit ? 1.0 / limit : q > limit ? limit : q;
                 I[3 * x + c] = (float)(low * alb[3 * (x0 + x) + c] * q);
@@ -7112,8 +7098,7 @@ static void supermat__udet_src(void *user, int y, float *g, int thread) {
     const supermat__udet *U = (const supermat__udet *)user;
     const float *alb = (const float *)(const void *)(U->alb + (size_t)y * U->astride);
     (void)thread;
-    if (U->pass) supermat__bdetail_in(&U->P, y, g);
-    else supermat__detail_in(&U->P, alb, y, g);
+    supermat__detail_in(&U->P, U->pass ? NULL : alb, y, g);
 }
 static void supermat__udet_sink(void *user, int y, float *g, int thread) {
     const supermat__udet *U = (const supermat__udet *)user;
